@@ -1,0 +1,55 @@
+# kestrel_lcm_types(TARGET <name> PACKAGE <pkg> FILES <a.lcm>...)
+# Runs lcm-gen in the build tree (never the source tree) for C++ headers and Java sources, compiles
+# the Java into a jar for lcm-spy, and makes an INTERFACE library <name> carrying the include path.
+# Editing any .lcm file regenerates on the next build (add_custom_command DEPENDS).
+find_program(LCM_GEN_EXECUTABLE lcm-gen REQUIRED)
+find_package(Java COMPONENTS Development)
+find_file(LCM_JAR lcm.jar PATHS /usr/share/java NO_DEFAULT_PATH)
+
+function(kestrel_lcm_types)
+  cmake_parse_arguments(L "" "TARGET;PACKAGE" "FILES" ${ARGN})
+  set(cpp_dir ${CMAKE_CURRENT_BINARY_DIR}/cpp)
+  set(java_dir ${CMAKE_CURRENT_BINARY_DIR}/java)
+  set(headers)
+  set(java_sources)
+  foreach(lcm_file ${L_FILES})
+    get_filename_component(abs ${lcm_file} ABSOLUTE)
+    get_filename_component(stem ${lcm_file} NAME_WE)
+    # lcm-gen names the generated type after the struct; our files are named <pkg>_<struct>.lcm.
+    string(REGEX REPLACE "^${L_PACKAGE}_" "" struct ${stem})
+    set(hdr ${cpp_dir}/${L_PACKAGE}/${struct}.hpp)
+    set(java ${java_dir}/${L_PACKAGE}/${struct}.java)
+    add_custom_command(
+      OUTPUT ${hdr} ${java}
+      COMMAND ${LCM_GEN_EXECUTABLE} --cpp --cpp-hpath ${cpp_dir} ${abs}
+      COMMAND ${LCM_GEN_EXECUTABLE} --java --jpath ${java_dir} ${abs}
+      DEPENDS ${abs}
+      COMMENT "lcm-gen ${stem}.lcm"
+      VERBATIM)
+    list(APPEND headers ${hdr})
+    list(APPEND java_sources ${java})
+  endforeach()
+  add_custom_target(${L_TARGET}_cpp DEPENDS ${headers})
+  add_library(${L_TARGET} INTERFACE)
+  target_include_directories(${L_TARGET} SYSTEM INTERFACE ${cpp_dir})
+  target_link_libraries(${L_TARGET} INTERFACE PkgConfig::LCM)
+  add_dependencies(${L_TARGET} ${L_TARGET}_cpp)
+
+  if(Java_JAVAC_EXECUTABLE AND Java_JAR_EXECUTABLE AND LCM_JAR)
+    set(jar ${CMAKE_CURRENT_BINARY_DIR}/${L_TARGET}.jar)
+    set(classes ${CMAKE_CURRENT_BINARY_DIR}/classes)
+    add_custom_command(
+      OUTPUT ${jar}
+      COMMAND ${CMAKE_COMMAND} -E remove_directory ${classes}
+      COMMAND ${CMAKE_COMMAND} -E make_directory ${classes}
+      COMMAND ${Java_JAVAC_EXECUTABLE} -nowarn -source 8 -target 8 -cp ${LCM_JAR} -d ${classes} ${java_sources}
+      COMMAND ${Java_JAR_EXECUTABLE} cf ${jar} -C ${classes} .
+      DEPENDS ${java_sources}
+      COMMENT "javac + jar ${L_TARGET}.jar (for lcm-spy)"
+      VERBATIM)
+    add_custom_target(${L_TARGET}_jar ALL DEPENDS ${jar})
+    set(${L_TARGET}_JAR ${jar} PARENT_SCOPE)
+  else()
+    message(WARNING "javac, jar or lcm.jar missing: the lcm-spy types jar is not built")
+  endif()
+endfunction()
