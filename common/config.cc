@@ -1,0 +1,332 @@
+#include "common/config.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace kestrel {
+
+namespace {
+std::string FormatNumber(double v) {
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+std::string Describe(const YAML::Node& node) {
+  if (!node.IsDefined() || node.IsNull()) return "(null)";
+  if (node.IsScalar()) return "'" + node.Scalar() + "'";
+  YAML::Emitter out;
+  out << YAML::Flow << node;
+  return out.c_str();
+}
+
+std::string LineOf(const YAML::Node& node) {
+  const YAML::Mark mark = node.Mark();
+  if (mark.line < 0) return "";
+  return " (line " + std::to_string(mark.line + 1) + ")";
+}
+}  // namespace
+
+bool Range::Contains(double v) const {
+  if (std::isnan(v)) return false;
+  const bool above = min_inclusive ? v >= min : v > min;
+  const bool below = max_inclusive ? v <= max : v < max;
+  return above && below;
+}
+
+std::string Range::ToString() const {
+  return std::string(min_inclusive ? "[" : "(") + FormatNumber(min) + ", " + FormatNumber(max) +
+         (max_inclusive ? "]" : ")");
+}
+
+/// The parsed document, the file name and the set of key paths that were read.
+struct ConfigNode::Document {
+  std::string file;
+  YAML::Node root;
+  std::set<std::string> used;
+};
+
+ConfigNode::ConfigNode(std::shared_ptr<Document> doc, YAML::Node node, std::string path)
+    : doc_(std::move(doc)), node_(std::move(node)), path_(std::move(path)) {}
+
+ConfigNode ConfigNode::LoadFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path + ": cannot open configuration file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return FromString(text.str(), path);
+}
+
+ConfigNode ConfigNode::FromString(const std::string& yaml_text, const std::string& source_name) {
+  auto doc = std::make_shared<Document>();
+  doc->file = source_name;
+  try {
+    doc->root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(source_name + ": line " + std::to_string(e.mark.line + 1) + ", column " +
+                      std::to_string(e.mark.column + 1) + ": invalid YAML: " + e.msg);
+  }
+  if (doc->root.IsNull()) doc->root = YAML::Node(YAML::NodeType::Map);
+  if (!doc->root.IsMap()) {
+    throw ConfigError(source_name + ": the top level must be a mapping of keys to values");
+  }
+  YAML::Node root = doc->root;
+  return ConfigNode(doc, root, "");
+}
+
+void ConfigNode::ApplyOverride(const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0) {
+    throw ConfigError(file() + ": override '" + assignment + "' is not of the form key.path=value");
+  }
+  const std::string key_path = assignment.substr(0, eq);
+  YAML::Node value;
+  try {
+    value = YAML::Load(assignment.substr(eq + 1));
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(file() + ": override '" + assignment + "': invalid YAML value: " + e.msg);
+  }
+  std::vector<std::string> parts;
+  std::stringstream ss(key_path);
+  for (std::string part; std::getline(ss, part, '.');) {
+    if (part.empty())
+      throw ConfigError(file() + ": override '" + assignment + "' has an empty key");
+    parts.push_back(part);
+  }
+  // yaml-cpp nodes are handles: walk with fresh handles, assigning into the tree.
+  std::vector<YAML::Node> chain{node_};
+  for (size_t i = 0; i + 1 < parts.size(); ++i) {
+    YAML::Node next = chain.back()[parts[i]];
+    if (next.IsDefined() && !next.IsNull() && !next.IsMap()) {
+      throw ConfigError(file() + ": override '" + assignment + "': '" + parts[i] +
+                        "' is not a mapping");
+    }
+    chain.push_back(next);
+  }
+  chain.back()[parts.back()] = value;
+}
+
+std::string ConfigNode::KeyPath(const std::string& key) const {
+  return path_.empty() ? key : path_ + "." + key;
+}
+
+const std::string& ConfigNode::file() const { return doc_->file; }
+
+bool ConfigNode::Has(const std::string& key) const {
+  const YAML::Node n = node_[key];
+  return n.IsDefined() && !n.IsNull();
+}
+
+YAML::Node ConfigNode::Lookup(const std::string& key) const {
+  doc_->used.insert(KeyPath(key));
+  return node_[key];
+}
+
+void ConfigNode::ThrowMissing(const std::string& key) const {
+  throw ConfigError(file() + ": required key '" + KeyPath(key) + "' is missing" + LineOf(node_));
+}
+
+void ConfigNode::ThrowBad(const std::string& key, const YAML::Node& value,
+                          const std::string& expected) const {
+  throw ConfigError(file() + ": key '" + KeyPath(key) + "'" + LineOf(value) + " has value " +
+                    Describe(value) + "; accepted: " + expected);
+}
+
+void ConfigNode::Fail(const std::string& key, const std::string& reason) const {
+  const YAML::Node n = node_[key];
+  throw ConfigError(file() + ": key '" + KeyPath(key) + "'" + LineOf(n) +
+                    (n.IsDefined() ? " = " + Describe(n) : std::string()) + ": " + reason);
+}
+
+ConfigNode ConfigNode::Child(const std::string& key) const {
+  const YAML::Node n = Lookup(key);
+  if (!n.IsDefined() || n.IsNull()) ThrowMissing(key);
+  if (!n.IsMap()) ThrowBad(key, n, "a mapping of keys to values");
+  return ConfigNode(doc_, n, KeyPath(key));
+}
+
+std::vector<ConfigNode> ConfigNode::Elements(const std::string& key, bool required) const {
+  const YAML::Node n = Lookup(key);
+  std::vector<ConfigNode> out;
+  if (!n.IsDefined() || n.IsNull()) {
+    if (required) ThrowMissing(key);
+    return out;
+  }
+  if (!n.IsSequence()) ThrowBad(key, n, "a list");
+  for (size_t i = 0; i < n.size(); ++i) {
+    const std::string element_path = KeyPath(key) + "[" + std::to_string(i) + "]";
+    doc_->used.insert(element_path);
+    out.push_back(ConfigNode(doc_, n[i], element_path));
+  }
+  return out;
+}
+
+std::vector<std::string> ConfigNode::Keys() const {
+  std::vector<std::string> keys;
+  if (!node_.IsMap()) return keys;
+  for (const auto& kv : node_) keys.push_back(kv.first.as<std::string>());
+  return keys;
+}
+
+void ConfigNode::ReadNumber(const std::string& key, double* out, const Range& range,
+                            bool integer) const {
+  const YAML::Node n = Lookup(key);
+  const std::string expected =
+      std::string(integer ? "an integer" : "a number") + " in " + range.ToString();
+  if (!n.IsScalar()) ThrowBad(key, n, expected);
+  double v = 0.0;
+  try {
+    if (integer) {
+      v = static_cast<double>(n.as<int64_t>());
+    } else {
+      v = n.as<double>();
+    }
+  } catch (const YAML::Exception&) {
+    ThrowBad(key, n, expected);
+  }
+  if (!std::isfinite(v) || !range.Contains(v)) ThrowBad(key, n, expected);
+  *out = v;
+}
+
+void ConfigNode::Read(const std::string& key, double* value, const Range& range) const {
+  if (!Has(key)) return;
+  ReadNumber(key, value, range, false);
+}
+
+void ConfigNode::Read(const std::string& key, float* value, const Range& range) const {
+  if (!Has(key)) return;
+  double v = 0.0;
+  ReadNumber(key, &v, range, false);
+  *value = static_cast<float>(v);
+}
+
+void ConfigNode::Read(const std::string& key, int* value, const Range& range) const {
+  if (!Has(key)) return;
+  double v = 0.0;
+  Range r = range;
+  r.min = std::max(r.min, static_cast<double>(std::numeric_limits<int>::min()));
+  r.max = std::min(r.max, static_cast<double>(std::numeric_limits<int>::max()));
+  ReadNumber(key, &v, r, true);
+  *value = static_cast<int>(v);
+}
+
+void ConfigNode::Read(const std::string& key, int64_t* value, const Range& range) const {
+  if (!Has(key)) return;
+  const YAML::Node n = Lookup(key);
+  int64_t v = 0;
+  const std::string expected = "an integer in " + range.ToString();
+  try {
+    v = n.as<int64_t>();
+  } catch (const YAML::Exception&) {
+    ThrowBad(key, n, expected);
+  }
+  if (!range.Contains(static_cast<double>(v))) ThrowBad(key, n, expected);
+  *value = v;
+}
+
+void ConfigNode::Read(const std::string& key, bool* value) const {
+  if (!Has(key)) return;
+  const YAML::Node n = Lookup(key);
+  try {
+    *value = n.as<bool>();
+  } catch (const YAML::Exception&) {
+    ThrowBad(key, n, "true or false");
+  }
+}
+
+void ConfigNode::Read(const std::string& key, std::string* value) const {
+  if (!Has(key)) return;
+  const YAML::Node n = Lookup(key);
+  if (!n.IsScalar()) ThrowBad(key, n, "a string");
+  *value = n.Scalar();
+}
+
+void ConfigNode::Read(const std::string& key, std::string* value,
+                      const std::vector<std::string>& choices) const {
+  if (!Has(key)) return;
+  const YAML::Node n = Lookup(key);
+  std::string accepted = "one of {";
+  for (size_t i = 0; i < choices.size(); ++i) accepted += (i ? ", " : "") + choices[i];
+  accepted += "}";
+  if (!n.IsScalar()) ThrowBad(key, n, accepted);
+  for (const auto& c : choices) {
+    if (n.Scalar() == c) {
+      *value = c;
+      return;
+    }
+  }
+  ThrowBad(key, n, accepted);
+}
+
+void ConfigNode::Read(const std::string& key, std::vector<double>* value, const Range& range,
+                      int size) const {
+  if (!Has(key)) return;
+  const YAML::Node n = Lookup(key);
+  const std::string expected = (size >= 0 ? "a list of " + std::to_string(size) + " numbers"
+                                          : std::string("a list of numbers")) +
+                               " each in " + range.ToString();
+  if (!n.IsSequence()) ThrowBad(key, n, expected);
+  if (size >= 0 && static_cast<int>(n.size()) != size) ThrowBad(key, n, expected);
+  std::vector<double> out;
+  for (size_t i = 0; i < n.size(); ++i) {
+    double v = 0.0;
+    try {
+      v = n[i].as<double>();
+    } catch (const YAML::Exception&) {
+      ThrowBad(key, n, expected);
+    }
+    if (!std::isfinite(v) || !range.Contains(v)) ThrowBad(key, n, expected);
+    out.push_back(v);
+  }
+  *value = std::move(out);
+}
+
+void ConfigNode::Read(const std::string& key, Eigen::Vector3d* value, const Range& range) const {
+  if (!Has(key)) return;
+  std::vector<double> v;
+  Read(key, &v, range, 3);
+  *value = Eigen::Vector3d(v[0], v[1], v[2]);
+}
+
+void ConfigNode::Read(const std::string& key, Eigen::Vector4d* value, const Range& range) const {
+  if (!Has(key)) return;
+  std::vector<double> v;
+  Read(key, &v, range, 4);
+  *value = Eigen::Vector4d(v[0], v[1], v[2], v[3]);
+}
+
+void ConfigNode::CollectUnknown(const YAML::Node& node, const std::string& path,
+                                std::vector<std::string>* unknown) const {
+  if (!node.IsMap()) return;
+  for (const auto& kv : node) {
+    const std::string key = kv.first.as<std::string>();
+    const std::string key_path = path.empty() ? key : path + "." + key;
+    if (doc_->used.count(key_path) == 0) {
+      unknown->push_back(key_path + LineOf(kv.first));
+      continue;
+    }
+    if (kv.second.IsMap()) CollectUnknown(kv.second, key_path, unknown);
+    if (kv.second.IsSequence()) {
+      for (size_t i = 0; i < kv.second.size(); ++i) {
+        const std::string element_path = key_path + "[" + std::to_string(i) + "]";
+        if (kv.second[i].IsMap() && doc_->used.count(element_path) != 0) {
+          CollectUnknown(kv.second[i], element_path, unknown);
+        }
+      }
+    }
+  }
+}
+
+void ConfigNode::CheckNoUnknownKeys() const {
+  std::vector<std::string> unknown;
+  CollectUnknown(node_, path_, &unknown);
+  if (unknown.empty()) return;
+  std::string list;
+  for (size_t i = 0; i < unknown.size(); ++i) list += (i ? ", " : "") + unknown[i];
+  throw ConfigError(file() + ": unknown key" + (unknown.size() > 1 ? "s " : " ") + list +
+                    " (misspelt, or not used by this process)");
+}
+
+}  // namespace kestrel

@@ -1,0 +1,106 @@
+#include "common/node_loop.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+
+#include "common/check.h"
+
+namespace kestrel {
+
+namespace {
+volatile std::sig_atomic_t g_signal_received = 0;
+extern "C" void OnStopSignal(int /*signum*/) { g_signal_received = 1; }
+}  // namespace
+
+NodeLoop::NodeLoop(lcm::LCM& lcm, const Clock& clock) : lcm_(lcm), clock_(clock) {}
+
+void NodeLoop::AddTimer(const std::string& name, int64_t period_us, TimerCallback callback) {
+  KESTREL_THROW_UNLESS(period_us > 0,
+                       "timer '" << name << "' needs a period > 0 us, got " << period_us);
+  timers_.push_back(Timer{name, period_us, -1, std::move(callback)});
+}
+
+void NodeLoop::AddShutdownHook(std::function<void()> hook) {
+  shutdown_hooks_.push_back(std::move(hook));
+}
+
+void NodeLoop::InstallSignalHandlers() {
+  struct sigaction action {};
+  action.sa_handler = OnStopSignal;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+}
+
+bool NodeLoop::signal_received() { return g_signal_received != 0; }
+
+void NodeLoop::FireDueTimers() {
+  const int64_t now = clock_.NowUtime();
+  for (Timer& timer : timers_) {
+    if (timer.next_due_utime < 0) timer.next_due_utime = now + timer.period_us;
+  }
+  // Fire in global time order so two timers interleave as they would in real time.
+  while (true) {
+    Timer* next = nullptr;
+    for (Timer& timer : timers_) {
+      if (timer.next_due_utime <= now &&
+          (next == nullptr || timer.next_due_utime < next->next_due_utime)) {
+        next = &timer;
+      }
+    }
+    if (next == nullptr) break;
+    const int64_t scheduled = next->next_due_utime;
+    next->next_due_utime += next->period_us;
+    if (!clock_.is_simulated() && next->next_due_utime <= now) {
+      // Wall clock fell behind by whole periods: skip them rather than burst.
+      const int64_t behind = (now - next->next_due_utime) / next->period_us + 1;
+      skipped_ticks_ += behind;
+      next->next_due_utime += behind * next->period_us;
+    }
+    next->callback(scheduled);
+  }
+}
+
+int64_t NodeLoop::MicrosecondsToNextTimer() {
+  const int64_t now = clock_.NowUtime();
+  int64_t wait = 100000;
+  for (const Timer& timer : timers_) {
+    const int64_t due = timer.next_due_utime < 0 ? now + timer.period_us : timer.next_due_utime;
+    wait = std::min(wait, std::max<int64_t>(0, due - now));
+  }
+  return wait;
+}
+
+bool NodeLoop::RunOnce(int timeout_ms) {
+  errno = 0;
+  const int status = lcm_.handleTimeout(std::max(0, timeout_ms));
+  // A signal interrupting select() is not an LCM failure.
+  const bool failed = status < 0 && errno != EINTR && g_signal_received == 0;
+  FireDueTimers();
+  return !failed;
+}
+
+void NodeLoop::RunShutdownHooks() {
+  if (shut_down_) return;
+  shut_down_ = true;
+  for (auto& hook : shutdown_hooks_) hook();
+}
+
+int NodeLoop::Run() {
+  int exit_code = 0;
+  FireDueTimers();  // arms the timers
+  while (stop_requested_ == 0 && g_signal_received == 0) {
+    // In simulation the clock only moves when the simulator's messages arrive: poll briefly.
+    const int64_t wait_us = clock_.is_simulated() ? 10000 : MicrosecondsToNextTimer();
+    if (!RunOnce(static_cast<int>((wait_us + 999) / 1000))) {
+      std::fprintf(stderr, "kestrel: LCM handle failed; stopping\n");
+      exit_code = 1;
+      break;
+    }
+  }
+  RunShutdownHooks();
+  return exit_code;
+}
+
+}  // namespace kestrel
