@@ -22,6 +22,9 @@ function(kestrel_lcm_types)
     add_custom_command(
       OUTPUT ${hdr} ${java}
       COMMAND ${LCM_GEN_EXECUTABLE} --cpp --cpp-hpath ${cpp_dir} ${abs}
+      # lcm-gen 1.3.1 emits `static const int8_t K = 1;`, which C++17 does not make inline: any
+      # ODR-use (a reference, EXPECT_EQ, std::max) fails to link. constexpr members are inline.
+      COMMAND sed -i -E "s/^([ ]*)static const ([a-z0-9_]+[ ]+[A-Za-z0-9_]+[ ]*=)/\\1static constexpr \\2/" ${hdr}
       COMMAND ${LCM_GEN_EXECUTABLE} --java --jpath ${java_dir} ${abs}
       DEPENDS ${abs}
       COMMENT "lcm-gen ${stem}.lcm"

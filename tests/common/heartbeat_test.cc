@@ -28,7 +28,7 @@ TEST(Heartbeat, PublishesStateUptimeAndValues) {
   }
   ASSERT_EQ(got.size(), 2u);
   EXPECT_EQ(got[0].process, "kestrel-test");
-  EXPECT_EQ(got[0].state, int8_t{heartbeat_t::STATE_DEGRADED});  // lcm-gen constants are not inline: no ODR-use
+  EXPECT_EQ(got[0].state, int8_t{heartbeat_t::STATE_DEGRADED});
   EXPECT_DOUBLE_EQ(got[0].uptime_s, 2.5);
   EXPECT_EQ(got[0].last_error, "no device");
   ASSERT_EQ(got[0].num_values, 1);
