@@ -1,0 +1,160 @@
+// kestrel-cmd: the operator tool. Vehicle commands (take off, hold, land, e-stop) on COMMAND,
+// process-sheet orders to the runners on every host, and a one-screen status of every process.
+#include <chrono>
+#include <cstdio>
+#include <thread>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "common/clock.h"
+#include "common/lcm_decode.h"
+#include "common/process.h"
+#include "common/procman/operator_status.h"
+#include "kestrel/command_t.hpp"
+#include "kestrel/procman_order_t.hpp"
+
+namespace {
+const char* const kUsage =
+    "usage: kestrel-cmd takeoff [--height M] | hold | land | estop | idle | track\n"
+    "                   [--channel COMMAND] [--wait SECONDS]\n"
+    "       kestrel-cmd status [--seconds S]\n"
+    "       kestrel-cmd procman list [--seconds S]\n"
+    "       kestrel-cmd procman start|stop|restart TARGET [--host HOST]\n"
+    "  TARGET: all | cmd:ID | group:PATH; HOST: the runner to order (default every runner)\n"
+    "  --wait S: wait up to S seconds for CONTROLLER_STATUS to show the commanded mode; exit 1\n"
+    "            if it does not (the e-stop is always sent at once, and repeated 3 times)\n";
+
+double ArgDouble(const std::vector<std::string>& p, const std::string& flag, double fallback) {
+  for (size_t i = 0; i + 1 < p.size(); ++i) {
+    if (p[i] == flag) return std::stod(p[i + 1]);
+  }
+  return fallback;
+}
+std::string ArgString(const std::vector<std::string>& p, const std::string& flag,
+                      const std::string& fallback) {
+  for (size_t i = 0; i + 1 < p.size(); ++i) {
+    if (p[i] == flag) return p[i + 1];
+  }
+  return fallback;
+}
+
+/// Listens for `seconds` and collects the operator view.
+kestrel::procman::OperatorView Listen(lcm::LCM& lcm, double seconds) {
+  using namespace kestrel;
+  procman::OperatorView view;
+  GuardedSubscriptions subs(lcm);
+  auto ignore = [](const std::string&, const std::string&) {};
+  subs.Add<heartbeat_t>(
+      "HEARTBEAT_.*", [&](const std::string& ch, const heartbeat_t& m) { view.heartbeats[ch] = m; },
+      ignore);
+  subs.Add<procman_status_t>(
+      "PROCMAN_STATUS",
+      [&](const std::string&, const procman_status_t& m) { view.runners[m.host] = m; }, ignore);
+  subs.Add<controller_status_t>(
+      "CONTROLLER_STATUS",
+      [&](const std::string&, const controller_status_t& m) {
+        view.has_controller = true;
+        view.controller = m;
+      },
+      ignore);
+  const auto end = std::chrono::steady_clock::now() +
+                   std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000));
+  while (std::chrono::steady_clock::now() < end) lcm.handleTimeout(50);
+  return view;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  return kestrel::RunProcess(
+      "kestrel-cmd", argc, argv, kUsage,
+      [](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
+        using namespace kestrel;
+        const auto& p = args.positional;
+        if (p.empty()) {
+          std::fprintf(stderr, "%s", kUsage);
+          return 2;
+        }
+        lcm::LCM lcm(args.lcm_url);
+        if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");
+        WallClock clock;
+        const std::string verb = p[0];
+        const std::map<std::string, std::pair<int8_t, int8_t>> vehicle = {
+            {"idle", {command_t::COMMAND_IDLE, controller_status_t::MODE_IDLE}},
+            {"takeoff", {command_t::COMMAND_TAKEOFF, controller_status_t::MODE_TAKEOFF}},
+            {"track", {command_t::COMMAND_TRACK, controller_status_t::MODE_TRACK}},
+            {"hold", {command_t::COMMAND_HOLD, controller_status_t::MODE_HOLD}},
+            {"land", {command_t::COMMAND_LAND, controller_status_t::MODE_LAND}},
+            {"estop", {command_t::COMMAND_ESTOP, controller_status_t::MODE_ESTOP}}};
+        if (vehicle.count(verb) != 0) {
+          command_t cmd{};
+          cmd.utime = clock.NowUtime();
+          cmd.seq = cmd.utime;  // unique per invocation; receivers ignore repeats of a seq
+          cmd.source = "operator";
+          cmd.command = vehicle.at(verb).first;
+          cmd.height_m = ArgDouble(p, "--height", 1.0);
+          const std::string channel = ArgString(p, "--channel", "COMMAND");
+          const int repeats = verb == "estop" ? 3 : 1;
+          for (int i = 0; i < repeats; ++i) lcm.publish(channel, &cmd);
+          std::printf("sent %s on %s\n", verb.c_str(), channel.c_str());
+          const double wait_s = ArgDouble(p, "--wait", 0.0);
+          if (wait_s <= 0) return 0;
+          const auto end = std::chrono::steady_clock::now() +
+                           std::chrono::milliseconds(static_cast<int64_t>(wait_s * 1000));
+          bool reached = false;
+          GuardedSubscriptions subs(lcm);
+          subs.Add<controller_status_t>(
+              "CONTROLLER_STATUS",
+              [&](const std::string&, const controller_status_t& m) {
+                reached = reached || m.mode == vehicle.at(verb).second;
+              },
+              nullptr);
+          while (!reached && std::chrono::steady_clock::now() < end) lcm.handleTimeout(50);
+          std::printf("%s\n", reached ? "controller confirmed" : "controller did NOT confirm");
+          return reached ? 0 : 1;
+        }
+        if (verb == "status") {
+          const auto view = Listen(lcm, ArgDouble(p, "--seconds", 2.0));
+          std::printf("%s", procman::FormatOperatorView(view, clock.NowUtime()).c_str());
+          return 0;
+        }
+        if (verb == "procman" && p.size() >= 2) {
+          if (p[1] == "list") {
+            const auto view = Listen(lcm, ArgDouble(p, "--seconds", 2.0));
+            procman::OperatorView runners_only;
+            runners_only.runners = view.runners;
+            std::printf("%s", procman::FormatOperatorView(runners_only, clock.NowUtime()).c_str());
+            return view.runners.empty() ? 1 : 0;
+          }
+          const std::map<std::string, int8_t> actions = {
+              {"start", procman_order_t::ACTION_START},
+              {"stop", procman_order_t::ACTION_STOP},
+              {"restart", procman_order_t::ACTION_RESTART}};
+          if (actions.count(p[1]) != 0 && p.size() >= 3) {
+            procman_order_t order{};
+            order.utime = clock.NowUtime();
+            order.seq = order.utime;
+            order.source = "kestrel-cmd";
+            order.host = ArgString(p, "--host", "");
+            order.action = actions.at(p[1]);
+            const std::string& t = p[2];
+            if (t == "all") {
+              order.is_group = true;
+            } else if (t.rfind("cmd:", 0) == 0) {
+              order.target = t.substr(4);
+            } else if (t.rfind("group:", 0) == 0) {
+              order.is_group = true;
+              order.target = t.substr(6);
+            } else {
+              std::fprintf(stderr, "kestrel-cmd: TARGET must be all, cmd:ID or group:PATH\n");
+              return 2;
+            }
+            lcm.publish("PROCMAN_ORDERS", &order);
+            std::printf("ordered %s %s%s\n", p[1].c_str(), t.c_str(),
+                        order.host.empty() ? " on every host" : (" on " + order.host).c_str());
+            return 0;
+          }
+        }
+        std::fprintf(stderr, "kestrel-cmd: unknown command\n%s", kUsage);
+        return 2;
+      });
+}
