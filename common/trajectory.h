@@ -1,0 +1,127 @@
+#pragma once
+/// @file
+/// Piecewise-polynomial trajectories of the flat outputs (position and yaw) of a quadrotor, as
+/// carried by the TRAJECTORY message (DESIGN.md "Message contract"): segments with durations and,
+/// per segment, polynomial coefficients for x, y, z (m, world frame W, z up) and yaw (rad) in the
+/// segment's local time tau in [0, duration_s]:
+///     x(tau) = c[0] + c[1] tau + c[2] tau^2 + ... + c[n] tau^n      (ascending powers)
+/// Evaluate() gives exact derivatives up to snap (the controller feeds them forward, ALGORITHMS.md
+/// section 9); Sample() is the paper's "path interpreter" for display (every 0.01 s).
+
+#include <Eigen/Core>
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace kestrel {
+
+/// The flat output of a quadrotor at one instant: position and yaw with their derivatives. All in
+/// the world frame W (x east, y north, z up). Yaw is the heading of the desired body x axis
+/// (rad, not wrapped: polynomials are continuous).
+struct FlatOutput {
+  Eigen::Vector3d position_m{Eigen::Vector3d::Zero()};         ///< x_d, m
+  Eigen::Vector3d velocity_mps{Eigen::Vector3d::Zero()};       ///< dx_d/dt, m/s
+  Eigen::Vector3d acceleration_mps2{Eigen::Vector3d::Zero()};  ///< d2x_d/dt2, m/s^2
+  Eigen::Vector3d jerk_mps3{Eigen::Vector3d::Zero()};          ///< d3x_d/dt3, m/s^3
+  Eigen::Vector3d snap_mps4{Eigen::Vector3d::Zero()};          ///< d4x_d/dt4, m/s^4
+  double yaw_rad{0.0};                                         ///< psi_d, rad
+  double yaw_rate_radps{0.0};                                  ///< dpsi_d/dt, rad/s
+  double yaw_acceleration_radps2{0.0};                         ///< d2psi_d/dt2, rad/s^2
+
+  /// A hover (all derivatives zero) at `position_m` with heading `yaw_rad`.
+  static FlatOutput Hover(const Eigen::Vector3d& position_m, double yaw_rad);
+  /// True when every member is finite.
+  [[nodiscard]] bool IsFinite() const;
+};
+
+/// One polynomial piece. coefficients[axis] for axis 0..3 = x, y, z, yaw, ascending powers of
+/// the local time tau (s) in [0, duration_s].
+struct PolynomialSegment {
+  double duration_s{0.0};                             ///< > 0, s
+  std::array<std::vector<double>, 4> coefficients{};  ///< x, y, z (m), yaw (rad); 1..kMax each
+};
+
+/// One display sample: absolute time (s, same time base as the trajectory's start) and the flat
+/// output there.
+struct TrajectorySample {
+  double time_s{0.0};  ///< s
+  FlatOutput flat;     ///< flat output at time_s
+};
+
+/// The flat (message) layout of a trajectory: segment i's coefficients of an axis at
+/// [i * num_coefficients, (i + 1) * num_coefficients), ascending powers.
+struct FlatTrajectory {
+  double start_time_s{0.0};          ///< s
+  std::vector<double> durations_s;   ///< per segment, s
+  int num_coefficients{0};           ///< per axis and segment
+  std::vector<double> x, y, z, yaw;  ///< m, m, m, rad
+};
+
+/// A validated, immutable piecewise-polynomial trajectory starting at start_time_s (seconds in the
+/// caller's time base, e.g. the message utime / 1e6).
+///
+/// Outside [start_time_s, end_time_s] the trajectory is clamped: before the start it returns the
+/// start position and yaw, after the end the end position and yaw, with velocity, acceleration,
+/// jerk, snap, yaw rate and yaw acceleration all ZERO (a hover at the end point), whatever the
+/// polynomials' derivatives at the ends are. At exactly end_time_s the last segment is evaluated
+/// at its full duration (true derivatives). At an interior knot the later segment is used.
+class PiecewisePolynomialTrajectory {
+ public:
+  /// Largest number of coefficients per axis and segment (degree 15); the paper's minimum-snap
+  /// trajectories use degree 7 to 9.
+  static constexpr int kMaxCoefficients = 16;
+
+  /// Checks segments: at least one; durations finite and > 0; each axis 1..kMaxCoefficients
+  /// coefficients, all finite; total duration finite. Returns "" when valid, else a sentence
+  /// naming the segment, axis and offending value.
+  [[nodiscard]] static std::string CheckSegments(const std::vector<PolynomialSegment>& segments);
+
+  /// Builds a trajectory; returns std::nullopt and sets *error (if non-null) when CheckSegments
+  /// fails or start_time_s is not finite. Never throws on bad input.
+  [[nodiscard]] static std::optional<PiecewisePolynomialTrajectory> Create(
+      double start_time_s, std::vector<PolynomialSegment> segments, std::string* error);
+
+  /// Builds from the flat layout of a message: durations_s[i] for segment i and, per axis, a flat
+  /// array with num_coefficients entries per segment (segment i's coefficients at
+  /// [i * num_coefficients, (i + 1) * num_coefficients)). Sizes must be consistent
+  /// (coefficients.size() == durations_s.size() * num_coefficients); otherwise std::nullopt and
+  /// *error is set.
+  [[nodiscard]] static std::optional<PiecewisePolynomialTrajectory> CreateFromFlat(
+      double start_time_s, const std::vector<double>& durations_s, int num_coefficients,
+      const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& z,
+      const std::vector<double>& yaw, std::string* error);
+
+  /// The flat layout (for trajectory_t): every axis padded with zero coefficients to the largest
+  /// count of any axis and segment. CreateFromFlat of the result gives the same trajectory.
+  [[nodiscard]] FlatTrajectory ToFlat() const;
+
+  /// The flat output at absolute time t_s (clamped outside the trajectory, see the class comment).
+  /// Precondition: t_s finite (a NaN time returns the start hover).
+  [[nodiscard]] FlatOutput Evaluate(double t_s) const;
+
+  /// Samples every dt_s from start_time_s, the last sample exactly at end_time_s. Precondition:
+  /// dt_s > 0 (@throws std::invalid_argument otherwise).
+  [[nodiscard]] std::vector<TrajectorySample> Sample(double dt_s = 0.01) const;
+
+  [[nodiscard]] double start_time_s() const { return start_time_s_; }
+  [[nodiscard]] double end_time_s() const { return start_time_s_ + knots_s_.back(); }
+  [[nodiscard]] double duration_s() const { return knots_s_.back(); }
+  [[nodiscard]] int num_segments() const { return static_cast<int>(segments_.size()); }
+  [[nodiscard]] const std::vector<PolynomialSegment>& segments() const { return segments_; }
+
+ private:
+  PiecewisePolynomialTrajectory(double start_time_s, std::vector<PolynomialSegment> segments);
+  // Evaluates segment i at local time tau with all derivatives.
+  [[nodiscard]] FlatOutput EvaluateSegment(int i, double tau_s) const;
+
+  double start_time_s_{0.0};
+  std::vector<PolynomialSegment> segments_;
+  std::vector<double> knots_s_;  // cumulative durations, knots_s_[0] = 0, size segments + 1
+};
+
+/// Value and first four derivatives of sum_k c[k] tau^k at tau (Horner per derivative).
+/// out[d] = d-th derivative, d = 0..4.
+void EvaluatePolynomial(const std::vector<double>& c, double tau, double out[5]);
+
+}  // namespace kestrel
