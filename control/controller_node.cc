@@ -1,0 +1,229 @@
+#include "control/controller_node.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "common/check.h"
+#include "common/config.h"
+#include "common/se3.h"
+#include "kestrel/controller_status_t.hpp"
+#include "kestrel/motor_command_t.hpp"
+
+namespace kestrel {
+
+namespace {
+
+void CopyVector(const Eigen::Vector3d& v, double out[3]) {
+  for (int i = 0; i < 3; ++i) out[i] = v[i];
+}
+
+std::vector<double> Flatten(const std::vector<std::vector<double>>& rows) {
+  std::vector<double> flat;
+  for (const auto& row : rows) flat.insert(flat.end(), row.begin(), row.end());
+  return flat;
+}
+
+}  // namespace
+
+void LcmMotorOutput::Send(int64_t utime, const FlightOutput& output) {
+  motor_command_t msg;
+  msg.utime = utime;
+  msg.seq = seq_++;
+  msg.armed = output.armed;
+  msg.num_motors = 4;
+  msg.thrust_N.assign(output.rotor_thrust_N.data(), output.rotor_thrust_N.data() + 4);
+  msg.total_thrust_N = output.thrust_N;
+  CopyVector(output.moment_Nm, msg.moment_Nm);
+  lcm_.publish(channel_, &msg);
+}
+
+void ControllerConfig::Validate() const {
+  flight.Validate();
+  KESTREL_THROW_UNLESS(std::isfinite(rate_hz) && rate_hz >= 50.0 && rate_hz <= 2000.0,
+                       "controller.rate_hz = " << rate_hz << ", accepted [50, 2000]");
+  KESTREL_THROW_UNLESS(
+      status_decimation >= 1 && status_decimation <= 1000,
+      "controller.status_decimation = " << status_decimation << ", accepted [1, 1000]");
+  for (const std::string* channel : {&pose_channel, &imu_channel, &trajectory_channel,
+                                     &command_channel, &motor_channel, &status_channel}) {
+    KESTREL_THROW_UNLESS(!channel->empty(), "controller channels: an empty channel name");
+  }
+}
+
+ControllerConfig LoadControllerConfig(const ConfigNode& node, const VehicleConfig& vehicle) {
+  ControllerConfig config;
+  config.flight.vehicle = vehicle;
+  node.Read("rate_hz", &config.rate_hz, Range::Closed(50.0, 2000.0));
+  node.Read("status_decimation", &config.status_decimation, Range::Closed(1, 1000));
+  if (node.Has("channels")) {
+    const ConfigNode channels = node.Child("channels");
+    channels.Read("pose", &config.pose_channel);
+    channels.Read("imu", &config.imu_channel);
+    channels.Read("trajectory", &config.trajectory_channel);
+    channels.Read("command", &config.command_channel);
+    channels.Read("motor", &config.motor_channel);
+    channels.Read("status", &config.status_channel);
+  }
+  if (node.Has("controller")) {
+    const ConfigNode c = node.Child("controller");
+    GeometricControllerConfig& g = config.flight.controller;
+    c.Read("k_x_per_s2", &g.k_x_per_s2, Range::Positive());
+    c.Read("k_v_per_s", &g.k_v_per_s, Range::Positive());
+    c.Read("k_i_per_s2", &g.k_i_per_s2, Range::NonNegative());
+    c.Read("c1_per_s", &g.c1_per_s, Range::NonNegative());
+    c.Read("position_integral_limit_m", &g.position_integral_limit_m, Range::NonNegative());
+    c.Read("k_R_Nm_per_rad", &g.k_R_Nm_per_rad, Range::Positive());
+    c.Read("k_W_Nms_per_rad", &g.k_W_Nms_per_rad, Range::Positive());
+    c.Read("k_I_Nm_per_rad_s", &g.k_I_Nm_per_rad_s, Range::NonNegative());
+    c.Read("c2_per_s", &g.c2_per_s, Range::NonNegative());
+    c.Read("attitude_integral_limit_rad_s", &g.attitude_integral_limit_rad_s, Range::NonNegative());
+    c.Read("thrust_lag_compensation_s", &g.thrust_lag_compensation_s, Range::Closed(0.0, 0.5));
+  }
+  if (node.Has("estimator")) {
+    const ConfigNode e = node.Child("estimator");
+    StateEstimatorConfig& s = config.flight.estimator;
+    e.Read("position_bandwidth_radps", &s.position_bandwidth_radps, Range::Positive());
+    e.Read("attitude_gain_per_s", &s.attitude_gain_per_s, Range::Positive());
+    e.Read("gyro_bias_gain_per_s2", &s.gyro_bias_gain_per_s2, Range::NonNegative());
+    e.Read("max_gyro_bias_radps", &s.max_gyro_bias_radps, Range::NonNegative());
+    e.Read("history_s", &s.history_s, Range{0.0, 10.0, false, true});
+    e.Read("reset_innovation_m", &s.reset_innovation_m, Range::Positive());
+  }
+  if (node.Has("safety")) {
+    const ConfigNode s = node.Child("safety");
+    SafetyConfig& c = config.flight.safety;
+    s.Read("pose_timeout_s", &c.pose_timeout_s, Range::Positive());
+    s.Read("land_timeout_s", &c.land_timeout_s, Range::Positive());
+    s.Read("trajectory_timeout_s", &c.trajectory_timeout_s, Range::Positive());
+    s.Read("takeoff_height_m", &c.takeoff_height_m, Range{0.0, 10.0, false, true});
+    s.Read("takeoff_speed_mps", &c.takeoff_speed_mps, Range{0.0, 5.0, false, true});
+    s.Read("land_speed_mps", &c.land_speed_mps, Range{0.0, 5.0, false, true});
+    s.Read("landed_height_m", &c.landed_height_m, Range::Positive());
+    s.Read("geofence_min_m", &c.geofence_min_m);
+    s.Read("geofence_max_m", &c.geofence_max_m);
+    s.Read("geofence_margin_m", &c.geofence_margin_m, Range::NonNegative());
+  }
+  node.CheckNoUnknownKeys();
+  try {
+    config.Validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(node.file() + ": " + e.what());
+  }
+  return config;
+}
+
+ControllerNode::ControllerNode(lcm::LCM& lcm, const ControllerConfig& config, Clock& clock,
+                               MotorOutput* motor_output)
+    : lcm_(lcm),
+      config_(config),
+      clock_(clock),
+      flight_(config.flight),
+      lcm_motor_output_(lcm, config.motor_channel),
+      motor_output_(motor_output != nullptr ? motor_output : &lcm_motor_output_),
+      drops_(clock),
+      subscriptions_(lcm) {
+  config_.Validate();
+  auto on_error = [this](const std::string& channel, const std::string& reason) {
+    drops_.Count("malformed " + channel, reason);
+  };
+  subscriptions_.Add<pose_t>(
+      config_.pose_channel, [this](const std::string&, const pose_t& msg) { OnPose(msg); },
+      on_error);
+  subscriptions_.Add<imu_t>(
+      config_.imu_channel, [this](const std::string&, const imu_t& msg) { OnImu(msg); }, on_error);
+  subscriptions_.Add<trajectory_t>(
+      config_.trajectory_channel,
+      [this](const std::string&, const trajectory_t& msg) { OnTrajectory(msg); }, on_error);
+  subscriptions_.Add<command_t>(
+      config_.command_channel, [this](const std::string&, const command_t& msg) { OnCommand(msg); },
+      on_error);
+}
+
+void ControllerNode::OnPose(const pose_t& msg) {
+  if (!msg.valid) {
+    drops_.Count("invalid pose", "pose_t.valid is false (motion capture lost the object)");
+    return;
+  }
+  PoseMeasurement pose;
+  pose.time_s = UtimeToSeconds(msg.utime);
+  pose.position_m = Eigen::Vector3d(msg.position_m[0], msg.position_m[1], msg.position_m[2]);
+  if (!QuaternionFromWxyz(msg.orientation_wxyz, &pose.q_WB) || !flight_.AddPose(pose)) {
+    drops_.Count("rejected pose", "non-finite, non-unit or older than the estimator history");
+  }
+}
+
+void ControllerNode::OnImu(const imu_t& msg) {
+  ImuSample sample;
+  sample.time_s = UtimeToSeconds(msg.utime);
+  sample.angular_velocity_radps = Eigen::Vector3d(
+      msg.angular_velocity_radps[0], msg.angular_velocity_radps[1], msg.angular_velocity_radps[2]);
+  sample.specific_force_mps2 = Eigen::Vector3d(
+      msg.specific_force_mps2[0], msg.specific_force_mps2[1], msg.specific_force_mps2[2]);
+  if (!flight_.AddImu(sample) && flight_.estimator().initialized()) {
+    drops_.Count("rejected imu", "non-finite or out-of-order IMU sample");
+  }
+}
+
+void ControllerNode::OnTrajectory(const trajectory_t& msg) {
+  std::string error;
+  const auto trajectory = PiecewisePolynomialTrajectory::CreateFromFlat(
+      UtimeToSeconds(msg.start_utime), msg.durations_s, msg.num_coeffs, Flatten(msg.coeffs_x),
+      Flatten(msg.coeffs_y), Flatten(msg.coeffs_z), Flatten(msg.coeffs_yaw), &error);
+  if (!trajectory.has_value()) {
+    drops_.Count("invalid trajectory", error);
+    return;
+  }
+  if (!flight_.AcceptTrajectory(*trajectory, UtimeToSeconds(clock_.NowUtime()), &error)) {
+    drops_.Count("refused trajectory", error);
+    return;
+  }
+  trajectory_seq_ = msg.seq;
+  trajectory_end_s_ = trajectory->end_time_s();
+}
+
+void ControllerNode::OnCommand(const command_t& msg) {
+  if (msg.command < command_t::COMMAND_IDLE || msg.command > command_t::COMMAND_ESTOP) {
+    drops_.Count("invalid command", "command_t.command = " + std::to_string(msg.command));
+    return;
+  }
+  const auto command = static_cast<FlightCommand>(msg.command);
+  if (!flight_.HandleCommand(command, UtimeToSeconds(clock_.NowUtime()), msg.height_m)) {
+    drops_.Count("refused command", "command " + std::to_string(msg.command) + " from " +
+                                        msg.source + " refused in mode " +
+                                        ToString(flight_.supervisor().mode()));
+  }
+}
+
+void ControllerNode::Tick(int64_t utime) {
+  last_ = flight_.Step(UtimeToSeconds(utime));
+  motor_output_->Send(utime, last_);
+  if (ticks_++ % config_.status_decimation == 0) PublishStatus(utime);
+}
+
+void ControllerNode::PublishStatus(int64_t utime) {
+  controller_status_t msg;
+  msg.utime = utime;
+  msg.seq = status_seq_++;
+  msg.mode = static_cast<int8_t>(last_.decision.mode);
+  msg.reason = last_.decision.reason;
+  CopyVector(last_.state.position_m, msg.position_m);
+  CopyVector(last_.state.velocity_mps, msg.velocity_mps);
+  const Eigen::Quaterniond q(last_.state.R_WB);
+  msg.orientation_wxyz[0] = q.w();
+  msg.orientation_wxyz[1] = q.x();
+  msg.orientation_wxyz[2] = q.y();
+  msg.orientation_wxyz[3] = q.z();
+  const ControlOutput& c = last_.control;
+  CopyVector(c.e_x_m, msg.e_x_m);
+  CopyVector(c.e_v_mps, msg.e_v_mps);
+  CopyVector(c.e_R, msg.e_R);
+  CopyVector(c.e_W_radps, msg.e_W_radps);
+  msg.thrust_N = last_.thrust_N;
+  CopyVector(last_.moment_Nm, msg.moment_Nm);
+  msg.pose_age_s = std::isfinite(last_.pose_age_s) ? last_.pose_age_s : 1e9;
+  msg.trajectory_seq = trajectory_seq_;
+  msg.trajectory_done = trajectory_seq_ >= 0 && UtimeToSeconds(utime) > trajectory_end_s_;
+  lcm_.publish(config_.status_channel, &msg);
+}
+
+}  // namespace kestrel

@@ -1,0 +1,114 @@
+#pragma once
+/// @file
+/// kestrel-controller's node: subscribes to POSE_VICON, IMU, TRAJECTORY and COMMAND (decoded
+/// through the guarded path, bad messages counted and dropped), runs FlightController at the
+/// control rate (Tick, called by the process's NodeLoop timer), sends the rotor thrusts through a
+/// MotorOutput (LCM MOTOR_COMMAND by default; a hardware backend implements the same interface)
+/// and publishes CONTROLLER_STATUS. No YAML, files or sockets inside. Channel names are
+/// configuration.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "common/clock.h"
+#include "common/lcm_decode.h"
+#include "common/log.h"
+#include "control/flight_controller.h"
+#include "kestrel/command_t.hpp"
+#include "kestrel/imu_t.hpp"
+#include "kestrel/pose_t.hpp"
+#include "kestrel/trajectory_t.hpp"
+
+namespace kestrel {
+
+class ConfigNode;
+
+/// Where rotor commands go. Called once per control step with the step's output; must not block
+/// for long. `armed` false means the motors must stop.
+class MotorOutput {
+ public:
+  virtual ~MotorOutput() = default;
+  /// Sends the command of one control step stamped `utime` (us).
+  virtual void Send(int64_t utime, const FlightOutput& output) = 0;
+};
+
+/// Publishes motor_command_t on an LCM channel (the simulator's input).
+class LcmMotorOutput final : public MotorOutput {
+ public:
+  LcmMotorOutput(lcm::LCM& lcm, std::string channel) : lcm_(lcm), channel_(std::move(channel)) {}
+  void Send(int64_t utime, const FlightOutput& output) override;
+
+ private:
+  lcm::LCM& lcm_;
+  std::string channel_;
+  int64_t seq_{0};
+};
+
+/// The process configuration: the flight logic and the wiring.
+struct ControllerConfig {
+  FlightControllerConfig flight;                    ///< vehicle, gains, estimator, safety
+  double rate_hz{400.0};                            ///< control rate, Hz (issue: 200-500)
+  int status_decimation{4};                         ///< status every N control steps (>= 1)
+  std::string pose_channel{"POSE_VICON"};           ///< motion-capture poses (pose_t)
+  std::string imu_channel{"IMU"};                   ///< IMU samples (imu_t)
+  std::string trajectory_channel{"TRAJECTORY"};     ///< trajectories (trajectory_t)
+  std::string command_channel{"COMMAND"};           ///< operator commands (command_t)
+  std::string motor_channel{"MOTOR_COMMAND"};       ///< rotor commands (motor_command_t)
+  std::string status_channel{"CONTROLLER_STATUS"};  ///< status (controller_status_t)
+
+  /// Throws std::invalid_argument naming the field, its value and the accepted range.
+  void Validate() const;
+};
+
+/// Reads a ControllerConfig from YAML: keys rate_hz, status_decimation, channels.{pose, imu,
+/// trajectory, command, motor, status}, controller.{k_x_per_s2, ...}, estimator.{...},
+/// safety.{..., geofence_min_m, geofence_max_m}; absent keys keep their defaults. The vehicle
+/// comes from its own file (LoadVehicleConfigFile). @throws ConfigError naming file, key, range.
+[[nodiscard]] ControllerConfig LoadControllerConfig(const ConfigNode& node,
+                                                    const VehicleConfig& vehicle);
+
+/// The node. Neither copyable nor movable (LCM subscriptions hold `this`).
+class ControllerNode {
+ public:
+  /// Subscribes to the input channels. `motor_output` (not owned, must outlive the node) replaces
+  /// the default LCM output when non-null. @throws std::invalid_argument if config.Validate()
+  /// throws.
+  ControllerNode(lcm::LCM& lcm, const ControllerConfig& config, Clock& clock,
+                 MotorOutput* motor_output = nullptr);
+  ControllerNode(const ControllerNode&) = delete;
+  ControllerNode& operator=(const ControllerNode&) = delete;
+
+  /// One control step at `utime` (us): FlightController::Step, motor output, status.
+  void Tick(int64_t utime);
+
+  [[nodiscard]] const FlightController& flight() const { return flight_; }
+  [[nodiscard]] const FlightOutput& last_output() const { return last_; }
+  [[nodiscard]] const DropCounter& drops() const { return drops_; }
+  [[nodiscard]] int64_t trajectory_seq() const { return trajectory_seq_; }
+
+ private:
+  void OnPose(const pose_t& msg);
+  void OnImu(const imu_t& msg);
+  void OnTrajectory(const trajectory_t& msg);
+  void OnCommand(const command_t& msg);
+  void PublishStatus(int64_t utime);
+
+  lcm::LCM& lcm_;
+  ControllerConfig config_;
+  Clock& clock_;
+  FlightController flight_;
+  LcmMotorOutput lcm_motor_output_;
+  MotorOutput* motor_output_;
+  DropCounter drops_;
+  GuardedSubscriptions subscriptions_;
+  FlightOutput last_;
+  int64_t ticks_{0};
+  int64_t status_seq_{0};
+  int64_t trajectory_seq_{-1};
+  double trajectory_end_s_{0.0};
+};
+
+}  // namespace kestrel

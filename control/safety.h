@@ -1,0 +1,108 @@
+#pragma once
+/// @file
+/// The flight-mode supervisor of the controller (pure: times come with the inputs, no I/O).
+/// Modes: IDLE (motors off) -> TAKEOFF -> HOLD <-> TRACK -> LAND -> IDLE; ESTOP from anywhere,
+/// latched until an IDLE command. Failsafes, checked on every Update() in this order:
+///  1. a non-finite state estimate while flying: ESTOP (nothing can be controlled);
+///  2. the last valid pose older than land_timeout_s: LAND (on the IMU-propagated state);
+///  3. the last valid pose older than pose_timeout_s: HOLD (a "failsafe hold"); when poses return
+///     within land_timeout_s the mode held before (TRACK) resumes (DESIGN.md: "motion-capture
+///     loss ... shorter than the land time-out the controller flies on its IMU-propagated state and
+///     resumes tracking when valid poses return; longer, it lands");
+///  4. the vehicle outside the geofence by more than geofence_margin_m: LAND;
+///  5. TRACK without a trajectory, or trajectory_timeout_s past its end: HOLD.
+/// Set points are always finite and inside the geofence (clamped); trajectories that leave the
+/// geofence are refused when they arrive.
+
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+
+#include "common/trajectory.h"
+#include "control/vehicle_state.h"
+
+namespace kestrel {
+
+/// Flight modes (values as controller_status_t MODE_*: they go into the status message).
+enum class FlightMode { kIdle = 0, kTakeoff = 1, kTrack = 2, kHold = 3, kLand = 4, kEstop = 5 };
+
+/// Operator / explorer commands (values as command_t COMMAND_*).
+enum class FlightCommand { kIdle = 0, kTakeoff = 1, kTrack = 2, kHold = 3, kLand = 4, kEstop = 5 };
+
+/// "IDLE", "TAKEOFF", ...
+[[nodiscard]] const char* ToString(FlightMode mode);
+
+/// Time-outs, take-off and landing profile and the geofence.
+struct SafetyConfig {
+  double pose_timeout_s{0.1};            ///< pose older than this: failsafe HOLD, s
+  double land_timeout_s{2.0};            ///< pose older than this: LAND, s (DESIGN.md default 2 s)
+  double trajectory_timeout_s{1.0};      ///< TRACK this long after the trajectory's end: HOLD, s
+  double takeoff_height_m{1.0};          ///< climb above the take-off point, m
+  double takeoff_speed_mps{0.5};         ///< climb rate of the take-off set point, m/s
+  double takeoff_done_tolerance_m{0.1};  ///< position error that ends TAKEOFF (-> HOLD), m
+  double land_speed_mps{0.4};            ///< descent rate of the landing set point, m/s
+  double landed_height_m{0.08};  ///< within this above the ground height: landed (-> IDLE), m
+  double landed_speed_mps{0.3};  ///< and slower than this, m/s
+  /// Ground height when no take-off point is known (e.g. a failsafe before take-off), m.
+  double default_ground_z_m{0.0};
+  Eigen::Vector3d geofence_min_m{-4.0, -6.0, -0.2};  ///< geofence lower corner, W, m
+  Eigen::Vector3d geofence_max_m{4.0, 6.0, 2.5};     ///< geofence upper corner, W, m
+  double geofence_margin_m{0.3};  ///< tolerated excursion of the vehicle outside the fence, m
+
+  /// Throws std::invalid_argument naming the field, its value and the accepted range.
+  void Validate() const;
+};
+
+/// What the controller should do this step.
+struct SafetyDecision {
+  FlightMode mode{FlightMode::kIdle};  ///< current mode
+  bool motors_enabled{false};          ///< false: rotors off (IDLE, ESTOP); no control law
+  FlatOutput setpoint;                 ///< the desired flat output (finite, inside the fence)
+  bool reset_integrals{true};          ///< zero the controller's integrals this step
+  std::string reason;                  ///< why the last mode change happened
+};
+
+/// The supervisor. Not thread-safe.
+class SafetySupervisor {
+ public:
+  /// @throws std::invalid_argument if config.Validate() throws.
+  explicit SafetySupervisor(const SafetyConfig& config);
+
+  /// Applies a command at time_s given the current estimate (nullptr if none). Returns false
+  /// when it is refused in the current mode (e.g. TAKEOFF without a fresh pose, TRACK without a
+  /// trajectory, anything but IDLE while in ESTOP); ESTOP is always accepted.
+  /// `takeoff_height_m` (m, TAKEOFF only): climb height; not finite or <= 0: the configured one.
+  bool HandleCommand(FlightCommand command, double time_s, const VehicleState* state,
+                     double last_pose_time_s, double takeoff_height_m = 0.0);
+
+  /// Stores a new trajectory if every point (sampled every 0.05 s) is inside the geofence; in
+  /// HOLD (not a failsafe hold) or TRACK it (re)starts TRACK. Returns false with *reason when
+  /// refused (the previous trajectory stays).
+  bool AcceptTrajectory(const PiecewisePolynomialTrajectory& trajectory, double time_s,
+                        std::string* reason);
+
+  /// One step: failsafes, mode progress, set point. `state` may be nullptr (no estimate yet);
+  /// last_pose_time_s is the stamp of the latest valid pose (-inf if none). A non-finite time_s
+  /// returns the previous decision unchanged.
+  SafetyDecision Update(double time_s, const VehicleState* state, double last_pose_time_s);
+
+  [[nodiscard]] FlightMode mode() const { return decision_.mode; }
+  [[nodiscard]] const SafetyDecision& last_decision() const { return decision_; }
+
+ private:
+  void Enter(FlightMode mode, double time_s, const std::string& reason);
+  [[nodiscard]] FlatOutput Clamp(FlatOutput setpoint) const;
+  [[nodiscard]] bool PoseFresh(double time_s, double last_pose_time_s, double limit_s) const;
+
+  SafetyConfig config_;
+  SafetyDecision decision_;
+  std::optional<PiecewisePolynomialTrajectory> trajectory_;
+  double mode_start_time_s_{0.0};
+  FlatOutput mode_start_setpoint_;  // set point when the mode began (hold, land, take-off)
+  double ground_z_m_;
+  double takeoff_height_m_;
+  bool failsafe_hold_{false};  // HOLD entered because the pose went stale
+  FlightMode resume_mode_{FlightMode::kHold};
+};
+
+}  // namespace kestrel

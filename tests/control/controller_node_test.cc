@@ -1,0 +1,228 @@
+// The controller node over LCM memq:// with a simulated clock, closing the loop through the
+// rigid-body model: messages in (pose, IMU, command, trajectory), motor commands and status out.
+#include "control/controller_node.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <deque>
+
+#include "common/clock.h"
+#include "common/config.h"
+#include "common/lcm_decode.h"
+#include "control/rigid_body.h"
+#include "kestrel/controller_status_t.hpp"
+#include "kestrel/motor_command_t.hpp"
+
+namespace kestrel {
+namespace {
+
+constexpr int64_t kTickUs = 2500;  // 400 Hz
+
+class ControllerNodeTest : public ::testing::Test {
+ protected:
+  ControllerNodeTest()
+      : lcm_("memq://"),
+        clock_(1'000'000'000),
+        node_(lcm_, config_, clock_),
+        sim_(config_.flight.vehicle),
+        outputs_(lcm_) {
+    sim_.EnableGround(0.0);
+    outputs_.Add<motor_command_t>(
+        "MOTOR_COMMAND",
+        [this](const std::string&, const motor_command_t& m) {
+          motor_ = m;
+          ++motors_;
+        },
+        nullptr);
+    outputs_.Add<controller_status_t>(
+        "CONTROLLER_STATUS",
+        [this](const std::string&, const controller_status_t& s) {
+          status_ = s;
+          ++statuses_;
+        },
+        nullptr);
+  }
+
+  void Dispatch() {
+    while (lcm_.handleTimeout(0) > 0) {
+    }
+  }
+
+  // Sensors from the model (poses every 10 ms), dispatch, tick, apply the motor command.
+  void Advance(double duration_s) {
+    const int steps = static_cast<int>(std::lround(duration_s * 1e6 / kTickUs));
+    for (int k = 0; k < steps; ++k) {
+      const int64_t now = clock_.NowUtime();
+      const VehicleState truth = sim_.state();
+      if ((now / kTickUs) % 4 == 0) {
+        pose_t pose;
+        pose.utime = now;
+        pose.seq = pose_seq_++;
+        pose.frame_id = "world";
+        pose.child_frame_id = "kestrel";
+        pose.valid = true;
+        const Eigen::Quaterniond q(truth.R_WB);
+        for (int i = 0; i < 3; ++i) pose.position_m[i] = truth.position_m[i];
+        pose.orientation_wxyz[0] = q.w();
+        pose.orientation_wxyz[1] = q.x();
+        pose.orientation_wxyz[2] = q.y();
+        pose.orientation_wxyz[3] = q.z();
+        pose.has_velocity = false;
+        for (int i = 0; i < 3; ++i) pose.velocity_mps[i] = pose.angular_velocity_radps[i] = 0.0;
+        lcm_.publish("POSE_VICON", &pose);
+      }
+      imu_t imu;
+      imu.utime = now;
+      imu.seq = imu_seq_++;
+      imu.sensor_name = "imu";
+      const Eigen::Vector3d f = sim_.specific_force_B_mps2();
+      for (int i = 0; i < 3; ++i) {
+        imu.angular_velocity_radps[i] = truth.angular_velocity_radps[i];
+        imu.specific_force_mps2[i] = f[i];
+      }
+      lcm_.publish("IMU", &imu);
+      Dispatch();
+      node_.Tick(now);
+      Dispatch();
+      Eigen::Vector4d thrust = Eigen::Vector4d::Zero();
+      if (motors_ > 0 && motor_.armed && motor_.num_motors == 4) {
+        for (int i = 0; i < 4; ++i) thrust[i] = motor_.thrust_N[static_cast<size_t>(i)];
+      }
+      sim_.Step(thrust, kTickUs * 1e-6);
+      clock_.AdvanceUtime(kTickUs);
+    }
+  }
+
+  void SendCommand(int8_t command) {
+    command_t msg;
+    msg.utime = clock_.NowUtime();
+    msg.seq = 0;
+    msg.source = "test";
+    msg.command = command;
+    msg.height_m = 1.2;
+    lcm_.publish("COMMAND", &msg);
+    Dispatch();
+  }
+
+  lcm::LCM lcm_;
+  ControllerConfig config_;
+  SimClock clock_;
+  ControllerNode node_;
+  RigidBodySimulator sim_;
+  GuardedSubscriptions outputs_;
+  motor_command_t motor_;
+  controller_status_t status_;
+  int motors_ = 0;
+  int statuses_ = 0;
+  int64_t pose_seq_ = 0;
+  int64_t imu_seq_ = 0;
+};
+
+// Take-off through the COMMAND channel to 1.2 m, then a trajectory over TRAJECTORY is tracked.
+TEST_F(ControllerNodeTest, TakesOffAndTracksOverLcm) {
+  ASSERT_TRUE(lcm_.good());
+  Advance(0.5);
+  EXPECT_GT(motors_, 0);
+  EXPECT_FALSE(motor_.armed);
+  SendCommand(command_t::COMMAND_TAKEOFF);
+  Advance(5.0);
+  EXPECT_EQ(status_.mode, controller_status_t::MODE_HOLD) << status_.reason;
+  EXPECT_TRUE(motor_.armed);
+  EXPECT_EQ(motor_.num_motors, 4);
+  EXPECT_LT((sim_.state().position_m - Eigen::Vector3d(0, 0, 1.2)).norm(), 0.03);
+  EXPECT_NEAR(status_.position_m[2], sim_.state().position_m.z(), 0.01);
+  EXPECT_GT(statuses_, 100);
+
+  trajectory_t trajectory;
+  trajectory.utime = clock_.NowUtime();
+  trajectory.seq = 7;
+  trajectory.start_utime = clock_.NowUtime();
+  trajectory.num_segments = 1;
+  trajectory.num_coeffs = 4;
+  trajectory.durations_s = {4.0};
+  // Rest-to-rest cubic from (0, 0, 1.2) to (1, -0.5, 1.2).
+  trajectory.coeffs_x = {{0.0, 0.0, 3.0 * 1.0 / 16.0, -2.0 * 1.0 / 64.0}};
+  trajectory.coeffs_y = {{0.0, 0.0, 3.0 * -0.5 / 16.0, -2.0 * -0.5 / 64.0}};
+  trajectory.coeffs_z = {{1.2, 0.0, 0.0, 0.0}};
+  trajectory.coeffs_yaw = {{0.0, 0.0, 0.0, 0.0}};
+  lcm_.publish("TRAJECTORY", &trajectory);
+  Dispatch();
+  Advance(1.0);
+  EXPECT_EQ(status_.mode, controller_status_t::MODE_TRACK) << status_.reason;
+  EXPECT_EQ(status_.trajectory_seq, 7);
+  Advance(4.0);
+  EXPECT_TRUE(status_.trajectory_done);
+  EXPECT_LT((sim_.state().position_m - Eigen::Vector3d(1.0, -0.5, 1.2)).norm(), 0.03);
+}
+
+// E-stop over COMMAND: the next motor command is disarmed with zero thrust.
+TEST_F(ControllerNodeTest, EstopOverLcmDisarmsAtOnce) {
+  Advance(0.3);
+  SendCommand(command_t::COMMAND_TAKEOFF);
+  Advance(1.0);
+  ASSERT_TRUE(motor_.armed);
+  SendCommand(command_t::COMMAND_ESTOP);
+  const int before = motors_;
+  Advance(kTickUs * 1e-6);
+  EXPECT_EQ(motors_, before + 1);
+  EXPECT_FALSE(motor_.armed);
+  for (double t : motor_.thrust_N) EXPECT_EQ(t, 0.0);
+}
+
+// Garbage bytes, invalid poses and bad commands are counted and dropped, never applied.
+TEST_F(ControllerNodeTest, CountsAndDropsBadInput) {
+  const char garbage[] = "not an lcm message at all";
+  lcm_.publish("POSE_VICON", garbage, sizeof(garbage));
+  pose_t invalid;
+  invalid.utime = clock_.NowUtime();
+  invalid.seq = 0;
+  invalid.frame_id = "world";
+  invalid.child_frame_id = "kestrel";
+  invalid.valid = false;
+  lcm_.publish("POSE_VICON", &invalid);
+  command_t bad;
+  bad.utime = 0;
+  bad.seq = 0;
+  bad.source = "test";
+  bad.command = 42;
+  bad.height_m = 0.0;
+  lcm_.publish("COMMAND", &bad);
+  Dispatch();
+  EXPECT_EQ(node_.drops().count("malformed POSE_VICON"), 1);
+  EXPECT_EQ(node_.drops().count("invalid pose"), 1);
+  EXPECT_EQ(node_.drops().count("invalid command"), 1);
+  EXPECT_FALSE(node_.flight().estimator().initialized());
+  // Take-off without any pose is refused.
+  SendCommand(command_t::COMMAND_TAKEOFF);
+  EXPECT_EQ(node_.drops().count("refused command"), 1);
+}
+
+// The process configuration from YAML: values land in their fields; errors name file and key.
+TEST(LoadControllerConfig, ReadsKeysAndNamesErrors) {
+  const VehicleConfig vehicle;
+  const ControllerConfig config = LoadControllerConfig(
+      ConfigNode::FromString("rate_hz: 250\nchannels:\n  pose: POSE_SIM\ncontroller:\n"
+                             "  k_x_per_s2: 12.0\nsafety:\n  land_timeout_s: 3.0\n"
+                             "  geofence_max_m: [5, 5, 3]\n",
+                             "controller.yaml"),
+      vehicle);
+  EXPECT_EQ(config.rate_hz, 250.0);
+  EXPECT_EQ(config.pose_channel, "POSE_SIM");
+  EXPECT_EQ(config.imu_channel, "IMU");
+  EXPECT_EQ(config.flight.controller.k_x_per_s2, 12.0);
+  EXPECT_EQ(config.flight.safety.land_timeout_s, 3.0);
+  EXPECT_EQ(config.flight.safety.geofence_max_m, Eigen::Vector3d(5, 5, 3));
+  for (const char* bad : {"rate_hz: 5\n", "controller:\n  k_R_Nm_per_rad: -1\n",
+                          "safety:\n  pose_timeout_s: 5\n", "typo_key: 1\n"}) {
+    try {
+      (void)LoadControllerConfig(ConfigNode::FromString(bad, "controller.yaml"), vehicle);
+      ADD_FAILURE() << "accepted: " << bad;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("controller.yaml"), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace kestrel

@@ -1,0 +1,206 @@
+#include "control/safety.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+namespace kestrel {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// A trajectory from `from` to `to` in `duration_s` (linear in time), starting at start_s.
+PiecewisePolynomialTrajectory Line(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                                   double start_s, double duration_s) {
+  PolynomialSegment segment;
+  segment.duration_s = duration_s;
+  for (int axis = 0; axis < 3; ++axis) {
+    segment.coefficients[static_cast<size_t>(axis)] = {from[axis],
+                                                       (to[axis] - from[axis]) / duration_s};
+  }
+  segment.coefficients[3] = {0.0};
+  return *PiecewisePolynomialTrajectory::Create(start_s, {segment}, nullptr);
+}
+
+// Given a supervisor whose vehicle follows its set points perfectly.
+class SafetyTest : public ::testing::Test {
+ protected:
+  SafetyDecision Step(double t, double last_pose_s) {
+    const SafetyDecision d = supervisor_.Update(t, &state_, last_pose_s);
+    if (d.motors_enabled) {
+      state_.position_m = d.setpoint.position_m;
+      state_.velocity_mps = d.setpoint.velocity_mps;
+    }
+    return d;
+  }
+  // Runs from t0 to t1 at 100 Hz with poses fresh at every step.
+  SafetyDecision RunFresh(double t0, double t1) {
+    SafetyDecision d;
+    for (double t = t0; t <= t1 + 1e-9; t += 0.01) d = Step(t, t);
+    return d;
+  }
+  void TakeOffToHold() {
+    ASSERT_TRUE(supervisor_.HandleCommand(FlightCommand::kTakeoff, 0.0, &state_, 0.0));
+    const SafetyDecision d = RunFresh(0.0, 3.0);
+    ASSERT_EQ(d.mode, FlightMode::kHold) << d.reason;
+  }
+
+  SafetyConfig config_;
+  SafetySupervisor supervisor_{config_};
+  VehicleState state_;  // on the ground at the origin
+};
+
+TEST_F(SafetyTest, TakeOffHoldTrackLandIdle) {
+  EXPECT_EQ(supervisor_.mode(), FlightMode::kIdle);
+  EXPECT_FALSE(supervisor_.Update(0.0, &state_, 0.0).motors_enabled);
+  ASSERT_TRUE(supervisor_.HandleCommand(FlightCommand::kTakeoff, 0.0, &state_, 0.0));
+  SafetyDecision d = Step(1.0, 1.0);
+  EXPECT_EQ(d.mode, FlightMode::kTakeoff);
+  EXPECT_TRUE(d.motors_enabled);
+  EXPECT_TRUE(d.reset_integrals);
+  EXPECT_NEAR(d.setpoint.position_m.z(), 0.5, 1e-12);  // 0.5 m/s for 1 s
+  d = RunFresh(1.0, 3.0);
+  EXPECT_EQ(d.mode, FlightMode::kHold);
+  EXPECT_NEAR(d.setpoint.position_m.z(), 1.0, 1e-12);
+
+  // A trajectory in HOLD starts TRACK.
+  std::string reason;
+  ASSERT_TRUE(supervisor_.AcceptTrajectory(Line({0, 0, 1}, {2, 1, 1}, 3.0, 2.0), 3.0, &reason));
+  d = Step(4.0, 4.0);
+  EXPECT_EQ(d.mode, FlightMode::kTrack);
+  EXPECT_LT((d.setpoint.position_m - Eigen::Vector3d(1, 0.5, 1)).norm(), 1e-12);
+  EXPECT_FALSE(d.reset_integrals);
+
+  // LAND descends from where it was and ends in IDLE on the ground.
+  ASSERT_TRUE(supervisor_.HandleCommand(FlightCommand::kLand, 4.0, &state_, 4.0));
+  d = Step(5.0, 5.0);
+  EXPECT_EQ(d.mode, FlightMode::kLand);
+  EXPECT_NEAR(d.setpoint.position_m.z(), 0.6, 1e-9);
+  EXPECT_LT((d.setpoint.position_m.head<2>() - Eigen::Vector2d(1, 0.5)).norm(), 1e-12);
+  state_.velocity_mps.setZero();
+  d = RunFresh(5.0, 8.0);
+  EXPECT_EQ(d.mode, FlightMode::kIdle) << d.reason;
+  EXPECT_FALSE(d.motors_enabled);
+  EXPECT_EQ(d.reason, "landed");
+}
+
+TEST_F(SafetyTest, TakeoffNeedsIdleAndAFreshPose) {
+  EXPECT_FALSE(supervisor_.HandleCommand(FlightCommand::kTakeoff, 1.0, &state_, 0.5));  // stale
+  EXPECT_FALSE(supervisor_.HandleCommand(FlightCommand::kTakeoff, 1.0, nullptr, 1.0));
+  EXPECT_FALSE(supervisor_.HandleCommand(FlightCommand::kTakeoff, 1.0, &state_, -kInf));
+  EXPECT_FALSE(supervisor_.HandleCommand(FlightCommand::kTrack, 1.0, &state_, 1.0));
+  EXPECT_FALSE(supervisor_.HandleCommand(FlightCommand::kHold, 1.0, &state_, 1.0));
+  EXPECT_FALSE(supervisor_.HandleCommand(static_cast<FlightCommand>(42), 1.0, &state_, 1.0));
+  EXPECT_EQ(supervisor_.mode(), FlightMode::kIdle);
+}
+
+// E-stop cuts the motors at once, from any mode, and stays until IDLE.
+TEST_F(SafetyTest, EstopCutsMotorsAndLatches) {
+  TakeOffToHold();
+  ASSERT_TRUE(supervisor_.HandleCommand(FlightCommand::kEstop, 3.0, &state_, 3.0));
+  EXPECT_FALSE(supervisor_.last_decision().motors_enabled);
+  SafetyDecision d = Step(3.01, 3.01);
+  EXPECT_EQ(d.mode, FlightMode::kEstop);
+  EXPECT_FALSE(d.motors_enabled);
+  EXPECT_FALSE(supervisor_.HandleCommand(FlightCommand::kTakeoff, 3.02, &state_, 3.02));
+  EXPECT_FALSE(supervisor_.HandleCommand(FlightCommand::kLand, 3.02, &state_, 3.02));
+  ASSERT_TRUE(supervisor_.HandleCommand(FlightCommand::kIdle, 3.03, &state_, 3.03));
+  EXPECT_EQ(supervisor_.mode(), FlightMode::kIdle);
+  // IDLE is refused in flight (motors off only through ESTOP).
+  state_ = VehicleState{};
+  TakeOffToHold();
+  EXPECT_FALSE(supervisor_.HandleCommand(FlightCommand::kIdle, 3.0, &state_, 3.0));
+}
+
+// Pose lost for 1 s (< land_timeout_s): HOLD after pose_timeout_s, TRACK again when poses return.
+TEST_F(SafetyTest, ShortPoseLossHoldsThenResumesTracking) {
+  TakeOffToHold();
+  ASSERT_TRUE(supervisor_.AcceptTrajectory(Line({0, 0, 1}, {3, 0, 1}, 3.0, 10.0), 3.0, nullptr));
+  SafetyDecision d = RunFresh(3.0, 4.0);
+  ASSERT_EQ(d.mode, FlightMode::kTrack);
+  const double last_pose = 4.0;
+  d = Step(4.05, last_pose);
+  EXPECT_EQ(d.mode, FlightMode::kTrack);  // within pose_timeout_s
+  d = Step(4.15, last_pose);
+  EXPECT_EQ(d.mode, FlightMode::kHold);
+  const Eigen::Vector3d held = d.setpoint.position_m;
+  for (double t = 4.2; t < 5.0; t += 0.01) {
+    d = Step(t, last_pose);
+    ASSERT_EQ(d.mode, FlightMode::kHold);
+    ASSERT_EQ(d.setpoint.position_m, held);
+  }
+  d = Step(5.0, 5.0);  // poses back after 1 s
+  EXPECT_EQ(d.mode, FlightMode::kTrack) << d.reason;
+  EXPECT_NEAR(d.setpoint.position_m.x(), 0.6, 1e-9);  // the trajectory at t = 5 s
+}
+
+// Pose lost for longer than land_timeout_s (2 s): LAND, which continues even when poses return.
+TEST_F(SafetyTest, LongPoseLossLands) {
+  TakeOffToHold();
+  SafetyDecision d;
+  for (double t = 3.01; t < 5.0; t += 0.01) {
+    d = Step(t, 3.0);
+    ASSERT_NE(d.mode, FlightMode::kLand) << t;
+  }
+  d = Step(5.01, 3.0);
+  EXPECT_EQ(d.mode, FlightMode::kLand);
+  EXPECT_TRUE(d.motors_enabled);
+  d = Step(5.5, 5.5);
+  EXPECT_EQ(d.mode, FlightMode::kLand);
+}
+
+TEST_F(SafetyTest, StaleTrajectoryHolds) {
+  TakeOffToHold();
+  ASSERT_TRUE(supervisor_.AcceptTrajectory(Line({0, 0, 1}, {1, 0, 1}, 3.0, 1.0), 3.0, nullptr));
+  SafetyDecision d = RunFresh(3.0, 4.9);
+  EXPECT_EQ(d.mode, FlightMode::kTrack);  // hovering at the end, within the time-out
+  d = RunFresh(4.9, 5.1);
+  EXPECT_EQ(d.mode, FlightMode::kHold);
+  EXPECT_EQ(d.reason, "trajectory stale");
+  EXPECT_LT((d.setpoint.position_m - Eigen::Vector3d(1, 0, 1)).norm(), 1e-12);
+  EXPECT_FALSE(supervisor_.HandleCommand(FlightCommand::kTrack, 5.2, &state_, 5.2));
+}
+
+TEST_F(SafetyTest, GeofenceRefusesTrajectoriesAndLandsOutside) {
+  TakeOffToHold();
+  std::string reason;
+  EXPECT_FALSE(supervisor_.AcceptTrajectory(Line({0, 0, 1}, {5, 0, 1}, 3.0, 5.0), 3.0, &reason));
+  EXPECT_NE(reason.find("geofence"), std::string::npos) << reason;
+  EXPECT_EQ(supervisor_.mode(), FlightMode::kHold);
+  // The vehicle itself outside the fence by more than the margin: LAND.
+  state_.position_m = Eigen::Vector3d(4.5, 0.0, 1.0);
+  const SafetyDecision d = supervisor_.Update(3.1, &state_, 3.1);
+  EXPECT_EQ(d.mode, FlightMode::kLand);
+  EXPECT_TRUE((d.setpoint.position_m.array() <= config_.geofence_max_m.array()).all());
+}
+
+TEST_F(SafetyTest, NonFiniteInputIsRejected) {
+  TakeOffToHold();
+  const SafetyDecision before = supervisor_.last_decision();
+  const SafetyDecision same =
+      supervisor_.Update(std::numeric_limits<double>::quiet_NaN(), &state_, 3.0);
+  EXPECT_EQ(same.mode, before.mode);
+  EXPECT_FALSE(supervisor_.HandleCommand(FlightCommand::kLand,
+                                         std::numeric_limits<double>::quiet_NaN(), &state_, 3.0));
+  VehicleState bad = state_;
+  bad.velocity_mps.x() = std::numeric_limits<double>::quiet_NaN();
+  const SafetyDecision d = supervisor_.Update(3.1, &bad, 3.1);
+  EXPECT_EQ(d.mode, FlightMode::kEstop);
+  EXPECT_FALSE(d.motors_enabled);
+  EXPECT_TRUE(d.setpoint.IsFinite());
+}
+
+TEST(SafetyConfig, ValidateNamesFieldAndRange) {
+  SafetyConfig config;
+  config.land_timeout_s = 0.05;  // below pose_timeout_s
+  try {
+    config.Validate();
+    ADD_FAILURE();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("safety.land_timeout_s = 0.05"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace kestrel
