@@ -1,5 +1,7 @@
 #include "control/controller_node.h"
 
+#include "common/trajectory_message.h"
+
 #include <cmath>
 #include <stdexcept>
 
@@ -15,12 +17,6 @@ namespace {
 
 void CopyVector(const Eigen::Vector3d& v, double out[3]) {
   for (int i = 0; i < 3; ++i) out[i] = v[i];
-}
-
-std::vector<double> Flatten(const std::vector<std::vector<double>>& rows) {
-  std::vector<double> flat;
-  for (const auto& row : rows) flat.insert(flat.end(), row.begin(), row.end());
-  return flat;
 }
 
 }  // namespace
@@ -166,9 +162,7 @@ void ControllerNode::OnImu(const imu_t& msg) {
 
 void ControllerNode::OnTrajectory(const trajectory_t& msg) {
   std::string error;
-  const auto trajectory = PiecewisePolynomialTrajectory::CreateFromFlat(
-      UtimeToSeconds(msg.start_utime), msg.durations_s, msg.num_coeffs, Flatten(msg.coeffs_x),
-      Flatten(msg.coeffs_y), Flatten(msg.coeffs_z), Flatten(msg.coeffs_yaw), &error);
+  const auto trajectory = FromMessage(msg, &error);
   if (!trajectory.has_value()) {
     drops_.Count("invalid trajectory", error);
     return;
