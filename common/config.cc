@@ -23,6 +23,7 @@ std::string Describe(const YAML::Node& node) {
 }
 
 std::string LineOf(const YAML::Node& node) {
+  if (!node.IsDefined()) return "";  // an absent key has no position (and Mark() would throw)
   const YAML::Mark mark = node.Mark();
   if (mark.line < 0) return "";
   return " (line " + std::to_string(mark.line + 1) + ")";

@@ -104,6 +104,13 @@ TEST(Config, MissingRequiredKeyAndChild) {
   ExpectConfigError([&] { (void)root.Child("xtion"); }, {"required key 'xtion'"});
 }
 
+// Validate() of a struct can fail on a key that was absent (a default): still a ConfigError.
+TEST(Config, FailOnAnAbsentKeyIsAConfigError) {
+  const ConfigNode root = ConfigNode::FromString("a: 1\n", "m.yaml");
+  ExpectConfigError([&] { root.Fail("z_max_m", "must exceed z_min_m"); },
+                    {"m.yaml", "z_max_m", "must exceed z_min_m"});
+}
+
 TEST(Config, BadYamlNamesFileAndLine) {
   ExpectConfigError([] { (void)ConfigNode::FromString("a: 1\nb: [1, 2\n", "bad.yaml"); },
                     {"bad.yaml", "line", "invalid YAML"});
