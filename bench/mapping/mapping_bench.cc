@@ -1,0 +1,203 @@
+// Mapping throughput on identical synthetic frames (bench/mapping/synthetic_scene.h): Kestrel's
+// exact model (dense and growing grid), Kestrel's log-odds baseline, and OctoMap's
+// insertPointCloud (liboctomap, discretize = false, maxrange 4 m), 0.075 m cells, the paper's map
+// x -4..4, y -6..6, z -0.15..1.5 m. One iteration applies one frame; frames cycle.
+// Counters: rays/s (returns and "no return" rays to 4 m) and cell updates/s.
+#include <benchmark/benchmark.h>
+
+#include <octomap/OcTree.h>
+
+#include <map>
+#include <memory>
+
+#include "bench/mapping/synthetic_scene.h"
+#include "mapping/occupancy_map.h"
+
+namespace kestrel::bench {
+namespace {
+
+constexpr int kFrames = 8;
+
+const std::vector<DepthFrame>& DepthFramesOf(int width, int height) {
+  static std::map<std::pair<int, int>, std::vector<DepthFrame>> cache;
+  auto it = cache.find({width, height});
+  if (it == cache.end()) {
+    it =
+        cache.emplace(std::make_pair(width, height), MakeDepthFrames(width, height, kFrames)).first;
+  }
+  return it->second;
+}
+
+const std::vector<ScanFrame>& ScanFrames() {
+  static const std::vector<ScanFrame> frames = MakeScanFrames(kFrames);
+  return frames;
+}
+
+template <class Map>
+void RunDepth(benchmark::State& state, Map* map) {
+  const auto& frames =
+      DepthFramesOf(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  ScanStats total;
+  size_t f = 0;
+  for (auto _ : state) {
+    const DepthFrame& frame = frames[f++ % frames.size()];
+    total += map->ApplyDepthImage(frame.X_WS, frame.intrinsics, frame.depth.data(), frame.width,
+                                  frame.height, frame.depth_scale_m, xtion);
+  }
+  state.counters["rays/s"] =
+      benchmark::Counter(static_cast<double>(total.rays_applied), benchmark::Counter::kIsRate);
+  state.counters["cells/s"] =
+      benchmark::Counter(static_cast<double>(total.cells_updated), benchmark::Counter::kIsRate);
+  state.counters["cells/ray"] =
+      static_cast<double>(total.cells_updated) / static_cast<double>(total.rays_applied);
+  state.counters["no_return"] =
+      static_cast<double>(total.rays_no_return) / static_cast<double>(total.rays_applied);
+}
+
+template <class Map>
+void RunScan(benchmark::State& state, Map* map) {
+  const auto& frames = ScanFrames();
+  const SensorModel hokuyo(SensorModelConfig::Hokuyo());
+  ScanStats total;
+  size_t f = 0;
+  for (auto _ : state) {
+    const ScanFrame& frame = frames[f++ % frames.size()];
+    total += map->ApplyPlanarScan(frame.X_WS, frame.angle_min_rad, frame.angle_step_rad,
+                                  frame.ranges_m.data(), static_cast<int>(frame.ranges_m.size()),
+                                  hokuyo);
+  }
+  state.counters["rays/s"] =
+      benchmark::Counter(static_cast<double>(total.rays_applied), benchmark::Counter::kIsRate);
+  state.counters["cells/s"] =
+      benchmark::Counter(static_cast<double>(total.cells_updated), benchmark::Counter::kIsRate);
+  state.counters["cells/ray"] =
+      static_cast<double>(total.cells_updated) / static_cast<double>(total.rays_applied);
+}
+
+void BM_KestrelExact_Depth(benchmark::State& state) {
+  auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  RunDepth(state, map.get());
+}
+void BM_KestrelExactThreaded_Depth(benchmark::State& state) {
+  auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  map->SetTraversalThread(true);
+  RunDepth(state, map.get());
+}
+void BM_KestrelExactGrowing_Depth(benchmark::State& state) {
+  auto map = MakeExactGrowingMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  RunDepth(state, map.get());
+}
+void BM_KestrelLogOdds_Depth(benchmark::State& state) {
+  auto map = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
+  RunDepth(state, map.get());
+}
+void BM_KestrelExact_Scan682(benchmark::State& state) {
+  auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  RunScan(state, map.get());
+}
+void BM_KestrelLogOdds_Scan682(benchmark::State& state) {
+  auto map = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
+  RunScan(state, map.get());
+}
+
+// OctoMap input: the same rays as end points (no-return rays as points beyond maxrange, which
+// OctoMap clears up to maxrange), built before timing.
+struct OctoFrame {
+  octomap::Pointcloud cloud;
+  octomap::point3d origin;
+  size_t cells{0};  // free + occupied keys of computeUpdate (OctoMap de-duplicates per scan)
+};
+
+octomap::point3d ToOcto(const Eigen::Vector3d& p) {
+  return octomap::point3d(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                          static_cast<float>(p.z()));
+}
+
+std::vector<OctoFrame> OctoDepthFrames(int width, int height) {
+  std::vector<OctoFrame> out;
+  for (const DepthFrame& frame : DepthFramesOf(width, height)) {
+    OctoFrame o;
+    o.origin = ToOcto(frame.X_WS.p);
+    const Eigen::Matrix3d R = frame.X_WS.rotation();
+    for (int v = 0; v < frame.height; ++v) {
+      for (int u = 0; u < frame.width; ++u) {
+        const Eigen::Vector3d ray_S((u - frame.intrinsics.cx) / frame.intrinsics.fx,
+                                    (v - frame.intrinsics.cy) / frame.intrinsics.fy, 1.0);
+        const uint16_t raw = frame.depth[static_cast<size_t>(v * frame.width + u)];
+        const double range = raw == 0 ? 5.0 : raw * frame.depth_scale_m * ray_S.norm();
+        o.cloud.push_back(ToOcto(frame.X_WS.p + range * (R * ray_S.normalized())));
+      }
+    }
+    out.push_back(std::move(o));
+  }
+  return out;
+}
+
+std::vector<OctoFrame> OctoScanFrames() {
+  std::vector<OctoFrame> out;
+  for (const ScanFrame& frame : ScanFrames()) {
+    OctoFrame o;
+    o.origin = ToOcto(frame.X_WS.p);
+    const Eigen::Matrix3d R = frame.X_WS.rotation();
+    for (size_t i = 0; i < frame.ranges_m.size(); ++i) {
+      const double a = frame.angle_min_rad + static_cast<double>(i) * frame.angle_step_rad;
+      const double range = std::isfinite(frame.ranges_m[i]) ? frame.ranges_m[i] : 5.0;
+      o.cloud.push_back(
+          ToOcto(frame.X_WS.p + range * (R * Eigen::Vector3d(std::cos(a), std::sin(a), 0.0))));
+    }
+    out.push_back(std::move(o));
+  }
+  return out;
+}
+
+void RunOcto(benchmark::State& state, std::vector<OctoFrame>& frames) {
+  octomap::OcTree tree(0.075);
+  for (OctoFrame& f : frames) {
+    octomap::KeySet free_cells, occupied_cells;
+    tree.computeUpdate(f.cloud, f.origin, free_cells, occupied_cells, 4.0);
+    f.cells = free_cells.size() + occupied_cells.size();
+  }
+  double rays = 0.0, cells = 0.0;
+  size_t i = 0;
+  for (auto _ : state) {
+    const OctoFrame& f = frames[i++ % frames.size()];
+    tree.insertPointCloud(f.cloud, f.origin, 4.0, /*lazy_eval=*/false, /*discretize=*/false);
+    rays += static_cast<double>(f.cloud.size());
+    cells += static_cast<double>(f.cells);
+  }
+  state.counters["rays/s"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
+  state.counters["cells/s"] = benchmark::Counter(cells, benchmark::Counter::kIsRate);
+  state.counters["cells/ray"] = cells / rays;
+}
+
+void BM_OctoMap_Depth(benchmark::State& state) {
+  std::vector<OctoFrame> frames =
+      OctoDepthFrames(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  RunOcto(state, frames);
+}
+void BM_OctoMap_Scan682(benchmark::State& state) {
+  std::vector<OctoFrame> frames = OctoScanFrames();
+  RunOcto(state, frames);
+}
+
+BENCHMARK(BM_KestrelExact_Depth)->Args({160, 120})->Args({640, 480})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_KestrelExactThreaded_Depth)
+    ->Args({160, 120})
+    ->Args({640, 480})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(BM_KestrelExactGrowing_Depth)->Args({160, 120})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_KestrelLogOdds_Depth)
+    ->Args({160, 120})
+    ->Args({640, 480})
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_OctoMap_Depth)->Args({160, 120})->Args({640, 480})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_KestrelExact_Scan682)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_KestrelLogOdds_Scan682)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_OctoMap_Scan682)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+}  // namespace kestrel::bench
+
+BENCHMARK_MAIN();

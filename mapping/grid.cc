@@ -1,0 +1,166 @@
+#include "mapping/grid.h"
+
+#include <cmath>
+
+#include "common/check.h"
+
+namespace kestrel {
+
+void MapLimits::Validate() const {
+  KESTREL_THROW_UNLESS(std::isfinite(resolution_m) && resolution_m > 0.0,
+                       "map resolution_m = " << resolution_m << ", accepted (0, inf)");
+  for (int axis = 0; axis < 3; ++axis) {
+    KESTREL_THROW_UNLESS(
+        std::isfinite(min_m[axis]) && std::isfinite(max_m[axis]) && max_m[axis] > min_m[axis],
+        "map limits axis " << axis << ": min_m = " << min_m[axis] << ", max_m = " << max_m[axis]
+                           << ", accepted finite with max > min");
+    const double cells = std::ceil((max_m[axis] - min_m[axis]) / resolution_m);
+    KESTREL_THROW_UNLESS(cells < double{1 << 20}, "map limits axis " << axis << " give " << cells
+                                                                     << " cells, accepted < 2^20");
+  }
+}
+
+void OccupancyLimits::Validate() const {
+  KESTREL_THROW_UNLESS(p_min > 0.0 && p_min < 0.5, "p_min = " << p_min << ", accepted (0, 0.5)");
+  KESTREL_THROW_UNLESS(p_init >= p_min && p_init <= 1.0 - p_min,
+                       "p_init = " << p_init << ", accepted [p_min, 1 - p_min] = [" << p_min << ", "
+                                   << 1.0 - p_min << "]");
+}
+
+GridGeometry GridGeometry::Fixed(const MapLimits& limits) {
+  limits.Validate();
+  GridGeometry g;
+  g.origin_m_ = limits.min_m;
+  g.resolution_m_ = limits.resolution_m;
+  g.inv_resolution_ = 1.0 / limits.resolution_m;
+  g.bounded_ = true;
+  for (int axis = 0; axis < 3; ++axis) {
+    // ALGORITHMS.md section 1: ceil((max - min)/alpha) cells, the upper limit rounds up.
+    g.upper_[axis] = static_cast<int32_t>(
+        std::ceil((limits.max_m[axis] - limits.min_m[axis]) / limits.resolution_m));
+  }
+  return g;
+}
+
+GridGeometry GridGeometry::Unbounded(const Eigen::Vector3d& origin_m, double resolution_m) {
+  KESTREL_THROW_UNLESS(std::isfinite(resolution_m) && resolution_m > 0.0,
+                       "resolution_m = " << resolution_m << ", accepted (0, inf)");
+  KESTREL_THROW_UNLESS(origin_m.allFinite(), "grid origin_m must be finite");
+  GridGeometry g;
+  g.origin_m_ = origin_m;
+  g.resolution_m_ = resolution_m;
+  g.inv_resolution_ = 1.0 / resolution_m;
+  g.bounded_ = false;
+  g.lower_ = {-kUnboundedCells + 1, -kUnboundedCells + 1, -kUnboundedCells + 1};
+  g.upper_ = {kUnboundedCells, kUnboundedCells, kUnboundedCells};
+  return g;
+}
+
+int64_t GridGeometry::AxisIndexOf(int axis, double v) const {
+  int64_t i = static_cast<int64_t>(std::floor((v - origin_m_[axis]) * inv_resolution_));
+  // The product may round across a boundary; settle it against Boundary() itself so that the
+  // cell of a point and the boundaries the ray caster crosses can never disagree.
+  while (v < Boundary(axis, i)) --i;
+  while (v >= Boundary(axis, i + 1)) ++i;
+  return i;
+}
+
+std::optional<CellIndex> GridGeometry::CellOf(const Eigen::Vector3d& point_W) const {
+  if (!point_W.allFinite()) return std::nullopt;
+  CellIndex c;
+  for (int axis = 0; axis < 3; ++axis) {
+    const double scaled = (point_W[axis] - origin_m_[axis]) * inv_resolution_;
+    if (!(scaled > lower_[axis] - 2.0 && scaled < upper_[axis] + 2.0)) return std::nullopt;
+    const int64_t i = AxisIndexOf(axis, point_W[axis]);
+    if (i < lower_[axis] || i >= upper_[axis]) return std::nullopt;
+    c[axis] = static_cast<int32_t>(i);
+  }
+  return c;
+}
+
+Eigen::Vector3d GridGeometry::CenterOf(const CellIndex& cell) const {
+  return Eigen::Vector3d(origin_m_.x() + (cell.x + 0.5) * resolution_m_,
+                         origin_m_.y() + (cell.y + 0.5) * resolution_m_,
+                         origin_m_.z() + (cell.z + 0.5) * resolution_m_);
+}
+
+DenseGrid::DenseGrid(const MapLimits& limits, float initial_value)
+    : geometry_(GridGeometry::Fixed(limits)), initial_value_(initial_value) {
+  const CellIndex& d = geometry_.upper();
+  values_.assign(static_cast<size_t>(d.x) * static_cast<size_t>(d.y) * static_cast<size_t>(d.z),
+                 initial_value);
+}
+
+GrowingGrid::GrowingGrid(const Eigen::Vector3d& origin_m, double resolution_m, float initial_value)
+    : geometry_(GridGeometry::Unbounded(origin_m, resolution_m)), initial_value_(initial_value) {}
+
+CellIndex GrowingGrid::BlockOriginOf(uint64_t key) {
+  const auto unpart = [](uint64_t bits) {
+    return static_cast<int32_t>((static_cast<int64_t>(bits & 0x1FFFFFu) - (1 << 20)) * kBlockEdge);
+  };
+  return CellIndex{unpart(key), unpart(key >> 21), unpart(key >> 42)};
+}
+
+GrowingGrid::Block* GrowingGrid::CreateBlock(uint64_t key) {
+  auto block = std::make_unique<Block>();
+  std::fill(std::begin(block->values), std::end(block->values), initial_value_);
+  Block* raw = block.get();
+  blocks_.emplace(key, std::move(block));
+  return raw;
+}
+
+GrowingGrid::Block* GrowingGrid::FindOrCreateBlock(const CellIndex& block_origin) {
+  const uint64_t key = BlockKeyOf(block_origin);
+  const auto it = blocks_.find(key);
+  return it != blocks_.end() ? it->second.get() : CreateBlock(key);
+}
+
+float GrowingGrid::Get(const CellIndex& c) const {
+  const auto it = blocks_.find(BlockKeyOf(c));
+  return it == blocks_.end() ? initial_value_ : it->second->values[OffsetInBlock(c)];
+}
+
+void GrowingGrid::Set(const CellIndex& c, float value) {
+  FindOrCreateBlock(c)->values[OffsetInBlock(c)] = value;
+}
+
+size_t GrowingGrid::memory_bytes() const {
+  // Block payload plus an estimate of one hash node (key, pointer, next) and one bucket each.
+  return blocks_.size() * (sizeof(Block) + 4 * sizeof(void*)) +
+         blocks_.bucket_count() * sizeof(void*);
+}
+
+GrowingGrid::Block* GrowingGrid::Accessor::Lookup(uint64_t key, bool create) {
+  const size_t slot = SlotOf(key);
+  if (cache_keys_[slot] == key) return cache_blocks_[slot];
+  const auto it = grid_->blocks_.find(key);
+  Block* block =
+      it != grid_->blocks_.end() ? it->second.get() : (create ? grid_->CreateBlock(key) : nullptr);
+  if (block != nullptr) {
+    cache_keys_[slot] = key;
+    cache_blocks_[slot] = block;
+  }
+  return block;
+}
+
+float* GrowingGrid::Accessor::FindOrCreate(const CellIndex& c) {
+  const uint64_t key = BlockKeyOf(c);
+  if (key != last_key_) {
+    last_block_ = Lookup(key, /*create=*/true);
+    last_key_ = key;
+  }
+  return &last_block_->values[OffsetInBlock(c)];
+}
+
+const float* GrowingGrid::Accessor::Find(const CellIndex& c) {
+  const uint64_t key = BlockKeyOf(c);
+  if (key != last_key_) {
+    Block* block = Lookup(key, /*create=*/false);
+    if (block == nullptr) return nullptr;
+    last_block_ = block;
+    last_key_ = key;
+  }
+  return &last_block_->values[OffsetInBlock(c)];
+}
+
+}  // namespace kestrel

@@ -1,0 +1,39 @@
+#include "mapping/inverse_sensor_model.h"
+
+namespace kestrel {
+
+void ExactUpdate::CheckInput(const Reading& reading, int n,
+                             const InverseSensorModelScratch* scratch) {
+  KESTREL_THROW_UNLESS(reading.kind != ReadingKind::kInvalid,
+                       "ComputeExactPosteriors: invalid readings must be dropped by the caller");
+  KESTREL_THROW_UNLESS(scratch != nullptr && n >= 0 && n <= scratch->capacity(),
+                       "ComputeExactPosteriors: n = " << n << ", accepted [0, scratch capacity]");
+}
+
+int ExactUpdate::ForwardLikelihoods(const SensorModel& model, const Reading& reading,
+                                    const double* distance_m, int n, double* likelihood) {
+  KESTREL_THROW_UNLESS(reading.kind != ReadingKind::kInvalid,
+                       "ForwardLikelihoods: invalid readings must be dropped by the caller");
+  if (reading.kind == ReadingKind::kReturn) {
+    const double reach_m = model.GaussianReach(reading.z_m);
+    int end = n;
+    while (end > 0 && distance_m[end - 1] > reach_m) --end;  // same cut as Apply
+    for (int k = 0; k < end; ++k)
+      likelihood[k] = model.ReturnLikelihood(reading.z_m, distance_m[k]);
+    return end;
+  }
+  for (int k = 0; k < n; ++k) likelihood[k] = model.NoReturnProbability(distance_m[k]);
+  return n;
+}
+
+ExactUpdateResult ExactUpdate::ComputeExactPosteriors(const SensorModel& model,
+                                                      const Reading& reading,
+                                                      const double* distance_m, const double* prior,
+                                                      int n, double* posterior,
+                                                      InverseSensorModelScratch* scratch) {
+  return Apply(
+      model, reading, distance_m, n, [prior](int k) { return prior[k]; },
+      [posterior](int k, double p) { posterior[k] = p; }, scratch);
+}
+
+}  // namespace kestrel

@@ -1,0 +1,122 @@
+#include "mapping/map_replica.h"
+
+#include <zlib.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "common/check.h"
+
+namespace kestrel {
+
+MapReplica::MapReplica(const Eigen::Vector3d& origin_m, double resolution_m,
+                       const Eigen::Vector3i& dims, double p_init)
+    : origin_m_(origin_m),
+      resolution_m_(resolution_m),
+      dims_(dims),
+      p_init_(static_cast<float>(p_init)) {
+  KESTREL_THROW_UNLESS(
+      dims.minCoeff() > 0 && resolution_m > 0 && origin_m.allFinite(),
+      "replica lattice: dims " << dims.transpose() << ", resolution " << resolution_m);
+  probabilities_.assign(static_cast<size_t>(dims.prod()), p_init_);
+}
+
+float MapReplica::At(int x, int y, int z) const {
+  return Inside(x, y, z) ? probabilities_[Index(x, y, z)] : p_init_;
+}
+
+bool MapReplica::SameLattice(const double origin[3], double resolution, std::string* error) const {
+  const double tol = 1e-9;
+  bool same = std::abs(resolution - resolution_m_) < tol;
+  for (int a = 0; a < 3; ++a) same = same && std::abs(origin[a] - origin_m_[a]) < tol;
+  if (!same) {
+    *error = "map lattice (origin, resolution " + std::to_string(resolution) +
+             ") differs from the replica's (" + std::to_string(resolution_m_) + ")";
+  }
+  return same;
+}
+
+bool MapReplica::Apply(const map3d_chunk_t& chunk, std::string* error) {
+  if (!SameLattice(chunk.origin_m, chunk.resolution_m, error)) return false;
+  if (chunk.num_chunks <= 0 || chunk.chunk_index < 0 || chunk.chunk_index >= chunk.num_chunks ||
+      chunk.block_edge != 8) {
+    *error = "chunk " + std::to_string(chunk.chunk_index) + "/" + std::to_string(chunk.num_chunks) +
+             " with block edge " + std::to_string(chunk.block_edge) + " is malformed";
+    return false;
+  }
+  if (chunk.chunk_index == 0) {
+    staging_.assign(probabilities_.size(), static_cast<float>(chunk.p_init));
+    staging_id_ = chunk.snapshot_id;
+    staging_next_chunk_ = 0;
+  }
+  if (chunk.snapshot_id != staging_id_ || chunk.chunk_index != staging_next_chunk_) {
+    staging_id_ = -1;  // a chunk was lost: wait for the next snapshot
+    *error = "snapshot " + std::to_string(chunk.snapshot_id) + " chunk " +
+             std::to_string(chunk.chunk_index) + " out of sequence";
+    return false;
+  }
+  const size_t cells = static_cast<size_t>(chunk.num_blocks) * 512;
+  std::vector<float> values(cells);
+  if (chunk.encoding == map3d_chunk_t::ENCODING_ZLIB_FLOAT32) {
+    uLongf size = static_cast<uLongf>(cells * sizeof(float));
+    if (uncompress(reinterpret_cast<Bytef*>(values.data()), &size, chunk.data.data(),
+                   static_cast<uLong>(chunk.data.size())) != Z_OK ||
+        size != cells * sizeof(float)) {
+      staging_id_ = -1;
+      *error = "chunk data does not inflate to its blocks";
+      return false;
+    }
+  } else if (chunk.encoding == map3d_chunk_t::ENCODING_FLOAT32 && chunk.data.size() == cells * 4) {
+    std::memcpy(values.data(), chunk.data.data(), cells * sizeof(float));
+  } else {
+    staging_id_ = -1;
+    *error = "unsupported chunk encoding " + std::to_string(chunk.encoding);
+    return false;
+  }
+  for (int b = 0; b < chunk.num_blocks; ++b) {
+    const auto& bi = chunk.block_index[static_cast<size_t>(b)];
+    for (int i = 0; i < 512; ++i) {
+      const int x = bi[0] * 8 + (i & 7), y = bi[1] * 8 + ((i >> 3) & 7), z = bi[2] * 8 + (i >> 6);
+      if (Inside(x, y, z)) staging_[Index(x, y, z)] = values[static_cast<size_t>(b) * 512 + i];
+    }
+  }
+  ++staging_next_chunk_;
+  if (staging_next_chunk_ == chunk.num_chunks) {
+    probabilities_.swap(staging_);
+    seq_ = chunk.map_seq;
+    utime_ = chunk.utime;
+    has_snapshot_ = true;
+    stale_ = false;
+    staging_id_ = -1;
+  }
+  return true;
+}
+
+bool MapReplica::Apply(const map3d_delta_t& delta, std::string* error) {
+  if (!has_snapshot_) {
+    *error = "delta before any snapshot";
+    return false;
+  }
+  if (!SameLattice(delta.origin_m, delta.resolution_m, error)) return false;
+  if (delta.seq <= seq_) return true;  // already reflected by a newer snapshot
+  if (delta.prev_seq != seq_) {
+    stale_ = true;
+    *error = "delta " + std::to_string(delta.prev_seq) + " -> " + std::to_string(delta.seq) +
+             " does not follow " + std::to_string(seq_) + ": stale until the next snapshot";
+    return false;
+  }
+  if (delta.num_cells < 0 || delta.cells.size() != static_cast<size_t>(delta.num_cells)) {
+    *error = "delta cell count mismatch";
+    return false;
+  }
+  for (int i = 0; i < delta.num_cells; ++i) {
+    const auto& c = delta.cells[static_cast<size_t>(i)];
+    if (Inside(c[0], c[1], c[2]))
+      probabilities_[Index(c[0], c[1], c[2])] = delta.probabilities[static_cast<size_t>(i)];
+  }
+  seq_ = delta.seq;
+  utime_ = delta.utime;
+  return true;
+}
+
+}  // namespace kestrel

@@ -1,0 +1,149 @@
+#include "mapping/mapper_config.h"
+
+#include <unistd.h>
+
+#include "common/check.h"
+#include "common/vehicle_config.h"
+
+namespace kestrel {
+
+std::vector<MapperSensorConfig> DefaultMapperSensors() {
+  const VehicleConfig vehicle;
+  MapperSensorConfig xtion;
+  xtion.X_BS = vehicle.X_BS_xtion;
+  MapperSensorConfig hokuyo;
+  hokuyo.name = "hokuyo";
+  hokuyo.channel = "SCAN_HOKUYO";
+  hokuyo.kind = "scan";
+  hokuyo.model = SensorModelConfig::Hokuyo();
+  hokuyo.X_BS = vehicle.X_BS_hokuyo;
+  return {xtion, hokuyo};
+}
+
+void MapperConfig::Validate() const {
+  KESTREL_THROW_UNLESS(grid == "dense" || grid == "growing",
+                       "grid = '" << grid << "' must be dense or growing");
+  KESTREL_THROW_UNLESS(model == "exact" || model == "log_odds",
+                       "model = '" << model << "' must be exact or log_odds");
+  limits.Validate();
+  occupancy.Validate();
+  log_odds.Validate();
+  pose_history.Validate();
+  KESTREL_THROW_UNLESS(!sensors.empty(), "sensors: at least one sensor is needed");
+  for (const auto& s : sensors) {
+    KESTREL_THROW_UNLESS(
+        s.kind == "depth" || s.kind == "scan",
+        "sensors." << s.name << ".kind = '" << s.kind << "' must be depth or scan");
+    s.model.Validate();
+  }
+  KESTREL_THROW_UNLESS(snapshot_period_s >= 0 && delta_period_s >= 0 && status_period_s > 0,
+                       "periods must be >= 0 (status > 0)");
+  KESTREL_THROW_UNLESS(
+      snapshot_blocks_per_chunk >= 1 && snapshot_blocks_per_chunk <= 4096,
+      "snapshot_blocks_per_chunk = " << snapshot_blocks_per_chunk << " must be in [1, 4096]");
+  KESTREL_THROW_UNLESS(checkpoint_period_s > 0,
+                       "checkpoint_period_s = " << checkpoint_period_s << " must be > 0");
+  KESTREL_THROW_UNLESS(max_queue >= 1, "max_queue = " << max_queue << " must be >= 1");
+  KESTREL_THROW_UNLESS(max_backlog_s > 0, "max_backlog_s = " << max_backlog_s << " must be > 0");
+}
+
+namespace {
+
+void ReadSensorModel(const ConfigNode& n, SensorModelConfig* m) {
+  n.Read("sigma_m", &m->sigma_m, Range::Positive());
+  n.Read("z_min_m", &m->z_min_m, Range::NonNegative());
+  n.Read("z_max_m", &m->z_max_m, Range::Positive());
+  n.Read("p_rand", &m->p_rand, Range::Open(0.0, 1.0));
+  n.Read("p_miss", &m->p_miss, Range::Open(0.0, 1.0));
+  n.Read("cutoff_sigmas", &m->cutoff_sigmas, Range::AtLeast(5.0));
+  n.Read("interpolated_gaussian", &m->interpolated_gaussian);
+  if (!(m->z_min_m < m->z_max_m)) n.Fail("z_max_m", "must be greater than z_min_m");
+}
+
+std::string ResolvePath(const std::string& relative, const std::string& config_file) {
+  if (relative.empty() || relative[0] == '/') return relative;
+  const size_t slash = config_file.rfind('/');
+  if (slash != std::string::npos) {
+    const std::string beside = config_file.substr(0, slash + 1) + relative;
+    if (access(beside.c_str(), R_OK) == 0) return beside;
+  }
+  return relative;
+}
+
+}  // namespace
+
+MapperConfig LoadMapperConfig(const ConfigNode& node) {
+  MapperConfig c;
+  node.Read("grid", &c.grid, {"dense", "growing"});
+  node.Read("model", &c.model, {"exact", "log_odds"});
+  if (node.Has("map")) {
+    const ConfigNode map = node.Child("map");
+    map.Read("min_m", &c.limits.min_m);
+    map.Read("max_m", &c.limits.max_m);
+    map.Read("resolution_m", &c.limits.resolution_m, Range::Positive());
+    map.Read("p_init", &c.occupancy.p_init, Range::Open(0.0, 1.0));
+    map.Read("p_min", &c.occupancy.p_min, Range::Open(0.0, 0.5));
+    for (int a = 0; a < 3; ++a) {
+      if (!(c.limits.max_m[a] > c.limits.min_m[a]))
+        map.Fail("max_m", "must exceed min_m on every axis");
+    }
+  }
+  if (node.Has("log_odds")) {
+    const ConfigNode lo = node.Child("log_odds");
+    lo.Read("p_hit", &c.log_odds.p_hit, Range::Open(0.5, 1.0));
+    lo.Read("p_miss", &c.log_odds.p_miss, Range::Open(0.0, 0.5));
+    lo.Read("p_clamp_min", &c.log_odds.p_clamp_min, Range::Open(0.0, 0.5));
+    lo.Read("p_clamp_max", &c.log_odds.p_clamp_max, Range::Open(0.5, 1.0));
+  }
+  VehicleConfig vehicle;
+  if (node.Has("vehicle_config")) {
+    std::string path;
+    node.Read("vehicle_config", &path);
+    vehicle = LoadVehicleConfigFile(ResolvePath(path, node.file()));
+  }
+  c.sensors = DefaultMapperSensors();
+  c.sensors[0].X_BS = vehicle.X_BS_xtion;
+  c.sensors[1].X_BS = vehicle.X_BS_hokuyo;
+  if (node.Has("sensors")) {
+    c.sensors.clear();
+    for (const ConfigNode& s : node.Elements("sensors")) {
+      MapperSensorConfig sensor;
+      s.ReadRequired("name", &sensor.name, std::vector<std::string>{"xtion", "hokuyo"});
+      sensor.kind = sensor.name == "xtion" ? "depth" : "scan";
+      sensor.channel = sensor.name == "xtion" ? "DEPTH_XTION" : "SCAN_HOKUYO";
+      sensor.model =
+          sensor.name == "xtion" ? SensorModelConfig::Xtion() : SensorModelConfig::Hokuyo();
+      sensor.X_BS = sensor.name == "xtion" ? vehicle.X_BS_xtion : vehicle.X_BS_hokuyo;
+      s.Read("channel", &sensor.channel);
+      if (s.Has("model")) ReadSensorModel(s.Child("model"), &sensor.model);
+      c.sensors.push_back(sensor);
+    }
+  }
+  node.Read("pose_channel", &c.pose_channel);
+  if (node.Has("pose_history")) {
+    const ConfigNode ph = node.Child("pose_history");
+    ph.Read("history_s", &c.pose_history.history_s, Range::Positive());
+    ph.Read("max_gap_s", &c.pose_history.max_gap_s, Range::Positive());
+    ph.Read("max_wait_s", &c.pose_history.max_wait_s, Range::Positive());
+  }
+  node.Read("map_channel", &c.map_channel);
+  node.Read("delta_channel", &c.delta_channel);
+  node.Read("status_channel", &c.status_channel);
+  node.Read("heartbeat_channel", &c.heartbeat_channel);
+  node.Read("snapshot_period_s", &c.snapshot_period_s, Range::NonNegative());
+  node.Read("delta_period_s", &c.delta_period_s, Range::NonNegative());
+  node.Read("status_period_s", &c.status_period_s, Range::Positive());
+  node.Read("snapshot_blocks_per_chunk", &c.snapshot_blocks_per_chunk, Range::Closed(1, 4096));
+  node.Read("checkpoint_path", &c.checkpoint_path);
+  node.Read("checkpoint_period_s", &c.checkpoint_period_s, Range::Positive());
+  node.Read("max_queue", &c.max_queue, Range::Closed(1, 100000));
+  node.Read("max_backlog_s", &c.max_backlog_s, Range::Positive());
+  try {
+    c.Validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(node.file() + ": " + e.what());
+  }
+  return c;
+}
+
+}  // namespace kestrel

@@ -1,0 +1,64 @@
+#pragma once
+/// @file
+/// Configuration of kestrel-mapper (config/mapper.yaml): the map, the sensors it fuses, the pose
+/// synchronisation, what it publishes and how often, checkpoints and the overload policy.
+
+#include <string>
+#include <vector>
+
+#include "common/config.h"
+#include "common/se3.h"
+#include "mapping/grid.h"
+#include "mapping/occupancy_updater.h"
+#include "mapping/pose_history.h"
+#include "mapping/sensor_model.h"
+
+namespace kestrel {
+
+/// One range sensor the mapper subscribes to.
+struct MapperSensorConfig {
+  std::string name{"xtion"};  ///< sensor name; selects the extrinsic X_BS in the vehicle file
+  std::string channel{"DEPTH_XTION"};  ///< LCM channel
+  std::string kind{"depth"};           ///< "depth" (depth_image_t) or "scan" (planar_scan_t)
+  SensorModelConfig model{SensorModelConfig::Xtion()};  ///< forward model (ALGORITHMS.md section 3)
+  Pose3 X_BS;  ///< sensor frame in the body frame (from the vehicle file)
+};
+
+struct MapperConfig {
+  std::string grid{"dense"};   ///< "dense" (the paper's fixed limits) or "growing" (8^3 blocks)
+  std::string model{"exact"};  ///< "exact" (ALGORITHMS.md section 4) or "log_odds" (baseline)
+  MapLimits limits;            ///< map limits and resolution alpha (growing: lattice origin)
+  OccupancyLimits occupancy;   ///< P_init and the clamp P_min
+  LogOddsConfig log_odds;      ///< baseline parameters (model = log_odds)
+  std::vector<MapperSensorConfig> sensors;  ///< default: the paper's Xtion and Hokuyo
+  std::string pose_channel{"POSE_VICON"};   ///< pose_t of the vehicle body
+  PoseHistoryConfig pose_history;           ///< interpolation limits (DESIGN.md "Time")
+
+  std::string map_channel{"MAP3D"};          ///< full snapshots, in chunks
+  std::string delta_channel{"MAP3D_DELTA"};  ///< changed cells between snapshots
+  std::string status_channel{"MAP_STATUS"};  ///< map_status_t
+  std::string heartbeat_channel{"HEARTBEAT_MAPPER"};
+  double snapshot_period_s{5.0};       ///< full snapshot period, s (0: never)
+  double delta_period_s{0.5};          ///< delta period, s (0: never)
+  double status_period_s{1.0};         ///< status and heartbeat period, s
+  int snapshot_blocks_per_chunk{128};  ///< 8^3-cell blocks per map3d_chunk_t (128: 256 KiB raw)
+
+  std::string checkpoint_path;      ///< map file to resume from and save to ("" = none)
+  double checkpoint_period_s{5.0};  ///< checkpoint period, s (and at exit)
+
+  int max_queue{60};          ///< scans held at most; beyond, the oldest is dropped (counted)
+  double max_backlog_s{0.5};  ///< backlog beyond which rays are decimated (status shows it)
+
+  /// @throws ConfigError-like std::invalid_argument naming the field, value and range.
+  void Validate() const;
+};
+
+/// The paper's two sensors with the vehicle file's extrinsics.
+[[nodiscard]] std::vector<MapperSensorConfig> DefaultMapperSensors();
+
+/// Reads a MapperConfig from YAML (keys as in config/mapper.yaml). The extrinsics come from the
+/// vehicle file named by `vehicle_config` (relative paths are relative to the mapper file's
+/// folder, then to the working directory). @throws ConfigError
+[[nodiscard]] MapperConfig LoadMapperConfig(const ConfigNode& node);
+
+}  // namespace kestrel

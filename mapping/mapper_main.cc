@@ -1,0 +1,61 @@
+// kestrel-mapper: fuses depth images and planar scans into the exact 3D occupancy map.
+#include <lcm/lcm-cpp.hpp>
+
+#include "common/log.h"
+#include "common/node_loop.h"
+#include "common/process.h"
+#include "mapping/mapper_node.h"
+
+namespace {
+const char* const kUsage =
+    "usage: kestrel-mapper [--config config/mapper.yaml] [--set key=value]... [--lcm-url URL]\n"
+    "                      [--save FILE] [--export-octomap FILE.bt|.ot] [--export-ply FILE]\n"
+    "Subscribes to the sensors and poses of its configuration, publishes MAP3D snapshots,\n"
+    "MAP3D_DELTA, MAP_STATUS and a heartbeat, checkpoints the map, and on exit (SIGINT/SIGTERM)\n"
+    "applies what it can, saves the checkpoint and the files asked for.\n";
+}  // namespace
+
+int main(int argc, char** argv) {
+  return kestrel::RunProcess(
+      "kestrel-mapper", argc, argv, kUsage,
+      [](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
+        std::string save_path, octomap_path, ply_path;
+        const auto& p = args.positional;
+        for (size_t i = 0; i < p.size(); ++i) {
+          if (i + 1 < p.size() && p[i] == "--save") {
+            save_path = p[++i];
+          } else if (i + 1 < p.size() && p[i] == "--export-octomap") {
+            octomap_path = p[++i];
+          } else if (i + 1 < p.size() && p[i] == "--export-ply") {
+            ply_path = p[++i];
+          } else {
+            throw kestrel::ConfigError("unexpected argument '" + p[i] + "'\n" + kUsage);
+          }
+        }
+        const kestrel::MapperConfig config = kestrel::LoadMapperConfig(node);
+        node.CheckNoUnknownKeys();
+        lcm::LCM lcm(args.lcm_url);
+        if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");
+        kestrel::WallClock clock;
+        kestrel::MapperNode mapper(lcm, config, clock);
+        while (!kestrel::NodeLoop::signal_received()) {
+          // Drain the socket into the node's queue first, so the backlog is visible, then apply
+          // one scan at a time.
+          while (lcm.handleTimeout(0) > 0) {
+          }
+          const int done = mapper.ProcessPending(1);
+          mapper.PublishDue();
+          if (done == 0) lcm.handleTimeout(10);
+        }
+        kestrel::Log(kestrel::LogLevel::kInfo, "stopping: applying what can be applied, saving");
+        while (lcm.handleTimeout(0) > 0) {
+        }
+        mapper.ProcessPending();
+        mapper.PublishStatus();
+        mapper.SaveCheckpoint();
+        if (!save_path.empty()) mapper.SaveMapFile(save_path);
+        if (!octomap_path.empty()) mapper.ExportOctoMapFile(octomap_path);
+        if (!ply_path.empty()) mapper.ExportPlyFile(ply_path);
+        return 0;
+      });
+}

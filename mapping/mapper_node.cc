@@ -1,0 +1,529 @@
+#include "mapping/mapper_node.h"
+
+#include <zlib.h>
+
+#include <sys/stat.h>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+
+#include "common/check.h"
+#include "kestrel/map3d_chunk_t.hpp"
+#include "kestrel/map3d_delta_t.hpp"
+#include "kestrel/map_status_t.hpp"
+
+namespace kestrel {
+
+namespace {
+
+constexpr int kBlockEdge = GrowingGrid::kBlockEdge;
+constexpr int kBlockCells = GrowingGrid::kBlockCells;
+constexpr int kMaxRayStride = 16;
+// Deltas larger than this many cells are sent as a snapshot instead (fewer, larger messages).
+constexpr size_t kMaxDeltaCells = 20000;
+
+bool FileExists(const std::string& path) {
+  struct stat st {};
+  return stat(path.c_str(), &st) == 0;
+}
+
+int32_t FloorDiv(int32_t a, int32_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+}  // namespace
+
+MapperNode::MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& clock)
+    : lcm_(lcm),
+      config_(config),
+      clock_(clock),
+      poses_(config.pose_history),
+      skipped_(clock),
+      bad_poses_(clock),
+      heartbeat_(lcm, clock, "kestrel-mapper", config.heartbeat_channel),
+      subscriptions_(lcm) {
+  config_.Validate();
+  for (const auto& s : config_.sensors) models_.emplace_back(s.model);
+  if (!config_.checkpoint_path.empty() && FileExists(config_.checkpoint_path)) {
+    LoadCheckpoint();
+  } else {
+    CreateEmptyMap();
+  }
+  auto on_error = [this](const std::string& channel, const std::string& reason) {
+    skipped_.Count("malformed", channel + ": " + reason);
+  };
+  subscriptions_.Add<pose_t>(
+      config_.pose_channel, [this](const std::string&, const pose_t& m) { OnPose(m); },
+      [this](const std::string& channel, const std::string& reason) {
+        bad_poses_.Count("malformed_pose", channel + ": " + reason);
+      });
+  for (size_t i = 0; i < config_.sensors.size(); ++i) {
+    const auto& s = config_.sensors[i];
+    if (s.kind == "depth") {
+      subscriptions_.Add<depth_image_t>(
+          s.channel,
+          [this, i](const std::string& ch, const depth_image_t& m) { OnDepth(i, ch, m); },
+          on_error);
+    } else {
+      subscriptions_.Add<planar_scan_t>(
+          s.channel, [this, i](const std::string& ch, const planar_scan_t& m) { OnScan(i, ch, m); },
+          on_error);
+    }
+  }
+  heartbeat_.SetState(heartbeat_t::STATE_OK);
+}
+
+void MapperNode::CreateEmptyMap() {
+  double max_range = 0.0;
+  for (const auto& s : config_.sensors) max_range = std::max(max_range, s.model.z_max_m);
+  if (config_.model == "log_odds") {
+    KESTREL_THROW_UNLESS(config_.grid == "dense", "the log-odds baseline runs on the dense grid");
+    map_ = MakeLogOddsDenseMap(config_.limits, config_.log_odds, max_range);
+  } else if (config_.grid == "dense") {
+    map_ = MakeExactDenseMap(config_.limits, config_.occupancy, max_range);
+  } else {
+    map_ = MakeExactGrowingMap(config_.limits, config_.occupancy, max_range);
+  }
+}
+
+void MapperNode::LoadCheckpoint() {
+  const std::string& path = config_.checkpoint_path;
+  try {
+    if (config_.grid == "dense") {
+      auto loaded = LoadDenseMap(path);
+      KESTREL_THROW_UNLESS(
+          loaded.map->grid().geometry().resolution_m() == config_.limits.resolution_m &&
+              loaded.map->grid().geometry().origin_m() == config_.limits.min_m,
+          "its grid differs from the configured map");
+      map_ = std::move(loaded.map);
+      sequences_ = std::move(loaded.sequences);
+    } else {
+      auto loaded = LoadGrowingMap(path);
+      KESTREL_THROW_UNLESS(
+          loaded.map->grid().geometry().resolution_m() == config_.limits.resolution_m &&
+              loaded.map->grid().geometry().origin_m() == config_.limits.min_m,
+          "its grid differs from the configured map");
+      map_ = std::move(loaded.map);
+      sequences_ = std::move(loaded.sequences);
+    }
+    std::string streams;
+    for (const auto& [name, seq] : sequences_) streams += " " + name + "@" + std::to_string(seq);
+    Log(LogLevel::kInfo, "resumed from checkpoint " + path + ":" + streams);
+  } catch (const std::exception& e) {
+    const std::string aside = path + ".corrupt";
+    std::rename(path.c_str(), aside.c_str());
+    Log(LogLevel::kError, std::string("checkpoint refused (") + e.what() + "); moved to " + aside +
+                              "; starting an empty map");
+    heartbeat_.SetLastError(std::string("checkpoint refused: ") + e.what());
+    sequences_.clear();
+    CreateEmptyMap();
+  }
+}
+
+bool MapperNode::AlreadyApplied(const std::string& channel, int64_t seq) {
+  const auto it = sequences_.find(channel);
+  if (it == sequences_.end() || seq > it->second) return false;
+  skipped_.Count("already_applied", channel + " seq " + std::to_string(seq) +
+                                        " is in the checkpoint (last " +
+                                        std::to_string(it->second) + ")");
+  return true;
+}
+
+void MapperNode::OnPose(const pose_t& msg) {
+  if (!msg.valid) return;  // motion capture lost the body: the gap check skips scans across it
+  Pose3 X_WB;
+  bool finite = true;
+  for (double v : msg.position_m) finite = finite && std::isfinite(v);
+  if (!finite || !QuaternionFromWxyz(msg.orientation_wxyz, &X_WB.q)) {
+    bad_poses_.Count("nan_pose", "pose seq " + std::to_string(msg.seq) +
+                                     " has a non-finite position or a non-unit quaternion");
+    return;
+  }
+  X_WB.p = Eigen::Vector3d(msg.position_m[0], msg.position_m[1], msg.position_m[2]);
+  if (!poses_.Add(msg.utime, X_WB)) {
+    bad_poses_.Count("pose_out_of_order",
+                     "pose at " + std::to_string(msg.utime) + " us is not newer than the latest");
+  }
+  latest_input_utime_ = std::max(latest_input_utime_, msg.utime);
+}
+
+void MapperNode::OnDepth(size_t sensor, const std::string& channel, const depth_image_t& msg) {
+  if (AlreadyApplied(channel, msg.seq)) return;
+  auto bad = [&](const std::string& why) {
+    skipped_.Count("malformed", channel + " seq " + std::to_string(msg.seq) + ": " + why);
+  };
+  if (msg.width <= 0 || msg.height <= 0 || msg.width > 8192 || msg.height > 8192) {
+    return bad("image size " + std::to_string(msg.width) + "x" + std::to_string(msg.height));
+  }
+  for (double v : {msg.fx_px, msg.fy_px, msg.depth_scale_m}) {
+    if (!(std::isfinite(v) && v > 0))
+      return bad("zero, negative or non-finite intrinsics or scale");
+  }
+  if (!std::isfinite(msg.cx_px) || !std::isfinite(msg.cy_px))
+    return bad("non-finite principal point");
+  const size_t bytes = static_cast<size_t>(msg.width) * static_cast<size_t>(msg.height) * 2;
+  auto decoded = std::make_shared<depth_image_t>(msg);
+  if (msg.encoding == depth_image_t::ENCODING_RAW_U16) {
+    if (msg.data.size() != bytes) {
+      return bad("raw data holds " + std::to_string(msg.data.size()) + " bytes, " +
+                 std::to_string(msg.width) + "x" + std::to_string(msg.height) + " needs " +
+                 std::to_string(bytes));
+    }
+  } else if (msg.encoding == depth_image_t::ENCODING_ZLIB_U16) {
+    decoded->data.assign(bytes, 0);
+    uLongf out_size = static_cast<uLongf>(bytes);
+    const int rc = uncompress(decoded->data.data(), &out_size, msg.data.data(),
+                              static_cast<uLong>(msg.data.size()));
+    if (rc != Z_OK || out_size != bytes) return bad("zlib data does not inflate to the image size");
+    decoded->encoding = depth_image_t::ENCODING_RAW_U16;
+    decoded->data_size = static_cast<int32_t>(bytes);
+  } else {
+    return bad("unknown encoding " + std::to_string(msg.encoding));
+  }
+  Enqueue(Pending{msg.utime, msg.seq, sensor, channel, std::move(decoded), nullptr});
+}
+
+void MapperNode::OnScan(size_t sensor, const std::string& channel, const planar_scan_t& msg) {
+  if (AlreadyApplied(channel, msg.seq)) return;
+  auto bad = [&](const std::string& why) {
+    skipped_.Count("malformed", channel + " seq " + std::to_string(msg.seq) + ": " + why);
+  };
+  if (msg.num_ranges <= 0) return bad("no ranges");
+  if (!(std::isfinite(msg.angle_min_rad) && std::isfinite(msg.angle_step_rad) &&
+        msg.angle_step_rad > 0)) {
+    return bad("angle_min/angle_step not finite or step not positive");
+  }
+  auto scan = std::make_shared<planar_scan_t>(msg);
+  for (float& r : scan->ranges_m) {
+    if (std::isnan(r)) continue;  // no information: the sensor model drops it
+    if (r < 0 || std::isinf(r)) return bad("negative or infinite range " + std::to_string(r));
+    if (r == 0.0f) r = std::numeric_limits<float>::infinity();  // "no return"
+  }
+  Enqueue(Pending{msg.utime, msg.seq, sensor, channel, nullptr, std::move(scan)});
+}
+
+void MapperNode::Enqueue(Pending p) {
+  latest_input_utime_ = std::max(latest_input_utime_, p.utime);
+  // Keep time-stamp order; equal stamps keep arrival order.
+  auto it = std::upper_bound(queue_.begin(), queue_.end(), p.utime,
+                             [](int64_t t, const Pending& q) { return t < q.utime; });
+  queue_.insert(it, std::move(p));
+  while (static_cast<int>(queue_.size()) > config_.max_queue) {
+    Skip(queue_.front(), "overload",
+         "queue above max_queue = " + std::to_string(config_.max_queue));
+    queue_.pop_front();
+  }
+}
+
+void MapperNode::Skip(const Pending& p, const std::string& reason, const std::string& detail) {
+  skipped_.Count(reason, p.channel + " seq " + std::to_string(p.seq) + " at " +
+                             std::to_string(p.utime) + " us: " + detail);
+  sequences_[p.channel] = std::max(sequences_[p.channel], p.seq);
+}
+
+int MapperNode::ProcessPending(int max_scans) {
+  int done = 0;
+  while (!queue_.empty() && (max_scans <= 0 || done < max_scans)) {
+    const Pending& front = queue_.front();
+    Pose3 X_WB;
+    // The wait for a newer pose is bounded in message time (the newest input stamp), not wall
+    // time, so a log replayed at any speed pairs exactly as it did live.
+    const PoseLookupResult r = poses_.Lookup(front.utime, latest_input_utime_, &X_WB);
+    if (r == PoseLookupResult::kWait) break;
+    if (r != PoseLookupResult::kOk) {
+      Skip(front, ToString(r), "no pose to pair it with");
+    } else {
+      // Overload policy (file comment): decimate while the backlog exceeds max_backlog_s.
+      const double backlog_s = UtimeToSeconds(latest_input_utime_ - front.utime);
+      if (backlog_s > config_.max_backlog_s) {
+        ray_stride_ = std::min(kMaxRayStride, ray_stride_ * 2);
+      } else if (ray_stride_ > 1 && backlog_s < 0.5 * config_.max_backlog_s) {
+        ray_stride_ /= 2;
+      }
+      if (ray_stride_ > 1) decimated_ever_ = true;
+      Apply(front, X_WB);
+    }
+    queue_.pop_front();
+    ++done;
+  }
+  return done;
+}
+
+void MapperNode::Apply(const Pending& p, const Pose3& X_WB) {
+  const MapperSensorConfig& sensor = config_.sensors[p.sensor];
+  const SensorModel& model = models_[p.sensor];
+  const Pose3 X_WS = X_WB * sensor.X_BS;
+  const int k = ray_stride_;
+  ScanStats stats;
+  std::visit(
+      [&](auto& map) {
+        if (p.depth) {
+          const depth_image_t& img = *p.depth;
+          const auto* depth = reinterpret_cast<const uint16_t*>(img.data.data());
+          // Every k-th pixel in both directions; pixel centres stay exact with scaled intrinsics.
+          DepthIntrinsics in{img.fx_px / k, img.fy_px / k, img.cx_px / k, img.cy_px / k};
+          if (k == 1) {
+            stats = map->ApplyDepthImage(X_WS, in, depth, img.width, img.height, img.depth_scale_m,
+                                         model);
+          } else {
+            const int w = (img.width + k - 1) / k, h = (img.height + k - 1) / k;
+            std::vector<uint16_t> sub(static_cast<size_t>(w) * static_cast<size_t>(h));
+            for (int v = 0; v < h; ++v) {
+              for (int u = 0; u < w; ++u) sub[v * w + u] = depth[(v * k) * img.width + u * k];
+            }
+            stats = map->ApplyDepthImage(X_WS, in, sub.data(), w, h, img.depth_scale_m, model);
+          }
+        } else {
+          const planar_scan_t& s = *p.scan;
+          if (k == 1) {
+            stats = map->ApplyPlanarScan(X_WS, s.angle_min_rad, s.angle_step_rad, s.ranges_m.data(),
+                                         s.num_ranges, model);
+          } else {
+            std::vector<float> sub;
+            for (int i = 0; i < s.num_ranges; i += k) sub.push_back(s.ranges_m[i]);
+            stats = map->ApplyPlanarScan(X_WS, s.angle_min_rad, s.angle_step_rad * k, sub.data(),
+                                         static_cast<int>(sub.size()), model);
+          }
+        }
+      },
+      map_);
+  rays_total_ += stats.rays_applied;
+  cells_total_ += stats.cells_updated;
+  ++map_seq_;
+  ++scans_applied_;
+  newest_applied_utime_ = std::max(newest_applied_utime_, p.utime);
+  sequences_[p.channel] = std::max(sequences_[p.channel], p.seq);
+}
+
+double MapperNode::entropy_nats() const {
+  return std::visit([](const auto& m) { return m->entropy_nats(); }, map_);
+}
+
+uint64_t MapperNode::map_hash() const {
+  return std::visit([](const auto& m) { return m->Hash(); }, map_);
+}
+
+double MapperNode::ProbabilityAt(const CellIndex& cell) const {
+  return std::visit([&](const auto& m) { return m->ProbabilityAt(cell); }, map_);
+}
+
+const GridGeometry& MapperNode::geometry() const {
+  return std::visit([](const auto& m) -> const GridGeometry& { return m->grid().geometry(); },
+                    map_);
+}
+
+bool MapperNode::applied_every_message() const {
+  return skipped_.total() == skipped_.count("already_applied") && !decimated_ever_;
+}
+
+void MapperNode::SaveMapFile(const std::string& path) const {
+  std::visit([&](const auto& m) { SaveMap(path, *m, sequences_); }, map_);
+}
+
+void MapperNode::ExportOctoMapFile(const std::string& path) const {
+  std::visit([&](const auto& m) { ExportOctoMap(path, *m); }, map_);
+}
+
+size_t MapperNode::ExportPlyFile(const std::string& path) const {
+  return std::visit([&](const auto& m) { return ExportOccupiedPly(path, *m); }, map_);
+}
+
+template <class F>
+void MapperNode::ForEachBlock(F&& f) const {
+  std::vector<float> probabilities(kBlockCells);
+  if (const auto* dense = std::get_if<std::unique_ptr<DenseOccupancyMap>>(&map_)) {
+    const DenseOccupancyMap& map = **dense;
+    const DenseGrid& grid = map.grid();
+    const OccupancyUpdater& updater = map.updater();
+    const CellIndex dims = grid.dims();
+    const float untouched = grid.initial_value();
+    for (int32_t bz = 0; bz < dims.z; bz += kBlockEdge) {
+      for (int32_t by = 0; by < dims.y; by += kBlockEdge) {
+        for (int32_t bx = 0; bx < dims.x; bx += kBlockEdge) {
+          bool observed = false;
+          for (int i = 0; i < kBlockCells; ++i) {
+            const CellIndex c{bx + (i & 7), by + ((i >> 3) & 7), bz + (i >> 6)};
+            float stored = untouched;
+            if (c.x < dims.x && c.y < dims.y && c.z < dims.z) stored = grid.Get(c);
+            observed = observed || stored != untouched;
+            probabilities[i] = static_cast<float>(updater.ProbabilityOf(stored));
+          }
+          if (observed) f(CellIndex{bx, by, bz}, probabilities);
+        }
+      }
+    }
+    return;
+  }
+  const GrowingOccupancyMap& map = *std::get<std::unique_ptr<GrowingOccupancyMap>>(map_);
+  const OccupancyUpdater& updater = map.updater();
+  map.grid().ForEachBlock([&](const CellIndex& origin, const GrowingGrid::Block& block) {
+    for (int i = 0; i < kBlockCells; ++i) {
+      probabilities[i] = static_cast<float>(updater.ProbabilityOf(block.values[i]));
+    }
+    f(origin, probabilities);
+  });
+}
+
+void MapperNode::PublishSnapshot() {
+  const GridGeometry& g = geometry();
+  const double p_init = std::visit(
+      [](const auto& m) { return m->updater().ProbabilityOf(m->grid().initial_value()); }, map_);
+  std::vector<std::pair<CellIndex, std::vector<float>>> blocks;
+  ForEachBlock([&](const CellIndex& origin, const std::vector<float>& p) {
+    blocks.emplace_back(origin, p);
+  });
+  published_.clear();
+  for (const auto& [origin, p] : blocks) published_[{origin.x, origin.y, origin.z}] = p;
+  const int per_chunk = config_.snapshot_blocks_per_chunk;
+  const int num_chunks =
+      std::max<int>(1, (static_cast<int>(blocks.size()) + per_chunk - 1) / per_chunk);
+  ++snapshot_id_;
+  for (int c = 0; c < num_chunks; ++c) {
+    map3d_chunk_t msg{};
+    msg.utime = newest_applied_utime_;
+    msg.snapshot_id = snapshot_id_;
+    msg.map_seq = map_seq_;
+    msg.chunk_index = c;
+    msg.num_chunks = num_chunks;
+    for (int a = 0; a < 3; ++a) {
+      msg.origin_m[a] = g.origin_m()[a];
+      msg.dims[a] = g.bounded() ? g.upper()[a] : 0;
+    }
+    msg.resolution_m = g.resolution_m();
+    msg.p_init = p_init;
+    msg.block_edge = kBlockEdge;
+    msg.encoding = map3d_chunk_t::ENCODING_ZLIB_FLOAT32;
+    std::vector<uint8_t> raw;
+    const size_t begin = static_cast<size_t>(c) * per_chunk;
+    const size_t end = std::min(blocks.size(), begin + per_chunk);
+    for (size_t b = begin; b < end; ++b) {
+      const CellIndex& o = blocks[b].first;
+      msg.block_index.push_back(
+          {FloorDiv(o.x, kBlockEdge), FloorDiv(o.y, kBlockEdge), FloorDiv(o.z, kBlockEdge)});
+      const auto* bytes = reinterpret_cast<const uint8_t*>(blocks[b].second.data());
+      raw.insert(raw.end(), bytes, bytes + kBlockCells * sizeof(float));
+    }
+    msg.num_blocks = static_cast<int32_t>(msg.block_index.size());
+    uLongf packed = compressBound(static_cast<uLong>(raw.size()));
+    msg.data.resize(packed);
+    compress2(msg.data.data(), &packed, raw.data(), static_cast<uLong>(raw.size()), 1);
+    msg.data.resize(packed);
+    msg.data_size = static_cast<int32_t>(packed);
+    lcm_.publish(config_.map_channel, &msg);
+  }
+  last_delta_map_seq_ = map_seq_;
+}
+
+void MapperNode::PublishDelta() {
+  if (map_seq_ == last_delta_map_seq_) return;
+  const GridGeometry& g = geometry();
+  const float untouched = static_cast<float>(std::visit(
+      [](const auto& m) { return m->updater().ProbabilityOf(m->grid().initial_value()); }, map_));
+  map3d_delta_t msg{};
+  ForEachBlock([&](const CellIndex& origin, const std::vector<float>& p) {
+    auto& previous = published_[{origin.x, origin.y, origin.z}];
+    if (previous.empty()) previous.assign(kBlockCells, untouched);
+    for (int i = 0; i < kBlockCells; ++i) {
+      if (p[i] == previous[i]) continue;
+      msg.cells.push_back({origin.x + (i & 7), origin.y + ((i >> 3) & 7), origin.z + (i >> 6)});
+      msg.probabilities.push_back(p[i]);
+      previous[i] = p[i];
+    }
+  });
+  if (msg.cells.size() > kMaxDeltaCells) {
+    PublishSnapshot();  // cheaper to resend everything
+    return;
+  }
+  msg.utime = newest_applied_utime_;
+  msg.seq = map_seq_;
+  msg.prev_seq = last_delta_map_seq_;
+  msg.base_snapshot_id = snapshot_id_;
+  for (int a = 0; a < 3; ++a) msg.origin_m[a] = g.origin_m()[a];
+  msg.resolution_m = g.resolution_m();
+  msg.num_cells = static_cast<int32_t>(msg.cells.size());
+  lcm_.publish(config_.delta_channel, &msg);
+  last_delta_map_seq_ = map_seq_;
+}
+
+void MapperNode::PublishStatus() {
+  const int64_t now = clock_.NowUtime();
+  map_status_t msg{};
+  msg.utime = now;
+  msg.seq = status_seq_++;
+  msg.map_seq = map_seq_;
+  msg.map_entropy_nats = entropy_nats();
+  if (last_status_utime_ >= 0 && now > last_status_utime_) {
+    const double dt = UtimeToSeconds(now - last_status_utime_);
+    msg.rays_per_s = static_cast<double>(rays_total_ - rays_at_last_status_) / dt;
+    msg.cell_updates_per_s = static_cast<double>(cells_total_ - cells_at_last_status_) / dt;
+  }
+  last_status_utime_ = now;
+  rays_at_last_status_ = rays_total_;
+  cells_at_last_status_ = cells_total_;
+  msg.scans_applied = scans_applied_;
+  msg.scans_skipped = skipped_.total();
+  for (const auto& [kind, n] : skipped_.counts()) {
+    named_value_t v;
+    v.name = kind;
+    v.value = static_cast<double>(n);
+    msg.skip_reasons.push_back(v);
+  }
+  for (const auto& [kind, n] : bad_poses_.counts()) {
+    named_value_t v;
+    v.name = kind;
+    v.value = static_cast<double>(n);
+    msg.skip_reasons.push_back(v);
+  }
+  msg.num_skip_reasons = static_cast<int32_t>(msg.skip_reasons.size());
+  msg.queue_depth = static_cast<int32_t>(queue_.size());
+  msg.backlog_s = queue_.empty() ? 0.0 : UtimeToSeconds(latest_input_utime_ - queue_.front().utime);
+  msg.ray_decimation = 1.0 / ray_stride_;
+  msg.applied_every_message = applied_every_message();
+  lcm_.publish(config_.status_channel, &msg);
+
+  heartbeat_.SetState(ray_stride_ > 1 || (!queue_.empty() && msg.backlog_s > config_.max_backlog_s)
+                          ? heartbeat_t::STATE_DEGRADED
+                          : heartbeat_t::STATE_OK);
+  heartbeat_.SetValue("map_seq", static_cast<double>(map_seq_));
+  heartbeat_.SetValue("rays_per_s", msg.rays_per_s);
+  heartbeat_.SetValue("scans_applied", static_cast<double>(scans_applied_));
+  heartbeat_.SetValue("scans_skipped", static_cast<double>(skipped_.total()));
+  heartbeat_.SetValue("queue_depth", static_cast<double>(queue_.size()));
+  heartbeat_.SetValue("entropy_nats", msg.map_entropy_nats);
+  if (!skipped_.last_reason().empty()) heartbeat_.SetLastError(skipped_.last_reason());
+  heartbeat_.Publish();
+}
+
+bool MapperNode::SaveCheckpoint() {
+  if (config_.checkpoint_path.empty()) return true;
+  try {
+    SaveMapFile(config_.checkpoint_path);
+    return true;
+  } catch (const std::exception& e) {
+    Log(LogLevel::kError, std::string("checkpoint not saved: ") + e.what());
+    heartbeat_.SetLastError(std::string("checkpoint not saved: ") + e.what());
+    return false;
+  }
+}
+
+void MapperNode::PublishDue() {
+  const int64_t now = clock_.NowUtime();
+  auto due = [now](int64_t* last, double period_s) {
+    if (period_s <= 0) return false;
+    if (*last >= 0 && now - *last < SecondsToUtime(period_s)) return false;
+    *last = now;
+    return true;
+  };
+  if (due(&last_snapshot_utime_, config_.snapshot_period_s)) {
+    PublishSnapshot();
+    last_delta_utime_ = now;
+  } else if (due(&last_delta_utime_, config_.delta_period_s)) {
+    PublishDelta();
+  }
+  if (due(&status_due_utime_, config_.status_period_s)) PublishStatus();
+  if (!config_.checkpoint_path.empty() &&
+      due(&last_checkpoint_utime_, config_.checkpoint_period_s)) {
+    SaveCheckpoint();
+  }
+}
+
+}  // namespace kestrel

@@ -1,0 +1,148 @@
+#pragma once
+/// @file
+/// The mapper node (kestrel-mapper): fuses depth images and planar scans into the 3D occupancy
+/// map, ray by ray, at the pose interpolated at each scan's stamp (mapping/pose_history.h).
+///
+/// Order and determinism: handlers only queue; ProcessPending() applies queued scans in
+/// time-stamp order as soon as their pose is known, so the same message sequence gives the same
+/// map bit for bit. A scan newer than the latest pose waits, until a pose after it arrives or the
+/// newest input stamp passes it by pose_history.max_wait_s (message time, so that a replayed log
+/// pairs exactly as live); scans older than the
+/// history, across a pose gap, malformed, or already in the checkpoint (sequence number) are
+/// counted by reason and skipped. Outputs: full snapshots in chunks (MAP3D) at a low rate, deltas
+/// of the changed cells in between (MAP3D_DELTA), MAP_STATUS and a heartbeat.
+///
+/// Overload policy (documented in config/mapper.yaml): when the oldest queued scan is more than
+/// max_backlog_s behind the newest input, the next scans apply only every k-th ray (k doubles
+/// while behind, halves once caught up); when the queue exceeds max_queue scans the oldest is
+/// dropped. Both show in MAP_STATUS (ray_decimation, skip reasons, applied_every_message).
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "common/clock.h"
+#include "common/heartbeat.h"
+#include "common/lcm_decode.h"
+#include "common/log.h"
+#include "kestrel/depth_image_t.hpp"
+#include "kestrel/planar_scan_t.hpp"
+#include "kestrel/pose_t.hpp"
+#include "mapping/map_file.h"
+#include "mapping/mapper_config.h"
+#include "mapping/occupancy_map.h"
+
+namespace kestrel {
+
+class MapperNode {
+ public:
+  /// Subscribes to the sensors and poses; resumes from config.checkpoint_path if it holds a
+  /// valid map (a corrupt file is moved aside as <path>.corrupt and the map starts empty).
+  /// @throws std::invalid_argument if config.Validate() throws.
+  MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& clock);
+  MapperNode(const MapperNode&) = delete;
+  MapperNode& operator=(const MapperNode&) = delete;
+
+  /// Applies every queued scan whose pose is known (at most max_scans; <= 0: all). Returns the
+  /// number of scans applied or skipped.
+  int ProcessPending(int max_scans = 0);
+  /// Publishes whatever is due at the clock's time: status/heartbeat, delta, snapshot, and saves
+  /// the checkpoint when due.
+  void PublishDue();
+  /// Publishes a full snapshot now (chunks on map_channel).
+  void PublishSnapshot();
+  /// Publishes the cells changed since the last delta or snapshot.
+  void PublishDelta();
+  void PublishStatus();
+  /// Saves the checkpoint (if configured). Returns false (logged) on failure.
+  bool SaveCheckpoint();
+
+  [[nodiscard]] double entropy_nats() const;
+  /// FNV-1a hash of the map cells (bit-exact comparisons).
+  [[nodiscard]] uint64_t map_hash() const;
+  [[nodiscard]] int64_t map_seq() const { return map_seq_; }
+  [[nodiscard]] int64_t scans_applied() const { return scans_applied_; }
+  [[nodiscard]] const DropCounter& skipped() const { return skipped_; }
+  [[nodiscard]] size_t queue_depth() const { return queue_.size(); }
+  /// True while no input has been skipped for a reason other than "already in the checkpoint",
+  /// and no ray was decimated.
+  [[nodiscard]] bool applied_every_message() const;
+  /// The last applied sequence number per input channel.
+  [[nodiscard]] const StreamSequences& sequences() const { return sequences_; }
+  /// Probability of a cell.
+  [[nodiscard]] double ProbabilityAt(const CellIndex& cell) const;
+  /// Saves the map to `path` (Kestrel map file) / exports OctoMap .bt/.ot / PLY.
+  void SaveMapFile(const std::string& path) const;
+  void ExportOctoMapFile(const std::string& path) const;
+  size_t ExportPlyFile(const std::string& path) const;
+  /// The grid geometry (origin, resolution, bounds).
+  [[nodiscard]] const GridGeometry& geometry() const;
+
+ private:
+  struct Pending {
+    int64_t utime;
+    int64_t seq;
+    size_t sensor;  // index into config_.sensors
+    std::string channel;
+    std::shared_ptr<const depth_image_t> depth;
+    std::shared_ptr<const planar_scan_t> scan;
+  };
+  using MapPtr =
+      std::variant<std::unique_ptr<DenseOccupancyMap>, std::unique_ptr<GrowingOccupancyMap>>;
+
+  void OnPose(const pose_t& msg);
+  void OnDepth(size_t sensor, const std::string& channel, const depth_image_t& msg);
+  void OnScan(size_t sensor, const std::string& channel, const planar_scan_t& msg);
+  void Enqueue(Pending p);
+  bool AlreadyApplied(const std::string& channel, int64_t seq);
+  void Skip(const Pending& p, const std::string& reason, const std::string& detail);
+  void Apply(const Pending& p, const Pose3& X_WB);
+  void CreateEmptyMap();
+  void LoadCheckpoint();
+  /// Calls f(block_origin_cell, probabilities[512]) for every block holding any observed cell.
+  template <class F>
+  void ForEachBlock(F&& f) const;
+
+  lcm::LCM& lcm_;
+  MapperConfig config_;
+  const Clock& clock_;
+  std::vector<SensorModel> models_;
+  MapPtr map_;
+  PoseHistory poses_;
+  std::deque<Pending> queue_;
+  StreamSequences sequences_;
+  DropCounter skipped_;
+  DropCounter bad_poses_;
+  Heartbeat heartbeat_;
+  GuardedSubscriptions subscriptions_;
+
+  int64_t map_seq_{0};
+  int64_t delta_seq_{0};
+  int64_t snapshot_id_{0};
+  int64_t last_delta_map_seq_{0};
+  int64_t status_seq_{0};
+  int64_t scans_applied_{0};
+  int64_t latest_input_utime_{0};
+  int64_t newest_applied_utime_{0};
+  int ray_stride_{1};
+  bool decimated_ever_{false};
+  uint64_t rays_total_{0};
+  uint64_t cells_total_{0};
+  uint64_t rays_at_last_status_{0};
+  uint64_t cells_at_last_status_{0};
+  int64_t last_status_utime_{-1};  // for the rates in MAP_STATUS
+  int64_t status_due_utime_{-1};
+  int64_t last_delta_utime_{-1};
+  int64_t last_snapshot_utime_{-1};
+  int64_t last_checkpoint_utime_{-1};
+  // Last published probability per block (the base of the next delta), keyed by block origin.
+  std::map<std::tuple<int32_t, int32_t, int32_t>, std::vector<float>> published_;
+};
+
+}  // namespace kestrel

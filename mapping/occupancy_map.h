@@ -1,0 +1,163 @@
+#pragma once
+/// @file
+/// A 3D occupancy map that applies whole scans ray by ray (ALGORITHMS.md sections 1-5): a grid
+/// (DenseGrid with the paper's fixed limits, or GrowingGrid), a ray caster over its lattice, and
+/// an OccupancyUpdater (Kestrel's exact model or the log-odds baseline). The map entropy
+/// H(map) = sum_i H(P(m_i)) (eqs. 5-6) is kept incrementally; for a GrowingGrid it sums the
+/// allocated cells (each new block adds 512 H(P_init)).
+///
+/// Order is fixed, so the same inputs give a bit-identical map: images row-major (v outer, u
+/// inner), scans in ascending angle, one ray fully applied before the next. No allocation per
+/// ray (the scratch is sized at construction from max_range_m); a GrowingGrid allocates a block
+/// the first time a ray touches it.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "common/se3.h"
+#include "mapping/grid.h"
+#include "mapping/occupancy_updater.h"
+#include "mapping/ray_caster.h"
+#include "mapping/sensor_model.h"
+#include "mapping/traversal_pipeline.h"
+
+namespace kestrel {
+
+/// Pinhole intrinsics of a depth camera, pixels. Pixel (u, v) (column, row; centres at integer
+/// coordinates, OpenCV convention) looks along ((u - cx)/fx, (v - cy)/fy, 1) in the optical
+/// frame S (z forward, x right, y down).
+struct DepthIntrinsics {
+  double fx{0.0};  ///< focal length along x, px
+  double fy{0.0};  ///< focal length along y, px
+  double cx{0.0};  ///< principal point x, px
+  double cy{0.0};  ///< principal point y, px
+};
+
+/// What applying one scan did.
+struct ScanStats {
+  uint64_t rays_applied{0};    ///< returns and "no return" readings applied
+  uint64_t rays_no_return{0};  ///< of which "no return"
+  uint64_t rays_invalid{0};    ///< readings dropped as carrying no information
+  uint64_t cells_updated{0};   ///< cell writes
+
+  /// Adds another scan's counts.
+  ScanStats& operator+=(const ScanStats& o) {
+    rays_applied += o.rays_applied;
+    rays_no_return += o.rays_no_return;
+    rays_invalid += o.rays_invalid;
+    cells_updated += o.cells_updated;
+    return *this;
+  }
+};
+
+/// The map over a grid type (DenseGrid or GrowingGrid). Neither copyable nor movable (scratch
+/// pointers into the grid).
+template <class Grid>
+class OccupancyMap {
+ public:
+  /// A map over `grid` (whose cells should hold updater->initial_value()) whose sensors reach at
+  /// most `max_range_m` (sizes the per-ray scratch).
+  /// @throws std::invalid_argument if updater is null or max_range_m is not positive.
+  OccupancyMap(Grid grid, std::unique_ptr<OccupancyUpdater> updater, double max_range_m);
+  OccupancyMap(const OccupancyMap&) = delete;
+  OccupancyMap& operator=(const OccupancyMap&) = delete;
+
+  /// Applies one reading along a ray from origin_W along unit direction_W (W frame): classifies
+  /// `range_m` with the sensor model (mapping/sensor_model.h), drops invalid readings (returns
+  /// them counted in rays_invalid), casts the ray and updates its cells.
+  /// @throws std::invalid_argument if direction_W is not unit, origin not finite, or the
+  /// sensor's z_max exceeds max_range_m.
+  ScanStats ApplyRay(const Eigen::Vector3d& origin_W, const Eigen::Vector3d& direction_W,
+                     double range_m, const SensorModel& model);
+
+  /// Same with an already classified reading (kInvalid is counted and dropped).
+  ScanStats ApplyReading(const Eigen::Vector3d& origin_W, const Eigen::Vector3d& direction_W,
+                         const Reading& reading, const SensorModel& model);
+
+  /// Applies a depth image, row-major. depth[v * width + u] * depth_scale_m is the depth along
+  /// the optical axis (m), converted to the range along the pixel's ray; 0 means "no return".
+  /// X_WS is the pose of the optical frame S in W.
+  /// @throws std::invalid_argument on non-positive sizes (or more than 2^30 pixels), fx/fy/scale
+  /// not positive and finite, a non-finite pose or |q| outside (0.5, 1.5).
+  ScanStats ApplyDepthImage(const Pose3& X_WS, const DepthIntrinsics& intrinsics,
+                            const uint16_t* depth, int width, int height, double depth_scale_m,
+                            const SensorModel& model);
+
+  /// Applies a planar scan in ascending angle: beam i looks along angle_min_rad + i *
+  /// angle_step_rad about z of the LIDAR frame S (x forward, z up); ranges_m[i] is classified by
+  /// the model (+inf or >= z_max: no return; NaN, negative, < z_min: invalid).
+  /// @throws std::invalid_argument unless angle_step_rad > 0, the angles are finite, the pose is
+  /// finite and |q| in (0.5, 1.5).
+  ScanStats ApplyPlanarScan(const Pose3& X_WS, double angle_min_rad, double angle_step_rad,
+                            const float* ranges_m, int count, const SensorModel& model);
+
+  /// H(map), nats, kept incrementally.
+  [[nodiscard]] double entropy_nats() const { return entropy_nats_; }
+  /// H(map) recomputed from every cell (O(cells)), for tests and checks.
+  [[nodiscard]] double RecomputeEntropy() const;
+  /// Occupancy probability of a cell (the initial one for an untouched growing-grid cell).
+  [[nodiscard]] double ProbabilityAt(const CellIndex& cell) const;
+  /// FNV-1a hash of every stored cell value (bit patterns) in a deterministic order.
+  [[nodiscard]] uint64_t Hash() const;
+  /// The grid.
+  [[nodiscard]] const Grid& grid() const { return grid_; }
+  /// The grid, mutable (loading a map; call ResetEntropy() afterwards).
+  [[nodiscard]] Grid& mutable_grid() { return grid_; }
+  /// Sets the entropy to RecomputeEntropy() (after loading cells).
+  void ResetEntropy() { entropy_nats_ = RecomputeEntropy(); }
+  /// The update rule.
+  [[nodiscard]] const OccupancyUpdater& updater() const { return *updater_; }
+  /// Longest ray the scratch holds, m.
+  [[nodiscard]] double max_range_m() const { return ray_.max_length_m; }
+
+  /// Casts the rays of ApplyDepthImage and ApplyPlanarScan on a second thread, ahead of the
+  /// updates, which stay in ray order (mapping/traversal_pipeline.h): same map bit for bit, up to
+  /// twice the rate on two free cores. Off by default; enabling creates the worker once.
+  void SetTraversalThread(bool enabled);
+  /// Whether a traversal thread is in use.
+  [[nodiscard]] bool traversal_thread() const { return pipeline_ != nullptr; }
+
+ private:
+  float* CellPointer(const CellIndex& c);
+  // Updates the cells of an already cast ray; adds to *stats.
+  void ApplyCastRay(const Reading& reading, const RayCells& ray, const SensorModel& model,
+                    ScanStats* stats);
+  // Applies rays 0..count-1 described by source(i, &spec), pipelined or not (defined and used
+  // in occupancy_map.cc only).
+  template <class Source>
+  ScanStats ApplyRays(int count, const Source& source, const SensorModel& model);
+
+  Grid grid_;
+  std::unique_ptr<OccupancyUpdater> updater_;
+  RayCaster caster_;
+  RayCells ray_;
+  std::vector<float*> cell_pointers_;
+  double entropy_nats_{0.0};
+  double initial_entropy_{0.0};  // H of an untouched cell
+  // GrowingGrid only: cached block access.
+  std::unique_ptr<GrowingGrid::Accessor> accessor_;
+  std::unique_ptr<TraversalPipeline> pipeline_;
+};
+
+/// The paper's map: fixed limits, dense storage.
+using DenseOccupancyMap = OccupancyMap<DenseGrid>;
+/// A map that grows in 8^3 blocks.
+using GrowingOccupancyMap = OccupancyMap<GrowingGrid>;
+
+/// Kestrel's exact map over fixed limits (section 1 parameters, section 4 updates).
+/// @throws std::invalid_argument on invalid limits.
+std::unique_ptr<DenseOccupancyMap> MakeExactDenseMap(const MapLimits& limits,
+                                                     const OccupancyLimits& occupancy,
+                                                     double max_range_m);
+/// Kestrel's exact map that grows, aligned to limits.min_m with limits.resolution_m.
+std::unique_ptr<GrowingOccupancyMap> MakeExactGrowingMap(const MapLimits& limits,
+                                                         const OccupancyLimits& occupancy,
+                                                         double max_range_m);
+/// The log-odds baseline over fixed limits.
+std::unique_ptr<DenseOccupancyMap> MakeLogOddsDenseMap(const MapLimits& limits,
+                                                       const LogOddsConfig& config,
+                                                       double max_range_m);
+
+}  // namespace kestrel

@@ -1,0 +1,84 @@
+#pragma once
+/// @file
+/// Ray traversal on a second core (STYLE.md "Hot path"; ALGORITHMS.md section 11): a worker
+/// thread casts the rays of a scan ahead of the caller in batches, while the caller applies the
+/// updates strictly in ray order. Traversal reads no map, so the result is bit-identical to
+/// casting and applying one ray at a time. The worker and its batches (kBatches x kBatchRays ray
+/// scratches) are created once; Run allocates nothing per ray.
+
+#include <Eigen/Core>
+#include <condition_variable>
+#include <exception>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "mapping/ray_caster.h"
+#include "mapping/sensor_model.h"
+
+namespace kestrel {
+
+/// Casts rays on a worker thread, hands them back in order.
+class TraversalPipeline {
+ public:
+  /// Rays per batch.
+  static constexpr int kBatchRays = 64;
+  /// Batches in flight.
+  static constexpr int kBatches = 4;
+
+  /// One ray to cast: filled by the source on the worker thread.
+  struct RaySpec {
+    Eigen::Vector3d origin_W{Eigen::Vector3d::Zero()};      ///< m, W
+    Eigen::Vector3d direction_W{Eigen::Vector3d::UnitX()};  ///< unit, W
+    Reading reading;                                        ///< kInvalid: not cast
+    double length_m{0.0};                                   ///< cast length, m
+  };
+  /// Fills the spec of ray `index` (runs on the worker; must only read shared data).
+  using Source = std::function<void(int index, RaySpec* spec)>;
+  /// Consumes a cast ray (runs on the caller's thread, in index order).
+  using Sink = std::function<void(const RaySpec& spec, const RayCells& cells)>;
+  /// Optional work on a cast ray that reads no map (runs on the worker after the cast).
+  using Prepare = std::function<void(const RaySpec& spec, RayCells* cells)>;
+
+  /// A worker casting through `geometry` rays up to `max_length_m` long.
+  TraversalPipeline(const GridGeometry& geometry, double max_length_m);
+  ~TraversalPipeline();
+  TraversalPipeline(const TraversalPipeline&) = delete;
+  TraversalPipeline& operator=(const TraversalPipeline&) = delete;
+
+  /// Casts rays 0..count-1 from `source` on the worker and feeds them to `sink` in order.
+  /// Exceptions from the source, the caster or the sink are rethrown here after the worker has
+  /// stopped on this job.
+  void Run(int count, const Source& source, const Sink& sink);
+  /// Same, with `prepare` applied to each cast ray on the worker (null: none).
+  void Run(int count, const Source& source, const Prepare* prepare, const Sink& sink);
+
+ private:
+  struct Batch {
+    std::vector<RaySpec> specs;
+    std::vector<RayCells> rays;
+    int count{0};
+    bool filled{false};
+    std::exception_ptr error;
+  };
+  void WorkerLoop();
+
+  RayCaster caster_;
+  std::vector<Batch> batches_;
+  std::mutex mutex_;
+  std::condition_variable worker_cv_;
+  std::condition_variable caller_cv_;
+  // Job state, guarded by mutex_.
+  const Source* source_{nullptr};
+  const Prepare* prepare_{nullptr};
+  int job_count_{0};
+  uint64_t job_generation_{0};
+  bool job_active_{false};
+  bool cancel_{false};
+  bool shutdown_{false};
+  std::thread worker_;
+};
+
+}  // namespace kestrel

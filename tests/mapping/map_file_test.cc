@@ -1,0 +1,221 @@
+#include "mapping/map_file.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <random>
+#include <sstream>
+
+#include <octomap/OcTree.h>
+
+namespace kestrel {
+namespace {
+
+std::string TempPath(const std::string& name) {
+  return ::testing::TempDir() + "kestrel_map_file_test_" + std::to_string(::getpid()) + "_" + name;
+}
+
+template <class Map>
+void FillRandom(Map* map, uint32_t seed, int rays = 3000) {
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (int i = 0; i < rays; ++i) {
+    const Eigen::Vector3d u = Eigen::Vector3d(n(rng), n(rng), 0.2 * n(rng)).normalized();
+    map->ApplyRay(Eigen::Vector3d(0.1, 0.2, 0.7), u,
+                  std::uniform_real_distribution<double>(0.6, 4.5)(rng), xtion);
+  }
+}
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+void WriteAll(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+template <class F>
+std::string ErrorOf(F&& f) {
+  try {
+    f();
+  } catch (const MapFileError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// Save then load gives a bit-identical map (hash), the same entropy and the stream positions, for
+// the exact dense, the log-odds dense and the exact growing map.
+TEST(MapFile, RoundTripIsBitIdentical) {
+  const StreamSequences seqs{{"DEPTH_XTION", 1234}, {"SCAN_HOKUYO", -1}, {"POSE_VICON", 99}};
+  auto dense = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  FillRandom(dense.get(), 1);
+  const std::string path = TempPath("dense.kmap");
+  SaveMap(path, *dense, seqs);
+  const LoadedMap<DenseOccupancyMap> loaded = LoadDenseMap(path);
+  EXPECT_EQ(loaded.map->Hash(), dense->Hash());
+  EXPECT_EQ(loaded.sequences, seqs);
+  EXPECT_NEAR(loaded.map->entropy_nats(), dense->entropy_nats(), 1e-10 * dense->entropy_nats());
+  EXPECT_STREQ(loaded.map->updater().name(), "exact");
+
+  auto log_odds = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
+  FillRandom(log_odds.get(), 2);
+  SaveMap(path, *log_odds, {});
+  const LoadedMap<DenseOccupancyMap> loaded_lo = LoadDenseMap(path);
+  EXPECT_EQ(loaded_lo.map->Hash(), log_odds->Hash());
+  EXPECT_STREQ(loaded_lo.map->updater().name(), "log_odds");
+
+  auto growing = MakeExactGrowingMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  FillRandom(growing.get(), 3);
+  const std::string gpath = TempPath("growing.kmap");
+  SaveMap(gpath, *growing, seqs);
+  const LoadedMap<GrowingOccupancyMap> loaded_g = LoadGrowingMap(gpath);
+  EXPECT_EQ(loaded_g.map->Hash(), growing->Hash());
+  EXPECT_EQ(loaded_g.map->grid().block_count(), growing->grid().block_count());
+  EXPECT_EQ(loaded_g.sequences, seqs);
+  // A loaded map keeps working: the same further rays give the same map.
+  FillRandom(growing.get(), 4, 500);
+  FillRandom(loaded_g.map.get(), 4, 500);
+  EXPECT_EQ(loaded_g.map->Hash(), growing->Hash());
+  EXPECT_THROW(LoadGrowingMap(path), MapFileError);  // a dense file is not a growing map
+  std::remove(path.c_str());
+  std::remove(gpath.c_str());
+}
+
+// Every single flipped byte (header, stream names, cells, checksum) is refused with a checksum
+// or format error, never loaded.
+TEST(MapFile, RefusesCorruptFiles) {
+  MapLimits small;
+  small.max_m = Eigen::Vector3d(-3.0, -5.0, 0.5);  // a small map keeps the file short
+  auto map = MakeExactDenseMap(small, OccupancyLimits{}, 4.0);
+  FillRandom(map.get(), 5, 200);
+  const std::string path = TempPath("corrupt.kmap");
+  SaveMap(path, *map, {{"DEPTH_XTION", 7}});
+  const std::string good = ReadAll(path);
+  ASSERT_NO_THROW(LoadDenseMap(path));
+  for (size_t i = 0; i < good.size(); i += (i < 200 ? 1 : 97)) {
+    std::string bad = good;
+    bad[i] = static_cast<char>(bad[i] ^ 0x10);
+    WriteAll(path, bad);
+    const std::string error = ErrorOf([&] { LoadDenseMap(path); });
+    ASSERT_FALSE(error.empty()) << "flipped byte " << i << " was accepted";
+    EXPECT_NE(error.find(path), std::string::npos) << error;
+  }
+  std::string bad = good;
+  bad[good.size() / 2] ^= 1;
+  WriteAll(path, bad);
+  EXPECT_NE(ErrorOf([&] { LoadDenseMap(path); }).find("checksum mismatch"), std::string::npos);
+  std::remove(path.c_str());
+}
+
+// Every truncation (including empty) is refused with a clear error.
+TEST(MapFile, RefusesTruncatedFiles) {
+  MapLimits small;
+  small.max_m = Eigen::Vector3d(-3.0, -5.0, 0.5);
+  auto map = MakeExactGrowingMap(small, OccupancyLimits{}, 4.0);
+  FillRandom(map.get(), 6, 100);
+  const std::string path = TempPath("truncated.kmap");
+  SaveMap(path, *map, {{"SCAN_HOKUYO", 3}});
+  const std::string good = ReadAll(path);
+  for (size_t len : {size_t{0}, size_t{5}, size_t{40}, size_t{130}, good.size() / 2,
+                     good.size() - 5, good.size() - 1}) {
+    WriteAll(path, good.substr(0, len));
+    const std::string error = ErrorOf([&] { LoadGrowingMap(path); });
+    ASSERT_FALSE(error.empty()) << "truncated to " << len << " was accepted";
+    EXPECT_TRUE(error.find("truncated") != std::string::npos ||
+                error.find("checksum mismatch") != std::string::npos)
+        << error;
+  }
+  EXPECT_NE(ErrorOf([&] { LoadGrowingMap(TempPath("missing.kmap")); }).find("cannot open"),
+            std::string::npos);
+  std::remove(path.c_str());
+}
+
+// OctoMap export through the real library: reading the .bt and .ot back with OctoMap, every
+// Kestrel cell with P > 0.5 is an occupied voxel at its centre and every observed cell with
+// P < 0.5 a free one.
+TEST(MapFile, OctoMapExportReadsBackInOctoMap) {
+  auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  FillRandom(map.get(), 7);
+  const std::string bt = TempPath("map.bt");
+  const std::string ot = TempPath("map.ot");
+  ExportOctoMap(bt, *map);
+  ExportOctoMap(ot, *map);
+  octomap::OcTree from_bt(bt);
+  std::unique_ptr<octomap::AbstractOcTree> abstract(octomap::AbstractOcTree::read(ot));
+  ASSERT_NE(abstract, nullptr);
+  auto* from_ot = dynamic_cast<octomap::OcTree*>(abstract.get());
+  ASSERT_NE(from_ot, nullptr);
+  const GridGeometry& g = map->grid().geometry();
+  int occupied = 0, free_cells = 0;
+  const CellIndex d = map->grid().dims();
+  for (int z = 0; z < d.z; ++z) {
+    for (int y = 0; y < d.y; ++y) {
+      for (int x = 0; x < d.x; ++x) {
+        const CellIndex c{x, y, z};
+        const float v = map->grid().Get(c);
+        if (v == 0.1f) continue;
+        const Eigen::Vector3d p = g.CenterOf(c);
+        const octomap::point3d q(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                                 static_cast<float>(p.z()));
+        const octomap::OcTreeNode* nb = from_bt.search(q);
+        const octomap::OcTreeNode* no = from_ot->search(q);
+        ASSERT_NE(nb, nullptr);
+        ASSERT_NE(no, nullptr);
+        if (v > 0.5f) {
+          ++occupied;
+          EXPECT_TRUE(from_bt.isNodeOccupied(nb));
+          EXPECT_NEAR(no->getOccupancy(), v, 1e-5);
+        } else if (v < 0.5f) {
+          ++free_cells;
+          EXPECT_FALSE(from_bt.isNodeOccupied(nb));
+          EXPECT_NEAR(no->getOccupancy(), v, 1e-5);
+        }
+      }
+    }
+  }
+  EXPECT_GT(occupied, 10);
+  EXPECT_GT(free_cells, 1000);
+  EXPECT_THROW(ExportOctoMap(TempPath("map.txt"), *map), MapFileError);
+  std::remove(bt.c_str());
+  std::remove(ot.c_str());
+}
+
+// PLY: a header with the vertex count, then the centres of exactly the cells with P > 0.5.
+TEST(MapFile, PlyHoldsOccupiedCellCentres) {
+  auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  FillRandom(map.get(), 8);
+  const std::string path = TempPath("occupied.ply");
+  const size_t n = ExportOccupiedPly(path, *map);
+  size_t expected = 0;
+  for (float v : map->grid().values()) expected += v > 0.5f;
+  EXPECT_EQ(n, expected);
+  EXPECT_GT(n, 10u);
+  std::ifstream in(path);
+  std::string line;
+  size_t declared = 0;
+  while (std::getline(in, line) && line != "end_header") {
+    if (line.rfind("element vertex ", 0) == 0) declared = std::stoul(line.substr(15));
+  }
+  EXPECT_EQ(declared, n);
+  size_t rows = 0;
+  double x, y, z, p;
+  while (in >> x >> y >> z >> p) {
+    const auto c = map->grid().geometry().CellOf(Eigen::Vector3d(x, y, z));
+    ASSERT_TRUE(c.has_value());
+    EXPECT_NEAR(map->ProbabilityAt(*c), p, 1e-6);
+    EXPECT_GT(p, 0.5);
+    ++rows;
+  }
+  EXPECT_EQ(rows, n);
+  std::remove(path.c_str());
+}
+
+}  // namespace
+}  // namespace kestrel

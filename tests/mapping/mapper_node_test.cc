@@ -1,0 +1,351 @@
+// The mapper node over memq://: determinism, pose synchronisation, bad input, snapshots and
+// deltas that rebuild the map, and checkpoint resume equal to an uninterrupted run.
+#include "mapping/mapper_node.h"
+
+#include <zlib.h>
+
+#include <cstdio>
+#include <map>
+#include <tuple>
+
+#include <gtest/gtest.h>
+
+#include "kestrel/map3d_chunk_t.hpp"
+#include "kestrel/map3d_delta_t.hpp"
+#include "kestrel/map_status_t.hpp"
+#include "mapping/map_replica.h"
+#include "tests/mapping/synthetic_stream.h"
+
+namespace kestrel {
+namespace {
+
+using testing::MakeStream;
+using testing::StreamEvent;
+
+MapperConfig SmallConfig() {
+  MapperConfig c;
+  c.limits.min_m = Eigen::Vector3d(-3.2, -4.2, -0.15);
+  c.limits.max_m = Eigen::Vector3d(3.2, 4.2, 2.7);
+  c.limits.resolution_m = 0.1;
+  c.sensors = DefaultMapperSensors();
+  c.snapshot_period_s = 0;
+  c.delta_period_s = 0;
+  return c;
+}
+
+/// Publishes the events on the node's channels (memq delivers on handle), processing after each.
+void Feed(lcm::LCM& lcm, MapperNode& node, SimClock& clock, const std::vector<StreamEvent>& events,
+          size_t begin = 0, size_t end = SIZE_MAX) {
+  for (size_t i = begin; i < std::min(end, events.size()); ++i) {
+    const StreamEvent& e = events[i];
+    if (e.utime > clock.NowUtime()) clock.SetUtime(e.utime);
+    switch (e.kind) {
+      case StreamEvent::Kind::kPose:
+        lcm.publish("POSE_VICON", &e.pose);
+        break;
+      case StreamEvent::Kind::kDepth:
+        lcm.publish("DEPTH_XTION", &e.depth);
+        break;
+      case StreamEvent::Kind::kScan:
+        lcm.publish("SCAN_HOKUYO", &e.scan);
+        break;
+    }
+    while (lcm.handleTimeout(0) > 0) {
+    }
+    node.ProcessPending();
+  }
+}
+
+class MapperNodeTest : public ::testing::Test {
+ protected:
+  MapperConfig config_ = SmallConfig();
+  std::vector<StreamEvent> events_ =
+      MakeStream(3.0, config_.sensors[0].X_BS, config_.sensors[1].X_BS);
+};
+
+TEST_F(MapperNodeTest, SameMessagesGiveTheSameMapBitForBit) {
+  uint64_t hashes[2];
+  for (int run = 0; run < 2; ++run) {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, config_, clock);
+    Feed(lcm, node, clock, events_);
+    hashes[run] = node.map_hash();
+    EXPECT_EQ(node.scans_applied(), 60) << "30 depth images and 30 scans in 3 s";
+    EXPECT_TRUE(node.applied_every_message());
+  }
+  EXPECT_EQ(hashes[0], hashes[1]);
+}
+
+TEST_F(MapperNodeTest, MapsTheRoomWallsAndFreeSpace) {
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  MapperNode node(lcm, config_, clock);
+  Feed(lcm, node, clock, events_);
+  const GridGeometry& g = node.geometry();
+  // A cell just inside the wall x = 3 at the sensor height is occupied; the space between the
+  // vehicle and that wall is free.
+  const auto wall = g.CellOf(Eigen::Vector3d(2.97, 0.0, 0.85));
+  const auto free = g.CellOf(Eigen::Vector3d(1.5, 0.0, 0.85));
+  ASSERT_TRUE(wall && free);
+  EXPECT_GT(node.ProbabilityAt(*wall), 0.5);
+  EXPECT_LT(node.ProbabilityAt(*free), 0.05);
+  EXPECT_TRUE(std::isfinite(node.entropy_nats()));
+}
+
+TEST_F(MapperNodeTest, ScansWaitForThePoseAfterThemAndOldOrGapScansAreSkipped) {
+  lcm::LCM lcm("memq://");
+  SimClock clock(1000000);
+  MapperNode node(lcm, config_, clock);
+  // A scan before any pose waits (queued, not skipped).
+  const StreamEvent* scan = nullptr;
+  for (const auto& e : events_) {
+    if (e.kind == StreamEvent::Kind::kScan) {
+      scan = &e;
+      break;
+    }
+  }
+  ASSERT_NE(scan, nullptr);
+  lcm.publish("SCAN_HOKUYO", &scan->scan);
+  lcm.handleTimeout(0);
+  node.ProcessPending();
+  EXPECT_EQ(node.queue_depth(), 1u);
+  EXPECT_EQ(node.skipped().total(), 0);
+  // Poses bracketing it arrive: it is applied.
+  for (const auto& e : events_) {
+    if (e.kind == StreamEvent::Kind::kPose && e.utime <= scan->utime + 20000)
+      lcm.publish("POSE_VICON", &e.pose);
+  }
+  while (lcm.handleTimeout(0) > 0) {
+  }
+  node.ProcessPending();
+  EXPECT_EQ(node.scans_applied(), 1);
+  // A scan older than the history is skipped as too_old.
+  planar_scan_t old = scan->scan;
+  old.seq = 100;
+  old.utime = scan->utime - 10000000;
+  lcm.publish("SCAN_HOKUYO", &old);
+  lcm.handleTimeout(0);
+  node.ProcessPending();
+  EXPECT_EQ(node.skipped().count("too_old"), 1);
+  // Motion capture gap: poses 0.5 s apart; a scan between them is skipped as gap.
+  pose_t p1 = events_[0].pose, p2 = events_[0].pose;
+  p1.utime = scan->utime + 1000000;
+  p2.utime = scan->utime + 1500000;
+  lcm.publish("POSE_VICON", &p1);
+  lcm.publish("POSE_VICON", &p2);
+  planar_scan_t gap = scan->scan;
+  gap.seq = 101;
+  gap.utime = scan->utime + 1250000;
+  lcm.publish("SCAN_HOKUYO", &gap);
+  while (lcm.handleTimeout(0) > 0) {
+  }
+  node.ProcessPending();
+  EXPECT_EQ(node.skipped().count("gap"), 1);
+  EXPECT_FALSE(node.applied_every_message());
+}
+
+TEST_F(MapperNodeTest, BadInputIsCountedAndDroppedWithoutChangingTheMap) {
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  MapperNode node(lcm, config_, clock);
+  Feed(lcm, node, clock, events_, 0, 50);
+  const uint64_t hash = node.map_hash();
+  depth_image_t img = events_[6].depth;  // the first depth image
+  ASSERT_EQ(events_[6].kind, StreamEvent::Kind::kDepth);
+  int64_t seq = 1000;
+  auto send = [&](depth_image_t m) {
+    m.seq = seq++;
+    lcm.publish("DEPTH_XTION", &m);
+    lcm.handleTimeout(0);
+    node.ProcessPending();
+  };
+  depth_image_t wrong_size = img;
+  wrong_size.width += 1;
+  send(wrong_size);
+  depth_image_t zero_fx = img;
+  zero_fx.fx_px = 0;
+  send(zero_fx);
+  depth_image_t bad_encoding = img;
+  bad_encoding.encoding = 7;
+  send(bad_encoding);
+  depth_image_t bad_zlib = img;
+  bad_zlib.encoding = depth_image_t::ENCODING_ZLIB_U16;
+  send(bad_zlib);
+  planar_scan_t neg = events_[7].scan;
+  ASSERT_EQ(events_[7].kind, StreamEvent::Kind::kScan);
+  neg.seq = 1000;
+  neg.ranges_m[3] = -1.0f;
+  lcm.publish("SCAN_HOKUYO", &neg);
+  pose_t nan_pose = events_[0].pose;
+  nan_pose.utime = events_[49].utime + 5000;
+  nan_pose.position_m[1] = std::nan("");
+  lcm.publish("POSE_VICON", &nan_pose);
+  const uint8_t garbage[] = {1, 2, 3, 4, 5, 6, 7, 8, 9};
+  lcm.publish("DEPTH_XTION", garbage, sizeof(garbage));
+  while (lcm.handleTimeout(0) > 0) {
+  }
+  node.ProcessPending();
+  EXPECT_EQ(node.skipped().count("malformed"), 6);
+  EXPECT_EQ(node.map_hash(), hash) << "dropped input must not touch the map";
+  // The rest of the stream still applies.
+  Feed(lcm, node, clock, events_, 50);
+  EXPECT_EQ(node.scans_applied(), 60);
+}
+
+TEST_F(MapperNodeTest, SnapshotThenDeltasRebuildTheMapExactly) {
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  MapperNode node(lcm, config_, clock);
+  const GridGeometry& g = node.geometry();
+  MapReplica replica(g.origin_m(), g.resolution_m(),
+                     Eigen::Vector3i(g.upper().x, g.upper().y, g.upper().z),
+                     config_.occupancy.p_init);
+  int refused = 0;
+  std::string error;
+  GuardedSubscriptions subs(lcm);
+  subs.Add<map3d_chunk_t>(
+      "MAP3D",
+      [&](const std::string&, const map3d_chunk_t& m) { refused += !replica.Apply(m, &error); },
+      nullptr);
+  subs.Add<map3d_delta_t>(
+      "MAP3D_DELTA",
+      [&](const std::string&, const map3d_delta_t& m) { refused += !replica.Apply(m, &error); },
+      nullptr);
+  Feed(lcm, node, clock, events_, 0, 100);
+  node.PublishSnapshot();  // a late subscriber's starting point
+  while (lcm.handleTimeout(0) > 0) {
+  }
+  for (size_t start = 100; start < events_.size(); start += 37) {
+    Feed(lcm, node, clock, events_, start, start + 37);
+    node.PublishDelta();
+    while (lcm.handleTimeout(0) > 0) {
+    }
+  }
+  EXPECT_EQ(refused, 0) << error;
+  EXPECT_TRUE(replica.current());
+  EXPECT_EQ(replica.seq(), node.map_seq());
+  const CellIndex dims = node.geometry().upper();
+  int64_t compared = 0;
+  for (int z = 0; z < dims.z; ++z) {
+    for (int y = 0; y < dims.y; ++y) {
+      for (int x = 0; x < dims.x; ++x) {
+        ASSERT_EQ(replica.At(x, y, z), static_cast<float>(node.ProbabilityAt(CellIndex{x, y, z})))
+            << x << " " << y << " " << z;
+        ++compared;
+      }
+    }
+  }
+  EXPECT_GT(compared, 100000);
+}
+
+TEST_F(MapperNodeTest, ALostDeltaMakesTheReplicaStaleUntilTheNextSnapshot) {
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  MapperNode node(lcm, config_, clock);
+  const GridGeometry& g = node.geometry();
+  MapReplica replica(g.origin_m(), g.resolution_m(),
+                     Eigen::Vector3i(g.upper().x, g.upper().y, g.upper().z),
+                     config_.occupancy.p_init);
+  std::vector<map3d_delta_t> deltas;
+  std::string error;
+  GuardedSubscriptions subs(lcm);
+  subs.Add<map3d_chunk_t>(
+      "MAP3D", [&](const std::string&, const map3d_chunk_t& m) { (void)replica.Apply(m, &error); },
+      nullptr);
+  subs.Add<map3d_delta_t>(
+      "MAP3D_DELTA", [&](const std::string&, const map3d_delta_t& m) { deltas.push_back(m); },
+      nullptr);
+  Feed(lcm, node, clock, events_, 0, 60);
+  node.PublishSnapshot();
+  for (size_t start = 60; start < 180; start += 40) {
+    Feed(lcm, node, clock, events_, start, start + 40);
+    node.PublishDelta();
+  }
+  while (lcm.handleTimeout(0) > 0) {
+  }
+  ASSERT_EQ(deltas.size(), 3u);
+  ASSERT_TRUE(replica.current());
+  EXPECT_TRUE(replica.Apply(deltas[0], &error)) << error;
+  EXPECT_FALSE(replica.Apply(deltas[2], &error)) << "delta 1 was lost";
+  EXPECT_FALSE(replica.current());
+  node.PublishSnapshot();
+  while (lcm.handleTimeout(0) > 0) {
+  }
+  EXPECT_TRUE(replica.current());
+  EXPECT_EQ(replica.seq(), node.map_seq());
+}
+
+TEST_F(MapperNodeTest, CheckpointResumeEqualsAnUninterruptedRun) {
+  char path[] = "/tmp/kestrel-mapper-checkpoint-XXXXXX";
+  const int fd = mkstemp(path);
+  ASSERT_GE(fd, 0);
+  close(fd);
+  std::remove(path);
+  uint64_t uninterrupted = 0;
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, config_, clock);
+    Feed(lcm, node, clock, events_);
+    uninterrupted = node.map_hash();
+  }
+  MapperConfig with_checkpoint = config_;
+  with_checkpoint.checkpoint_path = path;
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, with_checkpoint, clock);
+    Feed(lcm, node, clock, events_, 0, events_.size() / 2);
+    ASSERT_TRUE(node.SaveCheckpoint());
+    Feed(lcm, node, clock, events_, events_.size() / 2, events_.size() / 2 + 40);  // lost work
+  }
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, with_checkpoint, clock);  // resumes
+    Feed(lcm, node, clock, events_);               // the stream again, from the start
+    EXPECT_GT(node.skipped().count("already_applied"), 20);
+    EXPECT_EQ(node.map_hash(), uninterrupted);
+    EXPECT_TRUE(node.applied_every_message());
+  }
+  // A corrupt checkpoint is refused and moved aside; the node starts empty.
+  {
+    FILE* f = std::fopen(path, "r+b");
+    ASSERT_NE(f, nullptr);
+    std::fseek(f, 100, SEEK_SET);
+    std::fputc(0x5a, f);
+    std::fclose(f);
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, with_checkpoint, clock);
+    EXPECT_TRUE(node.sequences().empty());
+    FILE* aside = std::fopen((std::string(path) + ".corrupt").c_str(), "rb");
+    EXPECT_NE(aside, nullptr);
+    if (aside) std::fclose(aside);
+  }
+  std::remove((std::string(path) + ".corrupt").c_str());
+}
+
+TEST_F(MapperNodeTest, StatusReportsSkipsAndEntropy) {
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  MapperNode node(lcm, config_, clock);
+  std::vector<map_status_t> statuses;
+  GuardedSubscriptions subs(lcm);
+  subs.Add<map_status_t>(
+      "MAP_STATUS", [&](const std::string&, const map_status_t& m) { statuses.push_back(m); },
+      nullptr);
+  Feed(lcm, node, clock, events_);
+  node.PublishStatus();
+  lcm.handleTimeout(0);
+  ASSERT_EQ(statuses.size(), 1u);
+  EXPECT_EQ(statuses[0].scans_applied, 60);
+  EXPECT_EQ(statuses[0].map_seq, node.map_seq());
+  EXPECT_DOUBLE_EQ(statuses[0].map_entropy_nats, node.entropy_nats());
+  EXPECT_TRUE(statuses[0].applied_every_message);
+  EXPECT_EQ(statuses[0].ray_decimation, 1.0);
+}
+
+}  // namespace
+}  // namespace kestrel

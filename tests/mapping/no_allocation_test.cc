@@ -1,0 +1,79 @@
+// Counts every operator new in this test binary, to show that applying a ray allocates nothing
+// once the map and its scratch exist (STYLE.md "No allocation per ray").
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+#include <vector>
+
+#include "mapping/occupancy_map.h"
+
+namespace {
+std::atomic<uint64_t> g_allocations{0};
+}  // namespace
+
+void* operator new(std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+namespace kestrel {
+namespace {
+
+// The counter works: a vector allocates.
+TEST(NoAllocation, CounterSeesAllocations) {
+  const uint64_t before = g_allocations.load();
+  std::vector<int> v(100);
+  EXPECT_GT(g_allocations.load(), before);
+  EXPECT_EQ(v.size(), 100u);
+}
+
+// Given a map and sensor models, When thousands of rays, a depth image and a scan are applied,
+// Then no allocation happens (dense exact, dense log-odds; growing exact once its blocks exist).
+TEST(NoAllocation, ApplyingRaysAllocatesNothing) {
+  auto exact = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  auto log_odds = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
+  auto growing = MakeExactGrowingMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  const SensorModel hokuyo(SensorModelConfig::Hokuyo());
+  std::vector<uint16_t> depth(80 * 60);
+  for (size_t i = 0; i < depth.size(); ++i)
+    depth[i] = static_cast<uint16_t>(i % 7 == 0 ? 0 : 600 + i % 3000);
+  std::vector<float> ranges(682);
+  for (size_t i = 0; i < ranges.size(); ++i) ranges[i] = 0.6f + 0.005f * static_cast<float>(i);
+  Pose3 X_WS;
+  X_WS.p = Eigen::Vector3d(0.1, 0.2, 0.7);
+  const DepthIntrinsics in{75.0, 75.0, 40.0, 30.0};
+  const auto apply_all = [&](auto* map) {
+    for (int i = 0; i < 2000; ++i) {
+      const double a = 0.01 * i;
+      map->ApplyRay(X_WS.p, Eigen::Vector3d(std::cos(a), std::sin(a), 0.0), 0.5 + 0.001 * i,
+                    i % 2 ? xtion : hokuyo);
+    }
+    map->ApplyDepthImage(X_WS, in, depth.data(), 80, 60, 0.001, xtion);
+    map->ApplyPlanarScan(X_WS, -2.0, 0.006, ranges.data(), 682, hokuyo);
+  };
+  apply_all(growing.get());  // allocates its blocks
+  auto threaded = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  threaded->SetTraversalThread(true);  // creates the worker and its batches once
+  const uint64_t before = g_allocations.load();
+  apply_all(exact.get());
+  apply_all(log_odds.get());
+  apply_all(growing.get());   // same rays again: blocks exist
+  apply_all(threaded.get());  // scans cast on the worker thread
+  EXPECT_EQ(g_allocations.load(), before);
+}
+
+}  // namespace
+}  // namespace kestrel

@@ -1,0 +1,285 @@
+#include "mapping/occupancy_map.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+namespace kestrel {
+namespace {
+
+const OccupancyLimits kOccupancy{};
+
+Eigen::Vector3d RandomUnit(std::mt19937& rng, double z_scale = 1.0) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  return Eigen::Vector3d(n(rng), n(rng), z_scale * n(rng)).normalized();
+}
+
+// Applies `count` random rays (returns across the range, no-return and invalid readings) from
+// random origins near the middle of the paper's map to `map`.
+template <class Map>
+ScanStats ApplyRandomRays(Map* map, const SensorModel& model, int count, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> range(0.3, 4.5);
+  ScanStats stats;
+  for (int i = 0; i < count; ++i) {
+    const Eigen::Vector3d o(std::uniform_real_distribution<double>(-1.0, 1.0)(rng),
+                            std::uniform_real_distribution<double>(-1.0, 1.0)(rng),
+                            std::uniform_real_distribution<double>(0.5, 1.0)(rng));
+    stats += map->ApplyRay(o, RandomUnit(rng, 0.3), i % 13 == 0 ? std::nan("") : range(rng), model);
+  }
+  return stats;
+}
+
+// Section 5: the incrementally kept H(map) equals a full recomputation after many random
+// updates, for the exact model on both grids and for the log-odds baseline.
+TEST(OccupancyMap, IncrementalEntropyMatchesRecomputation) {
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  const SensorModel hokuyo(SensorModelConfig::Hokuyo());
+  auto dense = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
+  auto growing = MakeExactGrowingMap(MapLimits{}, kOccupancy, 4.0);
+  auto log_odds = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
+  const double h0 = dense->entropy_nats();
+  EXPECT_NEAR(h0, 107 * 160 * 22 * BinaryEntropy(0.1f), 1e-6);
+  ApplyRandomRays(dense.get(), xtion, 20000, 1);
+  ApplyRandomRays(dense.get(), hokuyo, 20000, 2);
+  ApplyRandomRays(growing.get(), xtion, 20000, 1);
+  ApplyRandomRays(log_odds.get(), xtion, 20000, 1);
+  EXPECT_LT(dense->entropy_nats(), h0 - 100.0);  // the updates really changed it
+  // Relative 1e-10: ~10^6 double additions of per-cell changes against one fresh sum.
+  EXPECT_NEAR(dense->entropy_nats(), dense->RecomputeEntropy(), 1e-10 * h0);
+  EXPECT_NEAR(growing->entropy_nats(), growing->RecomputeEntropy(),
+              1e-10 * growing->RecomputeEntropy());
+  EXPECT_NEAR(log_odds->entropy_nats(), log_odds->RecomputeEntropy(), 1e-10 * h0);
+  EXPECT_GT(std::abs(log_odds->entropy_nats() - h0), 100.0);
+}
+
+// Inside the fixed limits the growing grid gives identical numbers for rays that stay inside:
+// a large fixed map (rays of 4 m from near its middle never leave it) and a growing map on the
+// same lattice end bit-identical cell by cell.
+TEST(OccupancyMap, GrowingGridMatchesDenseGridInsideLimits) {
+  MapLimits limits;
+  limits.min_m = Eigen::Vector3d(-6.0, -6.0, -5.0);
+  limits.max_m = Eigen::Vector3d(6.0, 6.0, 6.0);
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  auto dense = MakeExactDenseMap(limits, kOccupancy, 4.0);
+  auto growing = MakeExactGrowingMap(limits, kOccupancy, 4.0);
+  ApplyRandomRays(dense.get(), xtion, 5000, 3);
+  ApplyRandomRays(growing.get(), xtion, 5000, 3);
+  const CellIndex dims = dense->grid().dims();
+  int changed = 0;
+  for (int z = 0; z < dims.z; ++z) {
+    for (int y = 0; y < dims.y; ++y) {
+      for (int x = 0; x < dims.x; ++x) {
+        const CellIndex c{x, y, z};
+        ASSERT_EQ(dense->grid().Get(c), growing->grid().Get(c));
+        changed += dense->grid().Get(c) != 0.1f;
+      }
+    }
+  }
+  EXPECT_GT(changed, 1000);
+  EXPECT_LT(growing->grid().block_count() * GrowingGrid::kBlockCells, dense->grid().size());
+}
+
+// Determinism: the same inputs twice give bit-identical maps (hash of the cell array), and a
+// single different reading gives a different hash (the hash sees the cells).
+TEST(OccupancyMap, SameInputsGiveBitIdenticalMaps) {
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  auto a = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
+  auto b = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
+  ApplyRandomRays(a.get(), xtion, 10000, 5);
+  ApplyRandomRays(b.get(), xtion, 10000, 5);
+  EXPECT_EQ(a->Hash(), b->Hash());
+  b->ApplyRay(Eigen::Vector3d(0.0, 0.0, 0.7), Eigen::Vector3d::UnitX(), 2.0, xtion);
+  EXPECT_NE(a->Hash(), b->Hash());
+  auto ga = MakeExactGrowingMap(MapLimits{}, kOccupancy, 4.0);
+  auto gb = MakeExactGrowingMap(MapLimits{}, kOccupancy, 4.0);
+  ApplyRandomRays(ga.get(), xtion, 5000, 6);
+  ApplyRandomRays(gb.get(), xtion, 5000, 6);
+  EXPECT_EQ(ga->Hash(), gb->Hash());
+}
+
+// Depth image geometry: a 3x3 image with 45 degree pixels (fx = fy = 1), camera at p looking
+// along world +x (optical z -> W x, optical x -> W -y, optical y -> W -z). The centre pixel's
+// depth d ends at p + d x; the pixel one focal length to the right has range d*sqrt(2) and ends at
+// p + d(x - y). With the log-odds baseline the end-point cell is exactly the one raised to a hit.
+TEST(OccupancyMap, DepthImageEndPointsFollowPinholeGeometry) {
+  auto map = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  Pose3 X_WS;
+  X_WS.p = Eigen::Vector3d(0.01, 0.02, 0.7);
+  Eigen::Matrix3d R_WS;
+  R_WS.col(0) = -Eigen::Vector3d::UnitY();
+  R_WS.col(1) = -Eigen::Vector3d::UnitZ();
+  R_WS.col(2) = Eigen::Vector3d::UnitX();
+  X_WS.q = Eigen::Quaterniond(R_WS);
+  const DepthIntrinsics in{1.0, 1.0, 1.0, 1.0};
+  std::vector<uint16_t> depth(9, 0);
+  depth[1 * 3 + 1] = 2000;  // centre, depth 2 m
+  depth[1 * 3 + 2] = 1500;  // u = 2: one focal length right, depth 1.5 m
+  const ScanStats stats = map->ApplyDepthImage(X_WS, in, depth.data(), 3, 3, 0.001, xtion);
+  EXPECT_EQ(stats.rays_applied, 9u);
+  EXPECT_EQ(stats.rays_no_return, 7u);
+  const GridGeometry& g = map->grid().geometry();
+  const CellIndex centre_hit = *g.CellOf(X_WS.p + Eigen::Vector3d(2.0, 0.0, 0.0));
+  const CellIndex side_hit = *g.CellOf(X_WS.p + Eigen::Vector3d(1.5, -1.5, 0.0));
+  EXPECT_NEAR(map->ProbabilityAt(centre_hit), 0.7, 1e-6);
+  EXPECT_NEAR(map->ProbabilityAt(side_hit), 0.7, 1e-6);
+
+  // A wide pixel (45 degrees off axis): depth 1 m is a range of sqrt(2) m, ending at p+(1,-1,0).
+  auto wide = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
+  const DepthIntrinsics wide_in{1.0, 1.0, 0.0, 0.0};
+  const uint16_t one_pixel[2] = {0, 1000};
+  wide->ApplyDepthImage(X_WS, wide_in, one_pixel, 2, 1, 0.001, xtion);
+  EXPECT_NEAR(wide->ProbabilityAt(*g.CellOf(X_WS.p + Eigen::Vector3d(1.0, -1.0, 0.0))), 0.7, 1e-6);
+}
+
+// Planar scan geometry: beam i at angle_min + i*step about the LIDAR's z; the exact model raises
+// each end-point cell above the prior (one reading shares the return among the cells within
+// about sigma) and lowers the cells half-way along the beam.
+TEST(OccupancyMap, PlanarScanEndPointsFollowBeamAngles) {
+  auto map = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
+  const SensorModel hokuyo(SensorModelConfig::Hokuyo());
+  Pose3 X_WS;
+  X_WS.p = Eigen::Vector3d(0.01, 0.02, 0.7);
+  X_WS.q = QuaternionFromYaw(0.3);
+  const float ranges[4] = {2.0f, std::nanf(""), 3.0f, 10.0f};
+  const ScanStats stats = map->ApplyPlanarScan(X_WS, -0.5, 0.25, ranges, 4, hokuyo);
+  EXPECT_EQ(stats.rays_applied, 3u);
+  EXPECT_EQ(stats.rays_invalid, 1u);
+  EXPECT_EQ(stats.rays_no_return, 1u);
+  const GridGeometry& g = map->grid().geometry();
+  for (int i : {0, 2}) {
+    const double angle = 0.3 - 0.5 + 0.25 * i;
+    const Eigen::Vector3d dir(std::cos(angle), std::sin(angle), 0.0);
+    EXPECT_GT(map->ProbabilityAt(*g.CellOf(X_WS.p + ranges[i] * dir)), 0.12) << i;
+    EXPECT_LT(map->ProbabilityAt(*g.CellOf(X_WS.p + 0.5 * ranges[i] * dir)), 0.1) << i;
+  }
+}
+
+// The log-odds baseline follows OctoMap's arithmetic: a miss is logit(0.4), a hit logit(0.7),
+// clamped to [logit(0.12), logit(0.97)].
+TEST(LogOddsUpdater, FollowsOctoMapArithmetic) {
+  auto map = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  const Eigen::Vector3d o(0.01, 0.02, 0.7);
+  const GridGeometry& g = map->grid().geometry();
+  const CellIndex free_cell = *g.CellOf(o + Eigen::Vector3d(1.0, 0, 0));
+  const CellIndex end_cell = *g.CellOf(o + Eigen::Vector3d(2.0, 0, 0));
+  map->ApplyRay(o, Eigen::Vector3d::UnitX(), 2.0, xtion);
+  EXPECT_NEAR(map->ProbabilityAt(free_cell), 0.4, 1e-6);
+  EXPECT_NEAR(map->ProbabilityAt(end_cell), 0.7, 1e-6);
+  map->ApplyRay(o, Eigen::Vector3d::UnitX(), 2.0, xtion);
+  const double two_misses = 1.0 / (1.0 + std::pow(0.6 / 0.4, 2));
+  EXPECT_NEAR(map->ProbabilityAt(free_cell), two_misses, 1e-6);
+  for (int i = 0; i < 20; ++i) map->ApplyRay(o, Eigen::Vector3d::UnitX(), 2.0, xtion);
+  EXPECT_NEAR(map->ProbabilityAt(free_cell), 0.12, 1e-6);
+  EXPECT_NEAR(map->ProbabilityAt(end_cell), 0.97, 1e-6);
+}
+
+// ApplyRay casts a return only to z + c sigma (+ one cell diagonal): its cells end exactly as the
+// section 4 update over the full ray to z_max gives them (computed here from a full cast and
+// ComputeExactPosteriors, clamped and stored as float), and the cells past the cut keep their
+// values.
+TEST(OccupancyMap, ShortenedCastEqualsFullRayUpdate) {
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  auto map = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
+  ApplyRandomRays(map.get(), xtion, 3000, 9);  // non-trivial priors
+  const GridGeometry& g = map->grid().geometry();
+  RayCells full(4.0, g.resolution_m());
+  InverseSensorModelScratch scratch(full.cells.size());
+  std::mt19937 rng(10);
+  int cut_cells = 0;
+  for (int i = 0; i < 500; ++i) {
+    const Eigen::Vector3d o(0.05, -0.1, 0.7);
+    const Eigen::Vector3d u = RandomUnit(rng, 0.2);
+    const double z = std::uniform_real_distribution<double>(0.5, 2.5)(rng);
+    const int n = RayCaster(g).Cast(o, u, 4.0, &full);
+    std::vector<double> prior(n), posterior(n);
+    for (int k = 0; k < n; ++k) prior[k] = map->ProbabilityAt(full.cells[k]);
+    const ExactUpdateResult r =
+        ComputeExactPosteriors(xtion, Reading{ReadingKind::kReturn, z}, full.distance_m.data(),
+                               prior.data(), n, posterior.data(), &scratch);
+    map->ApplyRay(o, u, z, xtion);
+    for (int k = 0; k < n; ++k) {
+      const float expected = k < r.first + r.count
+                                 ? static_cast<float>(ClampProbability(posterior[k], 1e-4))
+                                 : static_cast<float>(prior[k]);
+      ASSERT_EQ(map->grid().Get(full.cells[k]), expected) << "ray " << i << " cell " << k;
+    }
+    cut_cells += n - r.count;
+  }
+  EXPECT_GT(cut_cells, 1000);
+}
+
+// Casting on a second thread (SetTraversalThread) gives the same map bit for bit as casting
+// inline, for depth images and scans, on both grids.
+TEST(OccupancyMap, TraversalThreadGivesBitIdenticalMaps) {
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  const SensorModel hokuyo(SensorModelConfig::Hokuyo());
+  std::mt19937 rng(12);
+  std::vector<uint16_t> depth(97 * 61);  // not a multiple of the batch size
+  for (uint16_t& d : depth) d = rng() % 9 == 0 ? 0 : static_cast<uint16_t>(300 + rng() % 4500);
+  std::vector<float> ranges(682);
+  for (float& r : ranges) r = rng() % 11 == 0 ? std::nanf("") : 0.3f + 0.001f * (rng() % 4500);
+  const DepthIntrinsics in{80.0, 80.0, 48.0, 30.0};
+  const auto run = [&](auto* map) {
+    ScanStats stats;
+    for (int f = 0; f < 6; ++f) {
+      Pose3 X_WS;
+      X_WS.p = Eigen::Vector3d(0.1 * f, -0.2 * f, 0.7);
+      X_WS.q = QuaternionFromYaw(0.7 * f) *
+               Eigen::Quaterniond(Eigen::AngleAxisd(1.3, Eigen::Vector3d::UnitY()));
+      stats += map->ApplyDepthImage(X_WS, in, depth.data(), 97, 61, 0.001, xtion);
+      stats += map->ApplyPlanarScan(X_WS, -2.0, 0.006, ranges.data(), 682, hokuyo);
+    }
+    return stats;
+  };
+  auto inline_map = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
+  auto threaded_map = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
+  threaded_map->SetTraversalThread(true);
+  EXPECT_TRUE(threaded_map->traversal_thread());
+  const ScanStats a = run(inline_map.get());
+  const ScanStats b = run(threaded_map.get());
+  EXPECT_EQ(inline_map->Hash(), threaded_map->Hash());
+  EXPECT_EQ(a.cells_updated, b.cells_updated);
+  EXPECT_EQ(a.rays_invalid, b.rays_invalid);
+  EXPECT_GT(a.rays_invalid, 0u);
+  EXPECT_EQ(inline_map->entropy_nats(), threaded_map->entropy_nats());
+  auto inline_growing = MakeExactGrowingMap(MapLimits{}, kOccupancy, 4.0);
+  auto threaded_growing = MakeExactGrowingMap(MapLimits{}, kOccupancy, 4.0);
+  threaded_growing->SetTraversalThread(true);
+  run(inline_growing.get());
+  run(threaded_growing.get());
+  EXPECT_EQ(inline_growing->Hash(), threaded_growing->Hash());
+  threaded_map->SetTraversalThread(false);
+  EXPECT_FALSE(threaded_map->traversal_thread());
+}
+
+TEST(OccupancyMap, RejectsBadImages) {
+  auto map = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  const uint16_t px[1] = {1000};
+  EXPECT_THROW(
+      map->ApplyDepthImage(Pose3{}, DepthIntrinsics{0.0, 1.0, 0.0, 0.0}, px, 1, 1, 0.001, xtion),
+      std::invalid_argument);
+  EXPECT_THROW(
+      map->ApplyDepthImage(Pose3{}, DepthIntrinsics{1.0, 1.0, 0.0, 0.0}, px, 0, 1, 0.001, xtion),
+      std::invalid_argument);
+  Pose3 zero_q;
+  zero_q.q = Eigen::Quaterniond(0.0, 0.0, 0.0, 0.0);
+  EXPECT_THROW(
+      map->ApplyDepthImage(zero_q, DepthIntrinsics{1.0, 1.0, 0.0, 0.0}, px, 1, 1, 0.001, xtion),
+      std::invalid_argument);
+  const float range[1] = {1.0f};
+  EXPECT_THROW(map->ApplyPlanarScan(zero_q, 0.0, 0.01, range, 1, xtion), std::invalid_argument);
+  SensorModelConfig far = SensorModelConfig::Xtion();
+  far.z_max_m = 8.0;
+  EXPECT_THROW(
+      map->ApplyRay(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), 2.0, SensorModel(far)),
+      std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace kestrel
