@@ -1,0 +1,68 @@
+#pragma once
+/// @file
+/// kestrel-sim's node: the Simulator (sim/simulator.h) on LCM. Publishes what the hardware
+/// drivers publish (POSE_VICON pose_t as the motion-capture bridge does, without velocities;
+/// IMU imu_t; DEPTH_XTION depth_image_t raw 16-bit; SCAN_HOKUYO planar_scan_t) plus SIM_TRUTH
+/// (sim_truth_t) and a 1 Hz heartbeat; reads MOTOR_COMMAND (dynamic mode) or TRAJECTORY
+/// (kinematic mode) through the guarded decoder. Lockstep: Step() advances one physics step,
+/// sets the SimClock to the new time and publishes; nodes sharing the lcm and clock in one
+/// process then handle the messages (lcm.handleTimeout(0)) before the next Step().
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "common/clock.h"
+#include "common/heartbeat.h"
+#include "common/lcm_decode.h"
+#include "kestrel/motor_command_t.hpp"
+#include "kestrel/trajectory_t.hpp"
+#include "sim/simulator.h"
+
+namespace kestrel {
+
+/// kestrel-sim's LCM node (see the file comment). Not thread-safe; neither copyable nor movable.
+/// SIM_TRUTH's real_time_factor and the heartbeat depend on the wall clock; every other field
+/// of every message is deterministic for a seed.
+class SimNode {
+ public:
+  /// Builds the simulator at the clock's current time and subscribes. The lcm and clock must
+  /// outlive the node. @throws std::invalid_argument if config.Validate() throws.
+  SimNode(lcm::LCM& lcm, const SimConfig& config, SimClock& clock);
+  SimNode(const SimNode&) = delete;
+  SimNode& operator=(const SimNode&) = delete;
+
+  /// One lockstep step: advance physics, set the clock, publish everything due.
+  void Step();
+
+  /// The simulation core (state, sensors, latest frames).
+  [[nodiscard]] const Simulator& simulator() const { return *simulator_; }
+  /// The simulation core, mutable (e.g. SetVehicleState before the first Step).
+  [[nodiscard]] Simulator& mutable_simulator() { return *simulator_; }
+  /// Messages refused (malformed, wrong motor count, bad trajectory), since start.
+  [[nodiscard]] int64_t rejected_messages() const { return rejected_; }
+  /// Simulated seconds per wall second since the last heartbeat (0 before the first).
+  [[nodiscard]] double real_time_factor() const { return real_time_factor_; }
+
+ private:
+  void OnMotorCommand(const motor_command_t& msg);
+  void OnTrajectory(const trajectory_t& msg);
+  void Reject(const std::string& channel, const std::string& reason);
+  void Publish(const SimFrame& frame);
+
+  lcm::LCM& lcm_;
+  SimClock& clock_;
+  std::unique_ptr<Simulator> simulator_;
+  GuardedSubscriptions subscriptions_;
+  Heartbeat heartbeat_;
+  int64_t pose_seq_{0}, imu_seq_{0}, depth_seq_{0}, scan_seq_{0}, truth_seq_{0};
+  int64_t rejected_{0};
+  int64_t next_heartbeat_utime_;
+  std::chrono::steady_clock::time_point wall_at_heartbeat_;
+  int64_t utime_at_heartbeat_;
+  double real_time_factor_{0.0};
+};
+
+}  // namespace kestrel

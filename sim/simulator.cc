@@ -1,0 +1,252 @@
+#include "sim/simulator.h"
+
+#include <cmath>
+
+#include "common/check.h"
+#include "common/clock.h"
+
+namespace kestrel {
+namespace {
+
+std::string Resolve(const std::string& base_dir, const std::string& path) {
+  if (path.empty() || path[0] == '/' || base_dir.empty()) return path;
+  return base_dir + "/" + path;
+}
+
+void ReadDepth(const ConfigNode& n, DepthCameraConfig* c) {
+  if (n.Has("resolution")) {
+    std::string resolution;
+    n.Read("resolution", &resolution, std::vector<std::string>{"vga", "qvga", "80x60"});
+    if (resolution == "vga") {
+      c->width_px = 640;
+      c->height_px = 480;
+    } else if (resolution == "qvga") {
+      c->width_px = 320;
+      c->height_px = 240;
+    } else {
+      c->width_px = 80;
+      c->height_px = 60;
+    }
+  }
+  n.Read("width_px", &c->width_px, Range::Closed(1, 4096));
+  n.Read("height_px", &c->height_px, Range::Closed(1, 4096));
+  n.Read("hfov_deg", &c->hfov_deg, Range::Open(0, 180));
+  n.Read("vfov_deg", &c->vfov_deg, Range::Open(0, 180));
+  n.Read("range_min_m", &c->range_min_m, Range::NonNegative());
+  n.Read("range_max_m", &c->range_max_m, Range::Positive());
+  n.Read("sigma_a_m", &c->sigma_a_m, Range::NonNegative());
+  n.Read("sigma_b_per_m", &c->sigma_b_per_m, Range::NonNegative());
+  n.Read("sigma_z0_m", &c->sigma_z0_m);
+  n.Read("depth_scale_m", &c->depth_scale_m, Range::Positive());
+  n.Read("dropout_probability", &c->dropout_probability, Range::Closed(0, 1));
+  n.Read("rate_hz", &c->rate_hz, Range{0, 1000, false, true});
+  n.Read("noise", &c->noise);
+  n.Read("num_threads", &c->num_threads, Range::Closed(1, 64));
+}
+
+void ReadLidar(const ConfigNode& n, PlanarLidarConfig* c) {
+  if (n.Has("model")) {
+    std::string model;
+    n.Read("model", &model, std::vector<std::string>{"urg-04lx", "utm-30lx"});
+    *c = model == "utm-30lx" ? PlanarLidarConfig::Utm30lx() : PlanarLidarConfig::Urg04lx();
+  }
+  n.Read("num_beams", &c->num_beams, Range::Closed(1, 100000));
+  n.Read("angle_step_rad", &c->angle_step_rad, Range::Positive());
+  n.Read("angle_min_rad", &c->angle_min_rad, Range::Closed(-2 * M_PI, 2 * M_PI));
+  n.Read("range_min_m", &c->range_min_m, Range::NonNegative());
+  n.Read("range_max_m", &c->range_max_m, Range::Positive());
+  n.Read("sigma_m", &c->sigma_m, Range::NonNegative());
+  n.Read("sigma_fraction", &c->sigma_fraction, Range::NonNegative());
+  n.Read("quantum_m", &c->quantum_m, Range::NonNegative());
+  n.Read("dropout_probability", &c->dropout_probability, Range::Closed(0, 1));
+  n.Read("rate_hz", &c->rate_hz, Range{0, 1000, false, true});
+  n.Read("noise", &c->noise);
+}
+
+}  // namespace
+
+void SimConfig::Validate() const {
+  world.Validate();
+  vehicle.Validate();
+  KESTREL_THROW_UNLESS(mode == "dynamic" || mode == "kinematic",
+                       "sim mode = \"" << mode << "\"; accepted: dynamic, kinematic");
+  KESTREL_THROW_UNLESS(physics_step_s >= 1e-5 && physics_step_s <= 0.01,
+                       "sim physics_step_s = " << physics_step_s << "; accepted: [1e-5, 0.01]");
+  KESTREL_THROW_UNLESS(speed_factor >= 0.0 && std::isfinite(speed_factor),
+                       "sim speed_factor = " << speed_factor << "; accepted: [0, inf)");
+  KESTREL_THROW_UNLESS(run_duration_s >= 0.0 && std::isfinite(run_duration_s),
+                       "sim run_duration_s = " << run_duration_s << "; accepted: [0, inf)");
+  KESTREL_THROW_UNLESS(vehicle_height_m > 0.0 && vehicle_height_m < 5.0,
+                       "sim vehicle_height_m = " << vehicle_height_m << "; accepted: (0, 5)");
+  KESTREL_THROW_UNLESS(
+      motor_command_timeout_s > 0.0,
+      "sim motor_command_timeout_s = " << motor_command_timeout_s << "; accepted: (0, inf)");
+  KESTREL_THROW_UNLESS(ray_bin_m > 0.0, "sim ray_bin_m = " << ray_bin_m << "; accepted: (0, inf)");
+  KESTREL_THROW_UNLESS(truth_rate_hz > 0.0 && truth_rate_hz <= 1000.0,
+                       "sim truth_rate_hz = " << truth_rate_hz << "; accepted: (0, 1000]");
+  quadrotor.Validate();
+  depth.Validate();
+  lidar.Validate();
+  mocap.Validate();
+  imu.Validate();
+}
+
+SimConfig LoadSimConfig(const ConfigNode& root, const std::string& base_dir) {
+  SimConfig c;
+  std::string world_file, vehicle_file;
+  root.ReadRequired("world_file", &world_file);
+  root.ReadRequired("vehicle_file", &vehicle_file);
+  c.world = LoadWorld(Resolve(base_dir, world_file));
+  c.vehicle = LoadVehicleConfigFile(Resolve(base_dir, vehicle_file));
+  root.Read("seed", &c.seed, Range::NonNegative());
+  root.Read("mode", &c.mode, std::vector<std::string>{"dynamic", "kinematic"});
+  root.Read("physics_step_s", &c.physics_step_s, Range::Closed(1e-5, 0.01));
+  root.Read("speed_factor", &c.speed_factor, Range::NonNegative());
+  root.Read("run_duration_s", &c.run_duration_s, Range::NonNegative());
+  root.Read("vehicle_height_m", &c.vehicle_height_m, Range::Open(0, 5));
+  root.Read("motor_command_timeout_s", &c.motor_command_timeout_s, Range::Positive());
+  root.Read("ray_bin_m", &c.ray_bin_m, Range::Positive());
+  root.Read("truth_rate_hz", &c.truth_rate_hz, Range{0, 1000, false, true});
+  if (root.Has("quadrotor")) {
+    const ConfigNode q = root.Child("quadrotor");
+    q.Read("max_substep_s", &c.quadrotor.max_substep_s, Range{0, 0.01, false, true});
+    q.Read("crash_speed_mps", &c.quadrotor.crash_speed_mps, Range::Positive());
+  }
+  if (root.Has("depth")) {
+    const ConfigNode d = root.Child("depth");
+    d.Read("enabled", &c.depth_enabled);
+    d.Read("sensor_name", &c.depth_sensor_name);
+    ReadDepth(d, &c.depth);
+  }
+  if (root.Has("lidar")) {
+    const ConfigNode l = root.Child("lidar");
+    l.Read("enabled", &c.lidar_enabled);
+    l.Read("sensor_name", &c.lidar_sensor_name);
+    ReadLidar(l, &c.lidar);
+  }
+  if (root.Has("mocap")) {
+    const ConfigNode m = root.Child("mocap");
+    m.Read("enabled", &c.mocap_enabled);
+    m.Read("rate_hz", &c.mocap.rate_hz, Range{0, 1000, false, true});
+    m.Read("position_sigma_m", &c.mocap.position_sigma_m, Range::NonNegative());
+    m.Read("orientation_sigma_rad", &c.mocap.orientation_sigma_rad, Range::NonNegative());
+    m.Read("latency_s", &c.mocap.latency_s, Range::Closed(0, 1));
+    m.Read("dropout_probability", &c.mocap.dropout_probability, Range{0, 1, true, false});
+    m.Read("mean_dropout_samples", &c.mocap.mean_dropout_samples, Range::AtLeast(1));
+  }
+  if (root.Has("imu")) {
+    const ConfigNode i = root.Child("imu");
+    i.Read("enabled", &c.imu_enabled);
+    i.Read("rate_hz", &c.imu.rate_hz, Range::Closed(1, 10000));
+    i.Read("gyro_noise_sigma_radps", &c.imu.gyro_noise_sigma_radps, Range::NonNegative());
+    i.Read("accel_noise_sigma_mps2", &c.imu.accel_noise_sigma_mps2, Range::NonNegative());
+    i.Read("gyro_bias_sigma_radps", &c.imu.gyro_bias_sigma_radps, Range::NonNegative());
+    i.Read("accel_bias_sigma_mps2", &c.imu.accel_bias_sigma_mps2, Range::NonNegative());
+    i.Read("gyro_bias_walk_radps_sqrt_s", &c.imu.gyro_bias_walk_radps_sqrt_s, Range::NonNegative());
+    i.Read("accel_bias_walk_mps2_sqrt_s", &c.imu.accel_bias_walk_mps2_sqrt_s, Range::NonNegative());
+  }
+  if (root.Has("channels")) {
+    const ConfigNode ch = root.Child("channels");
+    ch.Read("pose", &c.pose_channel);
+    ch.Read("imu", &c.imu_channel);
+    ch.Read("depth", &c.depth_channel);
+    ch.Read("scan", &c.scan_channel);
+    ch.Read("truth", &c.truth_channel);
+    ch.Read("motor_command", &c.motor_channel);
+    ch.Read("trajectory", &c.trajectory_channel);
+    ch.Read("heartbeat", &c.heartbeat_channel);
+  }
+  root.CheckNoUnknownKeys();
+  try {
+    c.Validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(root.file() + ": " + e.what());
+  }
+  c.imu.gravity_mps2 = c.quadrotor.gravity_mps2;
+  return c;
+}
+
+Simulator::Simulator(const SimConfig& config, int64_t start_utime)
+    : config_((config.Validate(), config)),
+      start_utime_(start_utime),
+      utime_(start_utime),
+      step_us_(SecondsToUtime(config.physics_step_s)),
+      caster_(config_.world, config_.ray_bin_m),
+      bullet_(config_.world, 0.5 * config_.vehicle.diameter_m, config_.vehicle_height_m),
+      camera_(config_.depth),
+      lidar_(config_.lidar),
+      mocap_(config_.mocap),
+      depth_rng_(MixSeed(static_cast<uint64_t>(config_.seed) * 8 + 1)),
+      lidar_rng_(MixSeed(static_cast<uint64_t>(config_.seed) * 8 + 2)),
+      mocap_rng_(MixSeed(static_cast<uint64_t>(config_.seed) * 8 + 3)),
+      imu_rng_(MixSeed(static_cast<uint64_t>(config_.seed) * 8 + 4)),
+      imu_(config_.imu, &imu_rng_) {
+  KESTREL_THROW_UNLESS(step_us_ >= 1, "physics step " << config_.physics_step_s << " s");
+  quad_ = std::make_unique<Quadrotor>(config_.vehicle, config_.quadrotor, config_.world, &bullet_);
+  last_imu_utime_ = start_utime;
+}
+
+int64_t Simulator::DueUtime(double rate_hz, int64_t k) const {
+  return start_utime_ + std::llround(static_cast<double>(k) * 1e6 / rate_hz);
+}
+
+bool Simulator::SetMotorCommand(const Eigen::Vector4d& thrust_N, bool armed) {
+  if (!thrust_N.allFinite()) return false;
+  command_N_ = armed ? thrust_N : Eigen::Vector4d::Zero();
+  command_utime_ = utime_;
+  have_command_ = true;
+  return true;
+}
+
+void Simulator::SetTrajectory(const PiecewisePolynomialTrajectory& trajectory) {
+  trajectory_ = trajectory;
+}
+
+const SimFrame& Simulator::Step() {
+  frame_ = SimFrame{};
+  utime_ += step_us_;
+  const double t_s = UtimeToSeconds(utime_);
+  if (config_.mode == "kinematic") {
+    if (trajectory_.has_value()) quad_->FollowTrajectory(*trajectory_, t_s);
+  } else {
+    const bool fresh =
+        have_command_ && utime_ - command_utime_ <= SecondsToUtime(config_.motor_command_timeout_s);
+    quad_->Step(fresh ? command_N_ : Eigen::Vector4d::Zero(), config_.physics_step_s);
+  }
+  const QuadrotorState& s = quad_->state();
+  const Pose3 X_WB = s.pose();
+  // Sensors due at the new time, each at its own rate from the start time.
+  if (config_.imu_enabled && utime_ >= DueUtime(config_.imu.rate_hz, imu_k_)) {
+    while (utime_ >= DueUtime(config_.imu.rate_hz, imu_k_)) ++imu_k_;
+    frame_.imu = imu_.Measure(utime_, s.q_WB.toRotationMatrix(), s.w_B, quad_->acceleration_W(),
+                              UtimeToSeconds(utime_ - last_imu_utime_), &imu_rng_);
+    last_imu_utime_ = utime_;
+  }
+  if (config_.mocap_enabled && utime_ >= DueUtime(config_.mocap.rate_hz, mocap_k_)) {
+    while (utime_ >= DueUtime(config_.mocap.rate_hz, mocap_k_)) ++mocap_k_;
+    mocap_queue_.push_back(mocap_.Measure(utime_, X_WB, &mocap_rng_));
+  }
+  while (!mocap_queue_.empty() && mocap_queue_.front().deliver_utime <= utime_) {
+    frame_.poses.push_back(mocap_queue_.front());
+    mocap_queue_.pop_front();
+  }
+  if (config_.depth_enabled && utime_ >= DueUtime(config_.depth.rate_hz, depth_k_)) {
+    while (utime_ >= DueUtime(config_.depth.rate_hz, depth_k_)) ++depth_k_;
+    camera_.Render(caster_, X_WB * config_.vehicle.X_BS_xtion, &depth_rng_, &depth_counts_);
+    depth_utime_ = utime_;
+    frame_.depth = true;
+  }
+  if (config_.lidar_enabled && utime_ >= DueUtime(config_.lidar.rate_hz, scan_k_)) {
+    while (utime_ >= DueUtime(config_.lidar.rate_hz, scan_k_)) ++scan_k_;
+    lidar_.Scan(caster_, X_WB * config_.vehicle.X_BS_hokuyo, &lidar_rng_, &scan_ranges_);
+    scan_utime_ = utime_;
+    frame_.scan = true;
+  }
+  if (utime_ >= DueUtime(config_.truth_rate_hz, truth_k_)) {
+    while (utime_ >= DueUtime(config_.truth_rate_hz, truth_k_)) ++truth_k_;
+    frame_.truth = true;
+  }
+  return frame_;
+}
+
+}  // namespace kestrel

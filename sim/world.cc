@@ -1,0 +1,285 @@
+#include "sim/world.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "common/check.h"
+
+namespace kestrel {
+namespace {
+
+Eigen::Quaterniond QuaternionFromRpy(const Eigen::Vector3d& rpy_rad) {
+  // R = Rz(yaw) Ry(pitch) Rx(roll): extrinsic roll, then pitch, then yaw about W axes.
+  return (Eigen::AngleAxisd(rpy_rad.z(), Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(rpy_rad.y(), Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(rpy_rad.x(), Eigen::Vector3d::UnitX()))
+      .normalized();
+}
+
+WorldBox ParseBox(const ConfigNode& n) {
+  WorldBox box;
+  n.Read("name", &box.name);
+  const bool has_min_max = n.Has("min_m") || n.Has("max_m");
+  const bool has_center_size = n.Has("center_m") || n.Has("size_m");
+  if (has_min_max && has_center_size) {
+    n.Fail("min_m", "give either min_m/max_m or center_m/size_m, not both");
+  }
+  if (has_min_max) {
+    Eigen::Vector3d lo, hi;
+    n.ReadRequired("min_m", &lo);
+    n.ReadRequired("max_m", &hi);
+    for (int a = 0; a < 3; ++a) {
+      if (!(hi[a] > lo[a])) n.Fail("max_m", "must exceed min_m on every axis");
+    }
+    box.center_m = 0.5 * (lo + hi);
+    box.half_extents_m = 0.5 * (hi - lo);
+  } else {
+    Eigen::Vector3d size;
+    n.ReadRequired("center_m", &box.center_m);
+    n.ReadRequired("size_m", &size, Range::Positive());
+    box.half_extents_m = 0.5 * size;
+  }
+  if (n.Has("yaw_rad") && n.Has("rpy_rad")) n.Fail("yaw_rad", "give yaw_rad or rpy_rad, not both");
+  if (n.Has("yaw_rad")) {
+    double yaw = 0.0;
+    n.Read("yaw_rad", &yaw, Range::Closed(-2.0 * M_PI, 2.0 * M_PI));
+    box.q_WO = QuaternionFromYaw(yaw);
+  } else if (n.Has("rpy_rad")) {
+    Eigen::Vector3d rpy;
+    n.Read("rpy_rad", &rpy, Range::Closed(-2.0 * M_PI, 2.0 * M_PI));
+    box.q_WO = QuaternionFromRpy(rpy);
+  }
+  return box;
+}
+
+WorldCylinder ParseCylinder(const ConfigNode& n) {
+  WorldCylinder c;
+  n.Read("name", &c.name);
+  std::vector<double> center;
+  n.ReadRequired("center_m", &center, Range::Any(), 2);
+  c.center_xy_m = Eigen::Vector2d(center[0], center[1]);
+  n.ReadRequired("radius_m", &c.radius_m, Range::Positive());
+  n.ReadRequired("z_min_m", &c.z_min_m);
+  n.ReadRequired("z_max_m", &c.z_max_m);
+  if (!(c.z_max_m > c.z_min_m)) n.Fail("z_max_m", "must exceed z_min_m");
+  return c;
+}
+
+WorldMesh ParseMesh(const ConfigNode& n) {
+  std::string file;
+  n.ReadRequired("file", &file);
+  std::string dir;
+  const size_t slash = n.file().find_last_of('/');
+  if (!file.empty() && file[0] != '/' && slash != std::string::npos) {
+    dir = n.file().substr(0, slash + 1);
+  }
+  WorldMesh mesh;
+  try {
+    mesh = ReadObjFile(dir + file);
+  } catch (const ConfigError& e) {
+    n.Fail("file", e.what());
+  }
+  n.Read("name", &mesh.name);
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  double yaw = 0.0;
+  double scale = 1.0;
+  n.Read("position_m", &position);
+  n.Read("yaw_rad", &yaw, Range::Closed(-2.0 * M_PI, 2.0 * M_PI));
+  n.Read("scale", &scale, Range::Positive());
+  const Eigen::Quaterniond q = QuaternionFromYaw(yaw);
+  for (Eigen::Vector3d& v : mesh.vertices_W) v = q * (scale * v) + position;
+  return mesh;
+}
+
+WorldPlane ParsePlane(const ConfigNode& n) {
+  WorldPlane p;
+  n.Read("name", &p.name);
+  n.ReadRequired("normal", &p.normal);
+  if (!(p.normal.norm() > 1e-9)) n.Fail("normal", "must be a non-zero vector");
+  p.normal.normalize();
+  n.ReadRequired("offset_m", &p.offset_m);
+  return p;
+}
+
+}  // namespace
+
+void World::Validate() const {
+  for (int a = 0; a < 3; ++a) {
+    KESTREL_THROW_UNLESS(
+        std::isfinite(map_min_m[a]) && std::isfinite(map_max_m[a]) && map_max_m[a] > map_min_m[a],
+        "world '" << name << "': map limits axis " << a << " [" << map_min_m[a] << ", "
+                  << map_max_m[a] << "] must be finite and ordered");
+  }
+  for (const WorldBox& b : boxes) {
+    KESTREL_THROW_UNLESS(
+        b.half_extents_m.allFinite() && b.half_extents_m.minCoeff() > 0.0 && b.center_m.allFinite(),
+        "world '" << name << "': box '" << b.name << "' has a bad size or centre");
+  }
+  for (const WorldCylinder& c : cylinders) {
+    KESTREL_THROW_UNLESS(std::isfinite(c.radius_m) && c.radius_m > 0.0 && c.z_max_m > c.z_min_m &&
+                             c.center_xy_m.allFinite(),
+                         "world '" << name << "': cylinder '" << c.name << "' is degenerate");
+  }
+  for (const WorldPlane& p : planes) {
+    KESTREL_THROW_UNLESS(std::abs(p.normal.norm() - 1.0) < 1e-9 && std::isfinite(p.offset_m),
+                         "world '" << name << "': plane '" << p.name << "' needs a unit normal");
+  }
+  for (const WorldMesh& m : meshes) {
+    for (const Eigen::Vector3d& v : m.vertices_W) {
+      KESTREL_THROW_UNLESS(
+          v.allFinite(), "world '" << name << "': mesh '" << m.name << "' has a non-finite vertex");
+    }
+    const int n = static_cast<int>(m.vertices_W.size());
+    for (const Eigen::Vector3i& t : m.triangles) {
+      KESTREL_THROW_UNLESS(t.minCoeff() >= 0 && t.maxCoeff() < n,
+                           "world '" << name << "': mesh '" << m.name << "' triangle "
+                                     << t.transpose() << " indexes outside 0.." << n - 1);
+    }
+  }
+  const Eigen::Vector3d& s = start_X_WB.p;
+  KESTREL_THROW_UNLESS(
+      (s.array() >= map_min_m.array()).all() && (s.array() <= map_max_m.array()).all(),
+      "world '" << name << "': start position " << s.transpose() << " lies outside the map limits");
+  KESTREL_THROW_UNLESS(exploration_height_m > map_min_m.z() && exploration_height_m < map_max_m.z(),
+                       "world '" << name << "': exploration height " << exploration_height_m
+                                 << " m outside the z limits");
+}
+
+World ParseWorld(const ConfigNode& root) {
+  World world;
+  world.source = root.file();
+  root.Read("name", &world.name);
+  const ConfigNode limits = root.Child("map_limits");
+  limits.ReadRequired("min_m", &world.map_min_m);
+  limits.ReadRequired("max_m", &world.map_max_m);
+  for (int a = 0; a < 3; ++a) {
+    if (!(world.map_max_m[a] > world.map_min_m[a])) {
+      limits.Fail("max_m", "must exceed min_m on every axis");
+    }
+  }
+  const ConfigNode start = root.Child("start");
+  start.ReadRequired("position_m", &world.start_X_WB.p);
+  double yaw = 0.0;
+  start.Read("yaw_rad", &yaw, Range::Closed(-2.0 * M_PI, 2.0 * M_PI));
+  world.start_X_WB.q = QuaternionFromYaw(yaw);
+  for (int a = 0; a < 3; ++a) {
+    if (world.start_X_WB.p[a] < world.map_min_m[a] || world.start_X_WB.p[a] > world.map_max_m[a]) {
+      start.Fail("position_m", "must lie inside map_limits");
+    }
+  }
+  root.ReadRequired("exploration_height_m", &world.exploration_height_m,
+                    Range::Open(world.map_min_m.z(), world.map_max_m.z()));
+  for (const ConfigNode& item : root.Elements("obstacles")) {
+    std::string type;
+    item.ReadRequired("type", &type, std::vector<std::string>{"box", "cylinder", "plane", "mesh"});
+    if (type == "box") {
+      world.boxes.push_back(ParseBox(item));
+    } else if (type == "mesh") {
+      world.meshes.push_back(ParseMesh(item));
+    } else if (type == "cylinder") {
+      world.cylinders.push_back(ParseCylinder(item));
+    } else {
+      world.planes.push_back(ParsePlane(item));
+    }
+  }
+  root.CheckNoUnknownKeys();
+  world.Validate();
+  return world;
+}
+
+World LoadWorld(const std::string& path) {
+  World world = ParseWorld(ConfigNode::LoadFile(path));
+  if (world.name.empty()) {
+    const size_t slash = path.find_last_of('/');
+    std::string stem = path.substr(slash == std::string::npos ? 0 : slash + 1);
+    const size_t dot = stem.find_last_of('.');
+    world.name = stem.substr(0, dot);
+  }
+  return world;
+}
+
+bool IsInsideObstacle(const World& world, const Eigen::Vector3d& p_W) {
+  for (const WorldBox& b : world.boxes) {
+    const Eigen::Vector3d p_O = b.q_WO.conjugate() * (p_W - b.center_m);
+    if ((p_O.cwiseAbs().array() < b.half_extents_m.array()).all()) return true;
+  }
+  for (const WorldCylinder& c : world.cylinders) {
+    if (p_W.z() > c.z_min_m && p_W.z() < c.z_max_m &&
+        (p_W.head<2>() - c.center_xy_m).squaredNorm() < c.radius_m * c.radius_m) {
+      return true;
+    }
+  }
+  for (const WorldPlane& p : world.planes) {
+    if (p.normal.dot(p_W) < p.offset_m) return true;
+  }
+  return false;
+}
+
+WorldMesh ReadObjFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path + ": cannot open the OBJ file");
+  WorldMesh mesh;
+  mesh.file = path;
+  std::string line;
+  int line_number = 0;
+  auto fail = [&](const std::string& reason) {
+    throw ConfigError(path + ": line " + std::to_string(line_number) + ": " + reason);
+  };
+  while (std::getline(in, line)) {
+    ++line_number;
+    std::istringstream fields(line);
+    std::string tag;
+    if (!(fields >> tag) || tag[0] == '#') continue;
+    if (tag == "v") {
+      Eigen::Vector3d v;
+      if (!(fields >> v.x() >> v.y() >> v.z()) || !v.allFinite()) {
+        fail("a vertex needs three finite numbers: '" + line + "'");
+      }
+      mesh.vertices_W.push_back(v);
+    } else if (tag == "f") {
+      std::vector<int> corners;
+      std::string token;
+      while (fields >> token) {
+        const std::string index_text = token.substr(0, token.find('/'));
+        size_t used = 0;
+        long index = 0;
+        try {
+          index = std::stol(index_text, &used);
+        } catch (const std::exception&) {
+          used = 0;
+        }
+        if (used == 0 || used != index_text.size()) fail("bad vertex index '" + token + "'");
+        const long count = static_cast<long>(mesh.vertices_W.size());
+        const long zero_based = index > 0 ? index - 1 : count + index;
+        if (index == 0 || zero_based < 0 || zero_based >= count) {
+          fail("vertex index " + std::to_string(index) + " outside 1.." + std::to_string(count));
+        }
+        corners.push_back(static_cast<int>(zero_based));
+      }
+      if (corners.size() < 3) fail("a face needs at least 3 vertices");
+      for (size_t k = 1; k + 1 < corners.size(); ++k) {
+        mesh.triangles.emplace_back(corners[0], corners[k], corners[k + 1]);
+      }
+    }
+  }
+  if (mesh.triangles.empty()) {
+    line_number = 0;
+    throw ConfigError(path + ": no faces ('f' lines) in the OBJ file");
+  }
+  return mesh;
+}
+
+Eigen::AlignedBox3d BoundsOf(const WorldBox& box) {
+  const Eigen::Matrix3d R = box.q_WO.toRotationMatrix();
+  const Eigen::Vector3d reach = R.cwiseAbs() * box.half_extents_m;
+  return Eigen::AlignedBox3d(box.center_m - reach, box.center_m + reach);
+}
+
+Eigen::AlignedBox3d BoundsOf(const WorldCylinder& c) {
+  return Eigen::AlignedBox3d(
+      Eigen::Vector3d(c.center_xy_m.x() - c.radius_m, c.center_xy_m.y() - c.radius_m, c.z_min_m),
+      Eigen::Vector3d(c.center_xy_m.x() + c.radius_m, c.center_xy_m.y() + c.radius_m, c.z_max_m));
+}
+
+}  // namespace kestrel
