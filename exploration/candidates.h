@@ -1,0 +1,76 @@
+#pragma once
+/// @file
+/// Candidate poses and the choice of the next one (ALGORITHMS.md section 8, eqs. (9) and (17)):
+/// reachable collision cells on a lattice (every `lattice_step` cells, anchored at cell (0, 0))
+/// times n_yaw headings yaw_m = 2 pi m / n_yaw; objective I(X_c) * bump(d_cell); the end of
+/// exploration is decided on the best UNWEIGHTED gain max I(X_c).
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "exploration/dijkstra.h"
+#include "exploration/grid_map_2d.h"
+
+namespace kestrel {
+
+/// How d_max of eq. (17) is chosen.
+enum class DMaxPolicy {
+  kSimulation,  ///< (1 + epsilon) * max d_cell (the paper's simulation)
+  kExperiment,  ///< max(d_fixed, (1 + epsilon) * max d_cell) (the paper's experiment, 5 m)
+};
+
+/// Parameters of the candidate set and the objective.
+struct CandidateConfig {
+  int lattice_step{2};                               ///< lattice spacing in collision cells (>= 1)
+  int n_yaw{8};                                      ///< headings per position (>= 1)
+  DMaxPolicy d_max_policy{DMaxPolicy::kExperiment};  ///< eq. (17) d_max rule
+  double d_max_epsilon{0.05};                        ///< epsilon of both policies (>= 0)
+  double d_fixed_m{5.0};                             ///< d_fixed of kExperiment, m (> 0)
+  double end_gain_nats{1.0};  ///< exploration ends when max I(X_c) < this, nats (>= 0)
+  /// Skip the vehicle's own collision cell, so that every plan moves the vehicle (a turn on the
+  /// spot comes with the trajectory's yaw); the start-up scan has already looked around.
+  bool exclude_vehicle_cell{true};
+
+  /// @throws std::invalid_argument naming the field, its value and the accepted range.
+  void Validate() const;
+};
+
+/// One candidate pose with its gain and weight.
+struct Candidate {
+  int cell{-1};                                         ///< linear index in the collision map
+  Eigen::Vector2d position_m{Eigen::Vector2d::Zero()};  ///< collision cell centre (x, y), m, W
+  double yaw_rad{0.0};                                  ///< heading, rad
+  double gain_nats{0.0};                                ///< I(X_c), eq. (10), nats
+  double distance_m{0.0};                               ///< d_cell, m
+  double bump{0.0};                                     ///< bump(d_cell), eq. (17)
+  /// I(X_c) * bump(d_cell), eq. (9)'s objective.
+  [[nodiscard]] double objective() const { return gain_nats * bump; }
+};
+
+/// bump(d) = exp(1 - 1/(1 - (d/d_max)^2)) for |d| < d_max, else 0 (eq. 17). bump(0) = 1.
+/// Precondition: d_max_m > 0.
+[[nodiscard]] double Bump(double d_m, double d_max_m);
+
+/// d_max of eq. (17) for the largest finite d_cell on the cost map (section 8). Never 0: with
+/// max d_cell = 0 (only the start reachable) kSimulation gives a tiny positive value so that
+/// bump(0) = 1.
+[[nodiscard]] double DMax(const CandidateConfig& config, double max_distance_m);
+
+/// The reachable lattice cells of the collision map (positions only, gains and headings not
+/// filled), in increasing cell index; without field.start if config.exclude_vehicle_cell.
+[[nodiscard]] std::vector<int> CandidateCells(const DistanceField& field,
+                                              const CandidateConfig& config);
+
+/// The choice among scored candidates.
+struct Choice {
+  int index{-1};                          ///< argmax of objective, -1 if there is no candidate
+  double best_unweighted_gain_nats{0.0};  ///< max I(X_c) over all candidates
+  bool exploration_done{false};           ///< best unweighted gain < end_gain_nats
+};
+
+/// Fills distance and bump of every candidate from `field` and picks argmax I * bump (ties: the
+/// first). Exploration is done when there is no candidate or max I < end_gain_nats.
+[[nodiscard]] Choice ChooseCandidate(const DistanceField& field, const CandidateConfig& config,
+                                     std::vector<Candidate>* candidates);
+
+}  // namespace kestrel

@@ -1,0 +1,34 @@
+// kestrel-explorer: entropy-based exploration (ALGORITHMS.md sections 6-8).
+#include <lcm/lcm-cpp.hpp>
+
+#include "common/node_loop.h"
+#include "common/process.h"
+#include "exploration/explorer_node.h"
+
+namespace {
+const char* const kUsage =
+    "usage: kestrel-explorer [--config config/exploration/explorer.yaml] [--set key=value]...\n"
+    "                        [--lcm-url URL]\n"
+    "Subscribes to MAP3D, MAP3D_DELTA, POSE_VICON and CONTROLLER_STATUS; after the commanded\n"
+    "take-off it turns a full circle, explores, returns home and asks to land. Publishes\n"
+    "TRAJECTORY, EXPLORATION_STATUS, MAP2D_* and a heartbeat.\n";
+}  // namespace
+
+int main(int argc, char** argv) {
+  return kestrel::RunProcess(
+      "kestrel-explorer", argc, argv, kUsage,
+      [](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
+        if (!args.positional.empty()) {
+          throw kestrel::ConfigError("unexpected argument '" + args.positional[0] + "'\n" + kUsage);
+        }
+        const kestrel::ExplorerConfig config = kestrel::LoadExplorerConfig(node);
+        node.CheckNoUnknownKeys();
+        lcm::LCM lcm(args.lcm_url);
+        if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");
+        kestrel::WallClock clock;
+        kestrel::ExplorerNode explorer(lcm, config, clock);
+        kestrel::NodeLoop loop(lcm, clock);
+        loop.AddTimer("step", 50000, [&](int64_t) { explorer.Step(); });
+        return loop.Run();
+      });
+}

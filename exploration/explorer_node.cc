@@ -1,0 +1,409 @@
+#include "exploration/explorer_node.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+
+#include "common/check.h"
+#include "common/config.h"
+#include "common/trajectory_message.h"
+#include "exploration/planner_config_io.h"
+#include "kestrel/command_t.hpp"
+#include "kestrel/grid_map_t.hpp"
+
+namespace kestrel {
+
+void ExplorerConfig::Validate() const {
+  planner.Validate();
+  map.Validate();
+  KESTREL_THROW_UNLESS(p_init > 0 && p_init < 1, "map.p_init = " << p_init << " must be in (0, 1)");
+  KESTREL_THROW_UNLESS(startup_yaw_rate_radps > 0, "explorer.startup_yaw_rate_radps = "
+                                                       << startup_yaw_rate_radps << " must be > 0");
+  KESTREL_THROW_UNLESS(height_tolerance_m > 0 && replan_period_s > 0 && safety_check_period_s > 0 &&
+                           retry_period_s > 0,
+                       "explorer periods and tolerances must be > 0");
+  KESTREL_THROW_UNLESS(max_failed_plans >= 1,
+                       "explorer.max_failed_plans = " << max_failed_plans << " must be >= 1");
+  KESTREL_THROW_UNLESS(max_status_candidates >= 1, "explorer.max_status_candidates = "
+                                                       << max_status_candidates << " must be >= 1");
+}
+
+ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
+  ExplorerConfig c;
+  // The planner reads its own keys; the map and explorer sections are ours.
+  c.planner = LoadPlannerConfig(node);
+  if (node.Has("map")) {
+    const ConfigNode m = node.Child("map");
+    m.Read("min_m", &c.map.min_m);
+    m.Read("max_m", &c.map.max_m);
+    m.Read("resolution_m", &c.map.resolution_m, Range::Positive());
+    m.Read("p_init", &c.p_init, Range::Open(0.0, 1.0));
+  }
+  if (node.Has("explorer")) {
+    const ConfigNode e = node.Child("explorer");
+    e.Read("map_channel", &c.map_channel);
+    e.Read("delta_channel", &c.delta_channel);
+    e.Read("pose_channel", &c.pose_channel);
+    e.Read("controller_channel", &c.controller_channel);
+    e.Read("trajectory_channel", &c.trajectory_channel);
+    e.Read("status_channel", &c.status_channel);
+    e.Read("command_channel", &c.command_channel);
+    e.Read("map2d_prefix", &c.map2d_prefix);
+    e.Read("heartbeat_channel", &c.heartbeat_channel);
+    e.Read("startup_yaw_rate_radps", &c.startup_yaw_rate_radps, Range::Positive());
+    e.Read("height_tolerance_m", &c.height_tolerance_m, Range::Positive());
+    e.Read("replan_period_s", &c.replan_period_s, Range::Positive());
+    e.Read("safety_check_period_s", &c.safety_check_period_s, Range::Positive());
+    e.Read("retry_period_s", &c.retry_period_s, Range::Positive());
+    e.Read("max_failed_plans", &c.max_failed_plans, Range::Closed(1, 1000));
+    e.Read("return_home", &c.return_home);
+    e.Read("land_at_end", &c.land_at_end);
+    e.Read("max_status_candidates", &c.max_status_candidates, Range::Closed(1, 100000));
+  }
+  try {
+    c.Validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(node.file() + ": " + e.what());
+  }
+  return c;
+}
+
+ExplorerNode::ExplorerNode(lcm::LCM& lcm, const ExplorerConfig& config, const Clock& clock)
+    : lcm_(lcm),
+      config_(config),
+      clock_(clock),
+      planner_(MakePlanner(config.planner)),
+      replica_(config.map.min_m, config.map.resolution_m,
+               GridGeometry::Fixed(config.map).upper().x > 0
+                   ? Eigen::Vector3i(GridGeometry::Fixed(config.map).upper().x,
+                                     GridGeometry::Fixed(config.map).upper().y,
+                                     GridGeometry::Fixed(config.map).upper().z)
+                   : Eigen::Vector3i(1, 1, 1),
+               config.p_init),
+      drops_(clock),
+      heartbeat_(lcm, clock, "kestrel-explorer", config.heartbeat_channel),
+      subscriptions_(lcm) {
+  config_.Validate();
+  auto on_error = [this](const std::string& channel, const std::string& reason) {
+    drops_.Count("malformed", channel + ": " + reason);
+  };
+  subscriptions_.Add<map3d_chunk_t>(
+      config_.map_channel,
+      [this](const std::string&, const map3d_chunk_t& m) {
+        std::string error;
+        if (!replica_.Apply(m, &error)) drops_.Count("map_chunk", error);
+      },
+      on_error);
+  subscriptions_.Add<map3d_delta_t>(
+      config_.delta_channel,
+      [this](const std::string&, const map3d_delta_t& m) {
+        std::string error;
+        if (!replica_.Apply(m, &error)) drops_.Count("map_delta", error);
+      },
+      on_error);
+  subscriptions_.Add<pose_t>(
+      config_.pose_channel, [this](const std::string&, const pose_t& m) { OnPose(m); }, on_error);
+  subscriptions_.Add<controller_status_t>(
+      config_.controller_channel,
+      [this](const std::string&, const controller_status_t& m) {
+        have_controller_ = true;
+        controller_mode_ = m.mode;
+        bool finite = true;
+        for (double v : m.velocity_mps) finite = finite && std::isfinite(v);
+        if (finite)
+          velocity_mps_ = Eigen::Vector3d(m.velocity_mps[0], m.velocity_mps[1], m.velocity_mps[2]);
+      },
+      on_error);
+  heartbeat_.SetState(heartbeat_t::STATE_OK);
+}
+
+void ExplorerNode::OnPose(const pose_t& msg) {
+  if (!msg.valid) return;
+  Pose3 X_WB;
+  for (double v : msg.position_m) {
+    if (!std::isfinite(v)) {
+      drops_.Count("nan_pose", "non-finite position");
+      return;
+    }
+  }
+  if (!QuaternionFromWxyz(msg.orientation_wxyz, &X_WB.q)) {
+    drops_.Count("nan_pose", "non-unit or non-finite quaternion");
+    return;
+  }
+  X_WB.p = Eigen::Vector3d(msg.position_m[0], msg.position_m[1], msg.position_m[2]);
+  pose_ = X_WB;
+  have_pose_ = true;
+}
+
+PlannerInput ExplorerNode::Input() const {
+  PlannerInput in;
+  in.map.dims = replica_.dims();
+  in.map.origin_m = replica_.origin_m();
+  in.map.resolution_m = replica_.resolution_m();
+  in.map.probability = replica_.probabilities().data();
+  in.position_m = pose_.p;
+  in.velocity_mps = velocity_mps_;
+  in.yaw_rad = YawOf(pose_.q);
+  in.time_s = now_s();
+  in.startup_center_m = home_xy_;
+  return in;
+}
+
+void ExplorerNode::Publish(const PiecewisePolynomialTrajectory& trajectory) {
+  trajectory_ = trajectory;
+  const trajectory_t msg = ToMessage(trajectory, clock_.NowUtime(), ++trajectory_seq_);
+  lcm_.publish(config_.trajectory_channel, &msg);
+}
+
+void ExplorerNode::StartTurn() {
+  // A full circle in place at (x, y, h): yaw = yaw0 + 2 pi s(tau / T) with the degree-7
+  // smoothstep s (zero rate, acceleration and jerk at both ends); its peak rate is 35/16 * 2 pi /
+  // T.
+  const double h = config_.planner.projection.height_m;
+  const double yaw0 = YawOf(pose_.q);
+  const double T = 35.0 / 16.0 * 2.0 * M_PI / config_.startup_yaw_rate_radps;
+  PolynomialSegment seg;
+  seg.duration_s = T;
+  seg.coefficients[0] = {pose_.p.x()};
+  seg.coefficients[1] = {pose_.p.y()};
+  seg.coefficients[2] = {h};
+  const double a = 2.0 * M_PI;
+  seg.coefficients[3] = {yaw0,
+                         0,
+                         0,
+                         0,
+                         a * 35 / std::pow(T, 4),
+                         -a * 84 / std::pow(T, 5),
+                         a * 70 / std::pow(T, 6),
+                         -a * 20 / std::pow(T, 7)};
+  std::string error;
+  auto turn = PiecewisePolynomialTrajectory::Create(now_s(), {seg}, &error);
+  KESTREL_DEMAND(turn.has_value());
+  Publish(*turn);
+  Log(LogLevel::kInfo, "start-up: turning a full circle at h = " + std::to_string(h) + " m over " +
+                           std::to_string(T) + " s");
+}
+
+void ExplorerNode::Plan(const std::string& reason) {
+  const auto t0 = std::chrono::steady_clock::now();
+  PlanResult result = planner_->Plan(Input());
+  total_planning_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  last_plan_s_ = now_s();
+  ++plan_seq_;
+  if (result.status == PlanStatus::kGoal && result.trajectory.trajectory.has_value()) {
+    failed_plans_ = 0;
+    Publish(*result.trajectory.trajectory);
+  } else if (result.status == PlanStatus::kExplorationDone) {
+    Log(LogLevel::kInfo, "exploration done: " + result.reason);
+    state_ = exploration_status_t::STATE_RETURNING;
+  } else {
+    ++failed_plans_;
+    drops_.Count("plan_failed", result.reason);
+    next_attempt_s_ = now_s() + config_.retry_period_s;
+    if (failed_plans_ >= config_.max_failed_plans) {
+      Log(LogLevel::kWarning, std::to_string(failed_plans_) + " plans failed in a row: returning");
+      state_ = exploration_status_t::STATE_RETURNING;
+    }
+  }
+  PublishStatus(result, reason);
+  PublishMaps(result);
+  const bool returning = state_ == exploration_status_t::STATE_RETURNING;
+  last_plan_ = std::move(result);
+  if (returning) PlanHome("exploration ended");
+}
+
+void ExplorerNode::PlanHome(const std::string& reason) {
+  if (!config_.return_home) {
+    SendLand();
+    return;
+  }
+  PlanResult home = PlanToPoint(config_.planner, Input(), home_xy_, home_yaw_rad_);
+  ++plan_seq_;
+  if (home.status == PlanStatus::kGoal && home.trajectory.trajectory.has_value()) {
+    Publish(*home.trajectory.trajectory);
+  } else {
+    Log(LogLevel::kWarning, "no path home (" + home.reason + "): landing here");
+    SendLand();
+  }
+  PublishStatus(home, reason);
+}
+
+void ExplorerNode::SendLand() {
+  state_ = exploration_status_t::STATE_DONE;
+  if (!config_.land_at_end) return;
+  command_t cmd{};
+  cmd.utime = clock_.NowUtime();
+  cmd.seq = ++command_seq_;
+  cmd.source = "explorer";
+  cmd.command = command_t::COMMAND_LAND;
+  lcm_.publish(config_.command_channel, &cmd);
+  Log(LogLevel::kInfo, "sent land");
+}
+
+bool ExplorerNode::RemainingPathSafe() {
+  if (!trajectory_.has_value()) return true;
+  const double t = now_s();
+  if (t >= trajectory_->end_time_s()) return true;
+  const OccupancyGridView view = Input().map;
+  const int k = CollisionFactor(config_.planner.projection, view.resolution_m);
+  const StartupFreeZone zone{
+      home_xy_, StartupFreeRadius(k * view.resolution_m, config_.planner.startup_vertical_fov_rad)};
+  const CollisionProjection c = ProjectCollisionMaps(view, config_.planner.projection, zone);
+  std::vector<bool> traversable(c.collision.values.size());
+  for (size_t i = 0; i < traversable.size(); ++i) {
+    traversable[i] =
+        IsTraversable(c.collision.values[i], config_.planner.projection.collision_threshold);
+  }
+  // The planner's own rule: cells under the vehicle's disc where the trajectory starts are allowed
+  // (the vehicle is already there).
+  const double r = config_.planner.trajectory.vehicle_radius_m;
+  const Eigen::Vector2d start_xy =
+      trajectory_->Evaluate(trajectory_->start_time_s()).position_m.head<2>();
+  const std::vector<bool> allowed = AllowedCells(c.collision, traversable, start_xy, r);
+  // From half a second ahead (the vehicle's own disc is where it is) to the end.
+  for (double s = t + 0.5; s <= trajectory_->end_time_s(); s += 0.05) {
+    const Eigen::Vector3d p = trajectory_->Evaluate(s).position_m;
+    if (!DiscClear(c.collision, allowed, p.head<2>(), r)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+void ExplorerNode::Step() {
+  const double t = now_s();
+  if (t - last_heartbeat_s_ >= 1.0) {
+    last_heartbeat_s_ = t;
+    heartbeat_.SetValue("state", state_);
+    heartbeat_.SetValue("plans", static_cast<double>(plan_seq_));
+    heartbeat_.SetValue("map_seq", static_cast<double>(replica_.seq()));
+    heartbeat_.SetValue("drops", static_cast<double>(drops_.total()));
+    if (!drops_.last_reason().empty()) heartbeat_.SetLastError(drops_.last_reason());
+    heartbeat_.Publish();
+  }
+  const double h = config_.planner.projection.height_m;
+  switch (state_) {
+    case exploration_status_t::STATE_WAITING:
+      if (have_pose_ && have_controller_ && replica_.current() &&
+          controller_mode_ == controller_status_t::MODE_HOLD &&
+          std::abs(pose_.p.z() - h) < config_.height_tolerance_m) {
+        home_xy_ = pose_.p.head<2>();
+        home_yaw_rad_ = YawOf(pose_.q);
+        state_ = exploration_status_t::STATE_STARTUP;
+        StartTurn();
+      }
+      break;
+    case exploration_status_t::STATE_STARTUP:
+      if (t > trajectory_->end_time_s() + 0.5) {
+        state_ = exploration_status_t::STATE_EXPLORING;
+        Plan("start-up turn done");
+      }
+      break;
+    case exploration_status_t::STATE_EXPLORING: {
+      if (t < next_attempt_s_) break;
+      if (!trajectory_.has_value() || t >= trajectory_->end_time_s()) {
+        Plan("trajectory ended");
+      } else if (t - last_plan_s_ >= config_.replan_period_s) {
+        Plan("replan period");
+      } else if (t - last_safety_check_s_ >= config_.safety_check_period_s &&
+                 replica_.seq() != safety_checked_map_seq_) {
+        last_safety_check_s_ = t;
+        safety_checked_map_seq_ = replica_.seq();
+        if (!RemainingPathSafe()) Plan("remaining path unsafe");
+      }
+      break;
+    }
+    case exploration_status_t::STATE_RETURNING:
+      // The flight home ends in the collision cell holding the take-off point (up to half a
+      // collision cell away from it): land there.
+      if (trajectory_.has_value() && t >= trajectory_->end_time_s() + 0.5) {
+        Log(LogLevel::kInfo, "home (" + std::to_string((pose_.p.head<2>() - home_xy_).norm()) +
+                                 " m from the take-off point)");
+        SendLand();
+      }
+      break;
+    default:
+      break;
+  }
+}
+
+void ExplorerNode::PublishStatus(const PlanResult& result, const std::string& reason) {
+  exploration_status_t msg{};
+  msg.utime = clock_.NowUtime();
+  msg.seq = plan_seq_;
+  msg.mode = ModeName(config_.planner.mode);
+  msg.state = state_;
+  msg.reason = result.reason.empty() ? reason : reason + ": " + result.reason;
+  double entropy = 0.0;  // H of the replica (eq. 6), the explorer's view of the map
+  for (float p : replica_.probabilities()) {
+    const double q = p;
+    if (q > 0 && q < 1) entropy += -q * std::log(q) - (1 - q) * std::log(1 - q);
+  }
+  msg.map_entropy_nats = entropy;
+  msg.best_unweighted_gain_nats = result.best_unweighted_gain_nats;
+  std::vector<int> order(result.candidates.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return result.candidates[a].gain_nats * result.candidates[a].bump >
+           result.candidates[b].gain_nats * result.candidates[b].bump;
+  });
+  if (static_cast<int>(order.size()) > config_.max_status_candidates)
+    order.resize(config_.max_status_candidates);
+  msg.chosen_index = -1;
+  for (size_t i = 0; i < order.size(); ++i) {
+    const Candidate& c = result.candidates[order[i]];
+    candidate_t m{};
+    m.position_m[0] = c.position_m.x();
+    m.position_m[1] = c.position_m.y();
+    m.position_m[2] = config_.planner.projection.height_m;
+    m.yaw_rad = c.yaw_rad;
+    m.gain_nats = c.gain_nats;
+    m.distance_m = c.distance_m;
+    m.bump = c.bump;
+    m.objective = c.gain_nats * c.bump;
+    msg.candidates.push_back(m);
+    if (order[i] == result.chosen) msg.chosen_index = static_cast<int32_t>(i);
+  }
+  msg.num_candidates = static_cast<int32_t>(msg.candidates.size());
+  if (result.chosen >= 0 && result.chosen < static_cast<int>(result.candidates.size())) {
+    const Candidate& c = result.candidates[result.chosen];
+    msg.goal_position_m[0] = c.position_m.x();
+    msg.goal_position_m[1] = c.position_m.y();
+    msg.goal_position_m[2] = config_.planner.projection.height_m;
+    msg.goal_yaw_rad = c.yaw_rad;
+  }
+  msg.projection_time_s = result.timings.projection_s;
+  msg.gain_time_s = result.timings.gain_s;
+  msg.dijkstra_time_s = result.timings.dijkstra_s;
+  msg.trajectory_time_s = result.timings.trajectory_s;
+  msg.total_time_s = result.timings.total_s;
+  lcm_.publish(config_.status_channel, &msg);
+}
+
+void ExplorerNode::PublishMaps(const PlanResult& result) {
+  auto publish = [&](const GridMap2D& g, const std::string& name) {
+    grid_map_t msg{};
+    msg.utime = replica_.utime();
+    msg.seq = plan_seq_;
+    msg.name = name;
+    msg.origin_m[0] = g.origin_m.x();
+    msg.origin_m[1] = g.origin_m.y();
+    msg.height_m = g.height_m;
+    msg.resolution_m = g.resolution_m;
+    msg.width = g.width;
+    msg.height = g.height;
+    msg.values.assign(g.values.begin(), g.values.end());
+    msg.num_values = static_cast<int32_t>(msg.values.size());
+    std::string channel = name;
+    std::transform(channel.begin(), channel.end(), channel.begin(), ::toupper);
+    lcm_.publish(config_.map2d_prefix + channel, &msg);
+  };
+  if (result.collision.collision.size() > 0) {
+    publish(result.collision.collision, "collision");
+    publish(result.collision.combined, "combined");
+  }
+  if (result.entropy.has_value()) publish(*result.entropy, "entropy");
+}
+
+}  // namespace kestrel

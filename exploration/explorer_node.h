@@ -1,0 +1,141 @@
+#pragma once
+/// @file
+/// The explorer node (kestrel-explorer): keeps a copy of the mapper's 3D map (MAP3D snapshots and
+/// deltas, mapping/map_replica.h), and runs the paper's exploration loop (ALGORITHMS.md section 8):
+///
+///   WAITING   until a map, a valid pose and the controller hovering at the exploration height
+///             after the commanded take-off (the explorer never takes off by itself);
+///   STARTUP   turns a full circle in place at the exploration height to scan;
+///   EXPLORING plans (exploration/planner.h) and publishes TRAJECTORY; replans when the
+///             trajectory ends, when new map data makes the remaining path unsafe (the vehicle's
+///             disc over non-traversable collision cells), or after replan_period_s;
+///   RETURNING when the best unweighted gain falls below the threshold (or planning keeps
+///             failing): flies back to the take-off point;
+///   DONE      sends a land command on COMMAND (the only command the explorer may send).
+///
+/// Publishes EXPLORATION_STATUS after every plan, the 2D maps (MAP2D_COLLISION, MAP2D_COMBINED,
+/// MAP2D_ENTROPY in two-map mode) and a heartbeat. Step() does the work; it is cheap when
+/// nothing is due, so a lockstep simulation may call it every step.
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "common/clock.h"
+#include "common/heartbeat.h"
+#include "common/lcm_decode.h"
+#include "common/log.h"
+#include "common/se3.h"
+#include "common/trajectory.h"
+#include "exploration/planner.h"
+#include "kestrel/controller_status_t.hpp"
+#include "kestrel/exploration_status_t.hpp"
+#include "kestrel/map3d_chunk_t.hpp"
+#include "kestrel/map3d_delta_t.hpp"
+#include "kestrel/pose_t.hpp"
+#include "mapping/grid.h"
+#include "mapping/map_replica.h"
+
+namespace kestrel {
+
+class ConfigNode;
+
+struct ExplorerConfig {
+  PlannerConfig planner;  ///< config/exploration/explorer.yaml (planning)
+  MapLimits map;          ///< the mapper's lattice (limits, resolution)
+  double p_init{0.1};     ///< the mapper's P_init
+
+  std::string map_channel{"MAP3D"};
+  std::string delta_channel{"MAP3D_DELTA"};
+  std::string pose_channel{"POSE_VICON"};
+  std::string controller_channel{"CONTROLLER_STATUS"};
+  std::string trajectory_channel{"TRAJECTORY"};
+  std::string status_channel{"EXPLORATION_STATUS"};
+  std::string command_channel{"COMMAND"};
+  std::string map2d_prefix{"MAP2D_"};  ///< + COLLISION, COMBINED, ENTROPY
+  std::string heartbeat_channel{"HEARTBEAT_EXPLORER"};
+
+  double startup_yaw_rate_radps{0.8};  ///< peak yaw rate of the start-up full circle, rad/s
+  double height_tolerance_m{0.25};     ///< hovering within this of h counts as "at height", m
+  double replan_period_s{10.0};        ///< replan at least this often while flying, s
+  double safety_check_period_s{0.5};   ///< how often the remaining path is re-checked, s
+  double retry_period_s{1.0};          ///< wait after a failed plan, s
+  int max_failed_plans{5};             ///< consecutive failures before returning home
+  bool return_home{true};              ///< fly back to the take-off point at the end
+  bool land_at_end{true};              ///< then send a land command
+  int max_status_candidates{512};      ///< candidates listed in EXPLORATION_STATUS (best first)
+
+  /// @throws std::invalid_argument naming the field, its value and the accepted range.
+  void Validate() const;
+};
+
+/// Reads an ExplorerConfig: the planner keys of config/exploration/explorer.yaml, its `map:`
+/// section (the mapper's lattice) and its `explorer:` section. @throws ConfigError
+[[nodiscard]] ExplorerConfig LoadExplorerConfig(const ConfigNode& node);
+
+class ExplorerNode {
+ public:
+  /// @throws std::invalid_argument if the configuration is invalid.
+  ExplorerNode(lcm::LCM& lcm, const ExplorerConfig& config, const Clock& clock);
+  ExplorerNode(const ExplorerNode&) = delete;
+  ExplorerNode& operator=(const ExplorerNode&) = delete;
+
+  /// Advances the exploration at the clock's time (file comment).
+  void Step();
+
+  /// exploration_status_t::STATE_*.
+  [[nodiscard]] int8_t state() const { return state_; }
+  [[nodiscard]] int64_t plans() const { return plan_seq_; }
+  [[nodiscard]] const std::optional<PlanResult>& last_plan() const { return last_plan_; }
+  [[nodiscard]] const MapReplica& replica() const { return replica_; }
+  [[nodiscard]] const DropCounter& drops() const { return drops_; }
+  /// Sum of planning wall time over all plans, s.
+  [[nodiscard]] double total_planning_s() const { return total_planning_s_; }
+
+ private:
+  void OnPose(const pose_t& msg);
+  void Plan(const std::string& reason);
+  void PlanHome(const std::string& reason);
+  void StartTurn();
+  bool RemainingPathSafe();
+  void Publish(const PiecewisePolynomialTrajectory& trajectory);
+  void PublishStatus(const PlanResult& result, const std::string& reason);
+  void PublishMaps(const PlanResult& result);
+  void SendLand();
+  [[nodiscard]] PlannerInput Input() const;
+  [[nodiscard]] double now_s() const { return UtimeToSeconds(clock_.NowUtime()); }
+
+  lcm::LCM& lcm_;
+  ExplorerConfig config_;
+  const Clock& clock_;
+  std::unique_ptr<ExplorationPlanner> planner_;
+  MapReplica replica_;
+  DropCounter drops_;
+  Heartbeat heartbeat_;
+  GuardedSubscriptions subscriptions_;
+
+  int8_t state_{exploration_status_t::STATE_WAITING};
+  bool have_pose_{false};
+  Pose3 pose_;
+  Eigen::Vector3d velocity_mps_{Eigen::Vector3d::Zero()};
+  bool have_controller_{false};
+  int8_t controller_mode_{0};
+  Eigen::Vector2d home_xy_{Eigen::Vector2d::Zero()};
+  double home_yaw_rad_{0.0};
+  std::optional<PiecewisePolynomialTrajectory> trajectory_;
+  int64_t trajectory_seq_{0};
+  int64_t plan_seq_{0};
+  int64_t command_seq_{0};
+  int failed_plans_{0};
+  double last_plan_s_{-1e300};
+  double next_attempt_s_{-1e300};
+  double last_safety_check_s_{-1e300};
+  int64_t safety_checked_map_seq_{-1};
+  double last_heartbeat_s_{-1e300};
+  double total_planning_s_{0.0};
+  std::optional<PlanResult> last_plan_;
+};
+
+}  // namespace kestrel

@@ -1,0 +1,304 @@
+#include "exploration/planner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "common/check.h"
+
+namespace kestrel {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Projection of C and B (section 7) and Dijkstra from the vehicle's cell (section 8). Returns
+// false with result->reason set when the vehicle is outside C.
+bool ProjectAndSearch(const PlannerConfig& config, const PlannerInput& input, PlanResult* result,
+                      std::vector<bool>* traversable, int* vehicle_cell) {
+  const Clock::time_point t0 = Clock::now();
+  std::optional<StartupFreeZone> zone;
+  const double alpha_c =
+      CollisionFactor(config.projection, input.map.resolution_m) * input.map.resolution_m;
+  if (input.startup_center_m) {
+    zone = StartupFreeZone{*input.startup_center_m,
+                           StartupFreeRadius(alpha_c, config.startup_vertical_fov_rad)};
+  }
+  try {
+    result->collision = ProjectCollisionMaps(input.map, config.projection, zone);
+    if (config.mode == ExplorationMode::kTwoMap) {
+      result->entropy = ProjectEntropyMap(input.map, config.projection);
+    }
+  } catch (const std::invalid_argument& e) {  // e.g. a floor above the whole map
+    result->reason = std::string("projection: ") + e.what();
+    return false;
+  }
+  result->timings.projection_s = SecondsSince(t0);
+
+  const Clock::time_point t1 = Clock::now();
+  const GridMap2D& c = result->collision.collision;
+  *traversable = TraversableCells(c, config.projection.collision_threshold);
+  const std::optional<Cell2> start = c.CellOf(input.position_m.head<2>());
+  if (!start) {
+    result->reason = "vehicle outside the collision map";
+    return false;
+  }
+  *vehicle_cell = c.IndexOf(*start);
+  result->field = ComputeDistanceField(c.width, c.height, *traversable, *start, c.resolution_m);
+  result->timings.dijkstra_s = SecondsSince(t1);
+  return true;
+}
+
+void PlanTrajectoryTo(const PlannerConfig& config, const PlannerInput& input,
+                      const std::vector<bool>& traversable, int goal_cell, double goal_yaw,
+                      PlanResult* result) {
+  const Clock::time_point t0 = Clock::now();
+  result->trajectory =
+      PlanTrajectory(result->collision.collision, traversable, result->field, goal_cell,
+                     input.position_m, input.velocity_mps, input.yaw_rad, goal_yaw,
+                     config.projection.height_m, input.time_s, config.trajectory);
+  result->timings.trajectory_s += SecondsSince(t0);
+  if (result->trajectory.trajectory) {
+    result->status = PlanStatus::kGoal;
+  } else {
+    result->status = PlanStatus::kFailed;
+    result->reason = "trajectory: " + result->trajectory.error;
+  }
+}
+
+bool ValidInput(const PlannerInput& input, PlanResult* result) {
+  if (!input.position_m.allFinite() || !input.velocity_mps.allFinite() ||
+      !std::isfinite(input.yaw_rad) || !std::isfinite(input.time_s)) {
+    result->reason = "pose, velocity or time not finite";
+    return false;
+  }
+  try {
+    input.map.Validate();
+  } catch (const std::invalid_argument& e) {
+    result->reason = e.what();
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+const char* ModeName(ExplorationMode mode) {
+  switch (mode) {
+    case ExplorationMode::kCombined:
+      return "combined";
+    case ExplorationMode::kTwoMap:
+      return "two_map";
+    case ExplorationMode::kFrontier:
+      return "frontier";
+  }
+  return "unknown";
+}
+
+void PlannerConfig::Validate() const {
+  projection.Validate();
+  gain.Validate();
+  candidates.Validate();
+  trajectory.Validate();
+  KESTREL_THROW_UNLESS(
+      frontier.min_distance_m >= 0.0 && std::isfinite(frontier.min_distance_m),
+      "frontier.min_distance_m = " << frontier.min_distance_m << ", accepted [0, inf)");
+  KESTREL_THROW_UNLESS(
+      startup_vertical_fov_rad > 0.0 && startup_vertical_fov_rad < M_PI,
+      "startup_vertical_fov_rad = " << startup_vertical_fov_rad << ", accepted (0, pi)");
+}
+
+EntropyPlanner::EntropyPlanner(const PlannerConfig& config) : config_(config), gains_(config.gain) {
+  config_.Validate();
+  KESTREL_THROW_UNLESS(config_.mode != ExplorationMode::kFrontier,
+                       "EntropyPlanner: mode frontier, accepted combined or two_map");
+}
+
+PlanResult EntropyPlanner::Plan(const PlannerInput& input) {
+  const Clock::time_point t0 = Clock::now();
+  PlanResult result;
+  std::vector<bool> traversable;
+  int vehicle_cell = -1;
+  if (!ValidInput(input, &result) ||
+      !ProjectAndSearch(config_, input, &result, &traversable, &vehicle_cell)) {
+    result.timings.total_s = SecondsSince(t0);
+    return result;
+  }
+  // Candidates: reachable lattice cells x headings; gains on B (combined) or E (two-map).
+  const Clock::time_point t1 = Clock::now();
+  const GridMap2D& gain_map =
+      config_.mode == ExplorationMode::kTwoMap ? *result.entropy : result.collision.combined;
+  const GridMap2D& c = result.collision.collision;
+  const int n_yaw = config_.candidates.n_yaw;
+  const bool two_map = config_.mode == ExplorationMode::kTwoMap;
+  for (int cell : CandidateCells(result.field, config_.candidates)) {
+    const Eigen::Vector2d p = c.CenterOf(c.CellAt(cell));
+    std::vector<double> excess;
+    const std::vector<double> gains =
+        gains_.HeadingGains(gain_map, p, n_yaw, 0.0, &result.gain_stats,
+                            config_.projection.p_min_entropy, two_map ? &excess : nullptr);
+    for (int m = 0; m < n_yaw; ++m) {
+      Candidate cand;
+      cand.cell = cell;
+      cand.position_m = p;
+      cand.yaw_rad = 2.0 * M_PI * m / n_yaw;
+      cand.gain_nats = gains[static_cast<size_t>(m)];
+      result.candidates.push_back(cand);
+      if (two_map) {
+        result.end_test_gain_nats =
+            std::max(result.end_test_gain_nats, excess[static_cast<size_t>(m)]);
+      }
+    }
+  }
+  Choice choice = ChooseCandidate(result.field, config_.candidates, &result.candidates);
+  if (two_map) {
+    // The end test on the gain beyond E's P_min_E floor (planner.h).
+    choice.exploration_done =
+        result.candidates.empty() || result.end_test_gain_nats < config_.candidates.end_gain_nats;
+  } else {
+    result.end_test_gain_nats = choice.best_unweighted_gain_nats;
+  }
+  result.timings.gain_s = SecondsSince(t1);
+  result.best_unweighted_gain_nats = choice.best_unweighted_gain_nats;
+  if (choice.exploration_done) {
+    result.status = PlanStatus::kExplorationDone;
+    result.reason = result.candidates.empty() ? "no reachable candidate"
+                                              : "best unweighted gain below end_gain_nats";
+  } else {
+    // The best candidate; if no trajectory reaches it, the next ones by objective (up to
+    // kMaxTrajectoryAttempts different cells).
+    std::vector<int> order(result.candidates.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+      return result.candidates[static_cast<size_t>(a)].objective() >
+             result.candidates[static_cast<size_t>(b)].objective();
+    });
+    std::swap(*std::find(order.begin(), order.end(), choice.index), order.front());
+    constexpr int kMaxTrajectoryAttempts = 5;
+    std::vector<int> tried_cells;
+    for (int index : order) {
+      const Candidate& goal = result.candidates[static_cast<size_t>(index)];
+      if (std::find(tried_cells.begin(), tried_cells.end(), goal.cell) != tried_cells.end()) {
+        continue;
+      }
+      if (static_cast<int>(tried_cells.size()) == kMaxTrajectoryAttempts) break;
+      tried_cells.push_back(goal.cell);
+      result.chosen = index;
+      PlanTrajectoryTo(config_, input, traversable, goal.cell, goal.yaw_rad, &result);
+      if (result.status == PlanStatus::kGoal) break;
+    }
+    if (result.status != PlanStatus::kGoal) result.chosen = -1;
+  }
+  result.timings.total_s = SecondsSince(t0);
+  return result;
+}
+
+FrontierPlanner::FrontierPlanner(const PlannerConfig& config)
+    : config_(config), gains_(config.gain) {
+  config_.mode = ExplorationMode::kFrontier;
+  config_.Validate();
+}
+
+PlanResult FrontierPlanner::Plan(const PlannerInput& input) {
+  const Clock::time_point t0 = Clock::now();
+  PlanResult result;
+  std::vector<bool> traversable;
+  int vehicle_cell = -1;
+  if (!ValidInput(input, &result) ||
+      !ProjectAndSearch(config_, input, &result, &traversable, &vehicle_cell)) {
+    result.timings.total_s = SecondsSince(t0);
+    return result;
+  }
+  const Clock::time_point t1 = Clock::now();
+  const GridMap2D& c = result.collision.collision;
+  const double p_init = config_.projection.p_init;
+  // Unknown collision cell: not traversable, not known occupied (section 10's "not known").
+  const auto unknown = [&](int x, int y) {
+    if (!c.Contains(x, y)) return false;
+    const double p = c.at(x, y);
+    return p >= 0.5 * p_init && p <= 0.5 && !traversable[static_cast<size_t>(c.IndexOf(x, y))];
+  };
+  int best = -1;
+  for (int i = 0; i < c.size(); ++i) {
+    if (!result.field.Reachable(i) || !traversable[static_cast<size_t>(i)]) continue;
+    const double d = result.field.distance_m[static_cast<size_t>(i)];
+    if (i == vehicle_cell || d < config_.frontier.min_distance_m) continue;
+    const Cell2 cell = c.CellAt(i);
+    Eigen::Vector2d towards = Eigen::Vector2d::Zero();
+    int count = 0;
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        if ((dx != 0 || dy != 0) && unknown(cell.x + dx, cell.y + dy)) {
+          towards += Eigen::Vector2d(dx, dy).normalized();
+          ++count;
+        }
+      }
+    }
+    if (count == 0) continue;
+    Candidate cand;
+    cand.cell = i;
+    cand.position_m = c.CenterOf(cell);
+    // Face the unknown neighbours (their mean direction; opposite ones cancel to heading 0).
+    cand.yaw_rad = towards.squaredNorm() > 0.0 ? std::atan2(towards.y(), towards.x()) : 0.0;
+    cand.distance_m = d;
+    cand.bump = 1.0;
+    result.candidates.push_back(cand);
+    if (best < 0 || d < result.candidates[static_cast<size_t>(best)]
+                            .distance_m) {  // nearest; ties: lowest index
+      best = static_cast<int>(result.candidates.size()) - 1;
+    }
+  }
+  if (best < 0) {
+    result.timings.gain_s = SecondsSince(t1);
+    result.status = PlanStatus::kExplorationDone;
+    result.reason = "no reachable frontier";
+    result.timings.total_s = SecondsSince(t0);
+    return result;
+  }
+  Candidate& goal = result.candidates[static_cast<size_t>(best)];
+  goal.gain_nats =  // for comparison only
+      gains_.PoseGain(result.collision.combined, goal.position_m, goal.yaw_rad);
+  result.best_unweighted_gain_nats = goal.gain_nats;
+  result.timings.gain_s = SecondsSince(t1);
+  result.chosen = best;
+  PlanTrajectoryTo(config_, input, traversable, goal.cell, goal.yaw_rad, &result);
+  result.timings.total_s = SecondsSince(t0);
+  return result;
+}
+
+std::unique_ptr<ExplorationPlanner> MakePlanner(const PlannerConfig& config) {
+  if (config.mode == ExplorationMode::kFrontier) return std::make_unique<FrontierPlanner>(config);
+  return std::make_unique<EntropyPlanner>(config);
+}
+
+PlanResult PlanToPoint(const PlannerConfig& config, const PlannerInput& input,
+                       const Eigen::Vector2d& goal_xy, double goal_yaw_rad) {
+  config.Validate();
+  const Clock::time_point t0 = Clock::now();
+  PlanResult result;
+  std::vector<bool> traversable;
+  int vehicle_cell = -1;
+  PlannerConfig c2 = config;
+  c2.mode = ExplorationMode::kCombined;  // E is not needed
+  if (!ValidInput(input, &result) ||
+      !ProjectAndSearch(c2, input, &result, &traversable, &vehicle_cell)) {
+    result.timings.total_s = SecondsSince(t0);
+    return result;
+  }
+  const std::optional<Cell2> goal = result.collision.collision.CellOf(goal_xy);
+  if (!goal || !result.field.Reachable(result.collision.collision.IndexOf(*goal))) {
+    result.reason = "goal outside the map or unreachable";
+  } else {
+    PlanTrajectoryTo(config, input, traversable, result.collision.collision.IndexOf(*goal),
+                     goal_yaw_rad, &result);
+  }
+  result.timings.total_s = SecondsSince(t0);
+  return result;
+}
+
+}  // namespace kestrel

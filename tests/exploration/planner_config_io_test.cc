@@ -1,0 +1,58 @@
+#include "exploration/planner_config_io.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "common/config.h"
+
+namespace kestrel {
+namespace {
+
+// The reference file loads and equals the built-in defaults (it documents them).
+TEST(PlannerConfigIo, ReferenceFileEqualsDefaults) {
+  const PlannerConfig c = LoadPlannerConfigFile(KESTREL_CONFIG_DIR "/exploration/explorer.yaml");
+  const PlannerConfig d;
+  EXPECT_EQ(c.mode, d.mode);
+  EXPECT_EQ(c.projection.height_m, d.projection.height_m);
+  EXPECT_EQ(c.projection.collision_factor, d.projection.collision_factor);
+  EXPECT_EQ(c.projection.p_thresh, d.projection.p_thresh);
+  EXPECT_TRUE(std::isinf(c.projection.ceiling_height_m));
+  ASSERT_EQ(c.gain.sensors.size(), d.gain.sensors.size());
+  for (size_t i = 0; i < d.gain.sensors.size(); ++i) {
+    EXPECT_NEAR(c.gain.sensors[i].horizontal_fov_rad, d.gain.sensors[i].horizontal_fov_rad, 1e-12);
+    EXPECT_EQ(c.gain.sensors[i].model.sigma_m, d.gain.sensors[i].model.sigma_m);
+  }
+  EXPECT_EQ(c.candidates.n_yaw, d.candidates.n_yaw);
+  EXPECT_EQ(c.candidates.d_max_policy, d.candidates.d_max_policy);
+  EXPECT_EQ(c.trajectory.vehicle_radius_m, d.trajectory.vehicle_radius_m);
+  EXPECT_NEAR(c.startup_vertical_fov_rad, d.startup_vertical_fov_rad, 1e-12);
+}
+
+// Bad values and unknown keys name the file and key.
+TEST(PlannerConfigIo, ErrorsNameKey) {
+  const auto message = [](const std::string& yaml) {
+    try {
+      (void)LoadPlannerConfig(ConfigNode::FromString(yaml, "test.yaml"));
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(message("mode: sideways\n").find("mode"), std::string::npos);
+  EXPECT_NE(message("candidates:\n  n_yaw: 0\n").find("n_yaw"), std::string::npos);
+  EXPECT_NE(message("projection:\n  p_thresh: 0.05\n").find("p_thresh"), std::string::npos);
+  EXPECT_NE(message("projection:\n  hieght_m: 1\n").find("hieght_m"), std::string::npos);
+  EXPECT_NE(message("gain:\n  sensors:\n    - z_min_m: 5\n").find("z_max_m"), std::string::npos);
+  // Two-map mode, minimum jerk, radius from the diameter.
+  const PlannerConfig c = LoadPlannerConfig(ConfigNode::FromString(
+      "mode: two_map\nprojection:\n  vehicle_diameter_m: 0.5\ntrajectory:\n  derivative_order: 3\n",
+      "test.yaml"));
+  EXPECT_EQ(c.mode, ExplorationMode::kTwoMap);
+  EXPECT_EQ(c.trajectory.derivative_order, 3);
+  EXPECT_EQ(c.trajectory.vehicle_radius_m, 0.25);
+}
+
+}  // namespace
+}  // namespace kestrel

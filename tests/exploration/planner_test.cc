@@ -1,0 +1,200 @@
+#include "exploration/planner.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+namespace kestrel {
+namespace {
+
+// A hand-made 3D map over x, y in [-3, 3), z in [-0.15, 1.5) at 0.075 m: outer walls, an inner
+// wall at x = 0.6 for y < 0.9, floor below z = 0. Cells within `known_radius_m` of the origin are
+// observed (free 1e-3, walls and floor 0.999); everything else is P_init 0.1.
+struct RoomMap {
+  Eigen::Vector3i dims{80, 80, 22};
+  Eigen::Vector3d origin{-3.0, -3.0, -0.15};
+  double alpha{0.075};
+  std::vector<float> values;
+
+  explicit RoomMap(double known_radius_m, double unseen_band_radius_m = 0.0) {
+    values.assign(static_cast<size_t>(dims.prod()), 0.1f);
+    for (int k = 0; k < dims.z(); ++k) {
+      for (int j = 0; j < dims.y(); ++j) {
+        for (int i = 0; i < dims.x(); ++i) {
+          const double x = origin.x() + (i + 0.5) * alpha, y = origin.y() + (j + 0.5) * alpha;
+          const double z = origin.z() + (k + 0.5) * alpha;
+          if (std::hypot(x, y) > known_radius_m) continue;
+          // A ring of unseen cells at the top and bottom of the band near the start (what a
+          // level camera misses during the start-up turn).
+          if (std::hypot(x, y) < unseen_band_radius_m && (z < 0.4 || z > 1.1)) continue;
+          const bool wall = i < 3 || j < 3 || i >= dims.x() - 3 || j >= dims.y() - 3 ||
+                            (std::abs(x - 0.6) < 0.1 && y < 0.9) || z < 0.0;
+          at(i, j, k) = wall ? 0.999f : 0.001f;
+        }
+      }
+    }
+  }
+  float& at(int i, int j, int k) {
+    return values[static_cast<size_t>(i + dims.x() * (j + dims.y() * k))];
+  }
+  OccupancyGridView view() const {
+    OccupancyGridView v;
+    v.dims = dims;
+    v.origin_m = origin;
+    v.resolution_m = alpha;
+    v.probability = values.data();
+    return v;
+  }
+};
+
+PlannerInput InputAt(const RoomMap& map, Eigen::Vector2d xy) {
+  PlannerInput in;
+  in.map = map.view();
+  in.position_m = Eigen::Vector3d(xy.x(), xy.y(), 0.75);
+  in.time_s = 10.0;
+  return in;
+}
+
+void ExpectTrajectoryInside(const PlanResult& r, const PlannerInput& in, const PlannerConfig& c) {
+  ASSERT_TRUE(r.trajectory.trajectory.has_value());
+  const GridMap2D& cm = r.collision.collision;
+  const std::vector<bool> allowed =
+      AllowedCells(cm, TraversableCells(cm, c.projection.collision_threshold),
+                   in.position_m.head<2>(), c.trajectory.vehicle_radius_m);
+  for (const TrajectorySample& s : r.trajectory.trajectory->Sample(0.01)) {
+    ASSERT_TRUE(DiscClear(cm, allowed, s.flat.position_m.head<2>(), c.trajectory.vehicle_radius_m));
+    ASSERT_NEAR(s.flat.position_m.z(), 0.75, 1e-6);
+  }
+}
+
+// Combined mode: the chosen candidate maximises I * bump, its gain is eq. (10) on B, and the
+// trajectory reaches it inside traversable cells.
+TEST(Planner, CombinedChoosesMaxObjectiveAndReachesIt) {
+  const RoomMap map(2.2);
+  PlannerConfig config;
+  config.mode = ExplorationMode::kCombined;
+  EntropyPlanner planner(config);
+  const PlannerInput in = InputAt(map, {-1.0, -1.0});
+  const PlanResult r = planner.Plan(in);
+  ASSERT_EQ(r.status, PlanStatus::kGoal) << r.reason;
+  ASSERT_GE(r.chosen, 0);
+  const Candidate& best = r.candidates[static_cast<size_t>(r.chosen)];
+  for (const Candidate& c : r.candidates) EXPECT_LE(c.objective(), best.objective());
+  GainEvaluator eval(config.gain);
+  EXPECT_NEAR(eval.PoseGain(r.collision.combined, best.position_m, best.yaw_rad), best.gain_nats,
+              1e-9 * best.gain_nats);
+  EXPECT_EQ(r.candidates.size() % 8, 0u);
+  EXPECT_GT(r.best_unweighted_gain_nats, config.candidates.end_gain_nats);
+  EXPECT_EQ(r.end_test_gain_nats, r.best_unweighted_gain_nats);
+  const FlatOutput end = r.trajectory.trajectory->Evaluate(1e9);
+  EXPECT_NEAR((end.position_m.head<2>() - best.position_m).norm(), 0.0, 1e-8);
+  ExpectTrajectoryInside(r, in, config);
+  EXPECT_GT(r.gain_stats.rays_per_pose, 140);
+}
+
+// Two-map mode plans too, with gains from E.
+TEST(Planner, TwoMapPlans) {
+  const RoomMap map(2.2);
+  PlannerConfig config;
+  config.mode = ExplorationMode::kTwoMap;
+  EntropyPlanner planner(config);
+  const PlannerInput in = InputAt(map, {-1.0, -1.0});
+  const PlanResult r = planner.Plan(in);
+  ASSERT_EQ(r.status, PlanStatus::kGoal) << r.reason;
+  ASSERT_TRUE(r.entropy.has_value());
+  EXPECT_GT(r.end_test_gain_nats, config.candidates.end_gain_nats);  // unknown space remains
+  EXPECT_LT(r.end_test_gain_nats, r.best_unweighted_gain_nats);
+  const Candidate& best = r.candidates[static_cast<size_t>(r.chosen)];
+  GainEvaluator eval(config.gain);
+  EXPECT_NEAR(eval.PoseGain(*r.entropy, best.position_m, best.yaw_rad), best.gain_nats,
+              1e-9 * best.gain_nats);
+  ExpectTrajectoryInside(r, in, config);
+}
+
+// A fully observed map ends exploration in both planners.
+TEST(Planner, ExploredMapEndsExploration) {
+  const RoomMap map(100.0);
+  PlannerConfig config;
+  for (ExplorationMode mode :
+       {ExplorationMode::kCombined, ExplorationMode::kTwoMap, ExplorationMode::kFrontier}) {
+    config.mode = mode;
+    const PlanResult r = MakePlanner(config)->Plan(InputAt(map, {-1.0, -1.0}));
+    EXPECT_EQ(r.status, PlanStatus::kExplorationDone) << ModeName(mode) << " " << r.reason;
+    if (mode != ExplorationMode::kFrontier) {
+      EXPECT_LT(r.end_test_gain_nats, config.candidates.end_gain_nats);
+      EXPECT_FALSE(r.candidates.empty());
+      std::printf("%s: best gain %.3f nats, end-test gain %.3f nats\n", ModeName(mode),
+                  r.best_unweighted_gain_nats, r.end_test_gain_nats);
+    }
+    if (mode == ExplorationMode::kCombined) {
+      EXPECT_EQ(r.end_test_gain_nats, r.best_unweighted_gain_nats);
+    }
+    if (mode == ExplorationMode::kTwoMap) {
+      EXPECT_GT(r.best_unweighted_gain_nats, 10.0);  // the P_min_E floor alone
+    }
+  }
+}
+
+// The frontier baseline goes to the nearest reachable cell bordering unknown B cells.
+TEST(Planner, FrontierChoosesNearestFrontier) {
+  const RoomMap map(2.2);
+  PlannerConfig config;
+  FrontierPlanner planner(config);
+  const PlannerInput in = InputAt(map, {-1.0, -1.0});
+  const PlanResult r = planner.Plan(in);
+  ASSERT_EQ(r.status, PlanStatus::kGoal) << r.reason;
+  const GridMap2D& c = r.collision.collision;
+  double nearest = 1e9;
+  for (int i = 0; i < c.size(); ++i) {
+    if (!r.field.Reachable(i) || i == r.field.start || c.values[static_cast<size_t>(i)] > 0.05)
+      continue;
+    const Cell2 cell = c.CellAt(i);
+    bool frontier = false;
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const Cell2 n{cell.x + dx, cell.y + dy};
+        if (!c.Contains(n)) continue;
+        frontier |= c.at(n) > 0.05 && c.at(n) >= 0.05 && c.at(n) <= 0.5;
+      }
+    }
+    if (frontier) nearest = std::min(nearest, r.field.distance_m[static_cast<size_t>(i)]);
+  }
+  EXPECT_EQ(r.candidates[static_cast<size_t>(r.chosen)].distance_m, nearest);
+  ExpectTrajectoryInside(r, in, config);
+}
+
+// Section 8: after the start-up turn the top and bottom of the band near the start are unseen;
+// without the start-up rule nothing around the vehicle is traversable, with it the first plan
+// leaves the start cell.
+TEST(Planner, StartupRuleLetsFirstPlanLeaveStartCell) {
+  const RoomMap map(2.6, 1.2);
+  PlannerConfig config;
+  EntropyPlanner planner(config);
+  PlannerInput in = InputAt(map, {-1.35, -1.35});
+  const PlanResult without = planner.Plan(in);
+  EXPECT_NE(without.status, PlanStatus::kGoal);
+  in.startup_center_m = in.position_m.head<2>();
+  const PlanResult with = planner.Plan(in);
+  ASSERT_EQ(with.status, PlanStatus::kGoal) << with.reason;
+  EXPECT_NE(with.candidates[static_cast<size_t>(with.chosen)].cell, with.field.start);
+  ExpectTrajectoryInside(with, in, config);
+}
+
+// Flying home: a trajectory to the cell of a given point.
+TEST(Planner, PlanToPointReachesHome) {
+  const RoomMap map(2.2);
+  PlannerConfig config;
+  const PlannerInput in = InputAt(map, {-1.0, 1.0});
+  const PlanResult r = PlanToPoint(config, in, {-0.6, -0.6}, 0.0);
+  ASSERT_EQ(r.status, PlanStatus::kGoal) << r.reason;
+  const GridMap2D& c = r.collision.collision;
+  const Eigen::Vector2d home = c.CenterOf(*c.CellOf({-0.6, -0.6}));
+  EXPECT_NEAR((r.trajectory.trajectory->Evaluate(1e9).position_m.head<2>() - home).norm(), 0.0,
+              1e-8);
+  ExpectTrajectoryInside(r, in, config);
+}
+
+}  // namespace
+}  // namespace kestrel
