@@ -1,0 +1,259 @@
+#include "tests/system/mission.h"
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "common/check.h"
+#include "common/clock.h"
+#include "common/config.h"
+#include "common/log.h"
+#include "control/controller_node.h"
+#include "exploration/explorer_node.h"
+#include "kestrel/command_t.hpp"
+#include "mapping/mapper_node.h"
+#include "sim/ground_truth.h"
+#include "sim/sim_node.h"
+
+namespace kestrel {
+
+namespace {
+
+std::string Resolve(const std::string& root, const std::string& path) {
+  if (path.empty() || path[0] == '/') return path;
+  return root + "/" + path;
+}
+
+ConfigNode Load(const std::string& root, const std::string& file,
+                const std::vector<std::string>& overrides) {
+  ConfigNode node = ConfigNode::LoadFile(Resolve(root, file));
+  for (const auto& o : overrides) node.ApplyOverride(o);
+  return node;
+}
+
+}  // namespace
+
+MissionResult RunMission(const MissionConfig& mc) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  // --- Configuration: one world, its limits everywhere.
+  std::vector<std::string> sim_overrides = mc.sim_overrides;
+  sim_overrides.push_back("world_file=" + Resolve(mc.root, mc.world_file));
+  sim_overrides.push_back("seed=" + std::to_string(mc.seed));
+  ConfigNode sim_node_cfg = Load(mc.root, mc.sim_file, sim_overrides);
+  const SimConfig sim_config = LoadSimConfig(sim_node_cfg, mc.root);
+  sim_node_cfg.CheckNoUnknownKeys();
+  const World& world = sim_config.world;
+
+  ConfigNode mapper_cfg = Load(mc.root, mc.mapper_file, mc.mapper_overrides);
+  MapperConfig mapper_config = LoadMapperConfig(mapper_cfg);
+  mapper_cfg.CheckNoUnknownKeys();
+  mapper_config.limits.min_m = world.map_min_m;
+  mapper_config.limits.max_m = world.map_max_m;
+  mapper_config.checkpoint_path.clear();
+  mapper_config.sensors[0].X_BS = sim_config.vehicle.X_BS_xtion;
+  if (mapper_config.sensors.size() > 1)
+    mapper_config.sensors[1].X_BS = sim_config.vehicle.X_BS_hokuyo;
+
+  ConfigNode explorer_cfg = Load(mc.root, mc.explorer_file, mc.explorer_overrides);
+  ExplorerConfig explorer_config = LoadExplorerConfig(explorer_cfg);
+  explorer_cfg.CheckNoUnknownKeys();
+  explorer_config.map = mapper_config.limits;
+  explorer_config.p_init = mapper_config.occupancy.p_init;
+  explorer_config.planner.projection.height_m = world.exploration_height_m;
+  explorer_config.planner.projection.p_init = mapper_config.occupancy.p_init;
+  // The vehicle that flies is the simulator's: its diameter sets k_C and the disc checked.
+  explorer_config.planner.projection.vehicle_diameter_m = sim_config.vehicle.diameter_m;
+  explorer_config.planner.trajectory.vehicle_radius_m = 0.5 * sim_config.vehicle.diameter_m;
+
+  ControllerConfig controller_config;
+  if (!mc.controller_file.empty()) {
+    controller_config = LoadControllerConfig(
+        ConfigNode::LoadFile(Resolve(mc.root, mc.controller_file)), sim_config.vehicle);
+  }
+  controller_config.flight.vehicle = sim_config.vehicle;
+  controller_config.flight.safety.geofence_min_m = world.map_min_m - Eigen::Vector3d(0, 0, 0.2);
+  controller_config.flight.safety.geofence_max_m = world.map_max_m + Eigen::Vector3d(0, 0, 1.0);
+
+  // --- The nodes, in one process.
+  lcm::LCM lcm("memq://");
+  KESTREL_THROW_UNLESS(lcm.good(), "memq:// LCM unavailable");
+  SimClock clock(1700000000000000);  // a fixed, plausible epoch: stamps are the same every run
+  SimNode sim(lcm, sim_config, clock);
+  ControllerNode controller(lcm, controller_config, clock);
+  MapperNode mapper(lcm, mapper_config, clock);
+  ExplorerNode explorer(lcm, explorer_config, clock);
+
+  GuardedSubscriptions watch(lcm);
+  if (mc.verbose) {
+    watch.Add<exploration_status_t>(
+        explorer_config.status_channel,
+        [&](const std::string&, const exploration_status_t& m) {
+          std::fprintf(stderr, "  plan %lld state %d: %s (best gain %.1f nats, %d candidates)\n",
+                       static_cast<long long>(m.seq), m.state, m.reason.c_str(),
+                       m.best_unweighted_gain_nats, m.num_candidates);
+        },
+        nullptr);
+  }
+
+  // --- Ground truth for map quality (section 10), on the mapper's lattice.
+  const GridGeometry& geometry = mapper.geometry();
+  const GridSpec grid{geometry.origin_m(), geometry.resolution_m(),
+                      Eigen::Vector3i(geometry.upper().x, geometry.upper().y, geometry.upper().z)};
+  std::vector<uint8_t> truth, observable;
+  if (mc.compute_quality) {
+    truth = VoxelizeWorld(world, grid);
+    ObservabilityConfig oc;
+    oc.max_range_m = mapper_config.sensors[0].model.z_max_m;
+    oc.elevation_min_rad = -0.5 * (sim_config.depth.vfov_deg * M_PI / 180.0);
+    oc.elevation_max_rad = 0.5 * (sim_config.depth.vfov_deg * M_PI / 180.0);
+    observable = ComputeObservableCells(world, sim.simulator().caster(), grid, oc).observable;
+  }
+  auto quality = [&]() {
+    std::vector<double> p(grid.size());
+    for (int z = 0; z < grid.dims.z(); ++z) {
+      for (int y = 0; y < grid.dims.y(); ++y) {
+        for (int x = 0; x < grid.dims.x(); ++x) {
+          p[grid.IndexOf(Eigen::Vector3i(x, y, z))] = mapper.ProbabilityAt(CellIndex{x, y, z});
+        }
+      }
+    }
+    return ComputeMapQuality(p, truth, observable, mapper_config.occupancy.p_init);
+  };
+
+  // --- Lockstep.
+  MissionResult r;
+  const int64_t t0 = clock.NowUtime();
+  const int64_t control_period_us = SecondsToUtime(1.0 / controller_config.rate_hz);
+  int64_t next_control = t0;
+  int64_t next_explore = t0;
+  int64_t next_sample = t0;
+  bool takeoff_sent = false;
+  int64_t takeoff_utime = -1, land_utime = -1;
+  Eigen::Vector3d last_position = world.start_X_WB.p;
+  auto drain = [&] {
+    while (lcm.handleTimeout(0) > 0) {
+    }
+  };
+  while (true) {
+    sim.Step();
+    drain();
+    const int64_t now = clock.NowUtime();
+    const double t = UtimeToSeconds(now - t0);
+    if (!takeoff_sent && t >= mc.takeoff_at_s) {
+      command_t cmd{};
+      cmd.utime = now;
+      cmd.seq = 1;
+      cmd.source = "mission";
+      cmd.command = command_t::COMMAND_TAKEOFF;
+      cmd.height_m = world.exploration_height_m - world.start_X_WB.p.z();
+      lcm.publish(controller_config.command_channel, &cmd);
+      takeoff_sent = true;
+      takeoff_utime = now;
+      drain();
+    }
+    while (now >= next_control) {
+      controller.Tick(next_control);
+      next_control += control_period_us;
+    }
+    drain();
+    mapper.ProcessPending();
+    mapper.PublishDue();
+    drain();
+    if (now >= next_explore) {
+      explorer.Step();
+      next_explore += 50000;
+      drain();
+    }
+    const Eigen::Vector3d p = sim.simulator().vehicle().state().p_W;
+    r.path_length_m += (p - last_position).norm();
+    last_position = p;
+    if (land_utime < 0 && explorer.state() == exploration_status_t::STATE_DONE) {
+      land_utime = now;
+      r.exploration_time_s = UtimeToSeconds(now - takeoff_utime);
+    }
+    if (now >= next_sample) {
+      next_sample += SecondsToUtime(mc.quality_period_s);
+      MissionSample s;
+      s.time_s = t;
+      s.entropy_nats = mapper.entropy_nats();
+      s.position_m = p;
+      s.explorer_state = explorer.state();
+      if (mc.compute_quality) {
+        const MapQuality q = quality();
+        s.known_fraction = q.known_fraction;
+        s.accuracy = q.accuracy;
+        if (r.time_to_95_s < 0 && q.known_fraction >= 0.95) r.time_to_95_s = t;
+      }
+      r.samples.push_back(s);
+      if (mc.verbose) {
+        std::fprintf(
+            stderr,
+            "t %6.1f s  state %d  pos %5.2f %5.2f %4.2f  H %.0f  known %.3f  collisions %d\n", t,
+            s.explorer_state, p.x(), p.y(), p.z(), s.entropy_nats, s.known_fraction,
+            sim.simulator().vehicle().collision_count());
+      }
+    }
+    if (land_utime >= 0 && controller.flight().supervisor().mode() == FlightMode::kIdle) {
+      r.landed = true;
+      r.end_reason = "explored, returned and landed";
+      break;
+    }
+    if (t >= mc.max_time_s) {
+      r.end_reason = "time limit " + std::to_string(mc.max_time_s) + " s";
+      break;
+    }
+  }
+  r.sim_time_s = UtimeToSeconds(clock.NowUtime() - t0);
+  r.collisions = sim.simulator().vehicle().collision_count();
+  r.plans = static_cast<int>(explorer.plans());
+  r.planning_wall_s = explorer.total_planning_s();
+  r.scans_applied = mapper.scans_applied();
+  r.mapper_applied_every_message = mapper.applied_every_message();
+  r.map_hash = mapper.map_hash();
+  r.final_entropy_nats = mapper.entropy_nats();
+  if (mc.compute_quality) r.quality = quality();
+  if (!mc.map_path.empty()) mapper.SaveMapFile(mc.map_path);
+  if (!mc.octomap_path.empty()) mapper.ExportOctoMapFile(mc.octomap_path);
+  if (!mc.ply_path.empty()) mapper.ExportPlyFile(mc.ply_path);
+  if (!mc.csv_path.empty()) WriteMissionCsv(mc.csv_path, r);
+  r.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return r;
+}
+
+void WriteMissionCsv(const std::string& path, const MissionResult& r) {
+  std::ofstream out(path);
+  out << "time_s,entropy_nats,known_fraction,accuracy,x_m,y_m,z_m,explorer_state\n";
+  for (const MissionSample& s : r.samples) {
+    out << s.time_s << "," << s.entropy_nats << "," << s.known_fraction << "," << s.accuracy << ","
+        << s.position_m.x() << "," << s.position_m.y() << "," << s.position_m.z() << ","
+        << s.explorer_state << "\n";
+  }
+}
+
+std::string MissionSummary(const MissionResult& r) {
+  std::ostringstream s;
+  s << "end: " << r.end_reason << "\n"
+    << "simulated time: " << r.sim_time_s << " s (wall " << r.wall_time_s << " s, "
+    << (r.wall_time_s > 0 ? r.sim_time_s / r.wall_time_s : 0) << "x real time)\n"
+    << "exploration time (take-off to land command): " << r.exploration_time_s << " s\n"
+    << "landed: " << (r.landed ? "yes" : "no") << "\n"
+    << "collisions: " << r.collisions << "\n"
+    << "path length: " << r.path_length_m << " m\n"
+    << "plans: " << r.plans << ", planning wall time " << r.planning_wall_s << " s ("
+    << (r.plans > 0 ? 1000.0 * r.planning_wall_s / r.plans : 0) << " ms per plan)\n"
+    << "scans applied: " << r.scans_applied
+    << ", every message applied: " << (r.mapper_applied_every_message ? "yes" : "no") << "\n"
+    << "map entropy: " << r.final_entropy_nats << " nats, map hash " << std::hex << r.map_hash
+    << std::dec << "\n"
+    << "known fraction: " << r.quality.known_fraction << " of " << r.quality.observable_cells
+    << " observable cells; accuracy " << r.quality.accuracy << "; Brier " << r.quality.brier
+    << "; ROC AUC " << r.quality.roc_auc << "\n"
+    << "time to 95% known: " << r.time_to_95_s << " s\n";
+  return s.str();
+}
+
+}  // namespace kestrel

@@ -1,0 +1,76 @@
+#pragma once
+/// @file
+/// The whole system in one process (issue 8, "deterministic"): kestrel-sim's SimNode, the
+/// controller, the mapper and the explorer over memq:// with the simulator's clock, in lockstep.
+/// The same seed gives the same messages and the same map, bit for bit. Used by the CI
+/// regression (tests/system/mission_test.cc), scripts/regress and scripts/demo's summary.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "mapping/map_quality.h"
+
+namespace kestrel {
+
+struct MissionConfig {
+  std::string root{"."};  ///< repository root (relative config paths start here)
+  std::string sim_file{"config/sim/sim.yaml"};
+  std::string world_file{"config/worlds/lasr.yaml"};
+  std::string mapper_file{"config/mapper.yaml"};
+  std::string explorer_file{"config/exploration/explorer.yaml"};
+  std::string controller_file;             ///< "" = defaults
+  std::vector<std::string> sim_overrides;  ///< --set style, applied to the sim file
+  std::vector<std::string> mapper_overrides;
+  std::vector<std::string> explorer_overrides;
+  int64_t seed{1};
+  double max_time_s{400.0};      ///< simulated seconds before giving up
+  double takeoff_at_s{0.5};      ///< the take-off command (as kestrel-cmd sends it), s after start
+  double quality_period_s{5.0};  ///< known fraction / entropy sampling period, s
+  bool compute_quality{true};    ///< ground truth and observable cells (section 10)
+  std::string csv_path;          ///< time series (t, entropy, known fraction, ...) if set
+  std::string map_path;          ///< final map file (Kestrel map) if set
+  std::string octomap_path;      ///< final map exported for OctoMap tools (.bt or .ot) if set
+  std::string ply_path;          ///< occupied cells as a PLY point cloud if set
+  bool verbose{false};           ///< progress lines on stderr
+};
+
+/// One row of the time series.
+struct MissionSample {
+  double time_s{0};
+  double entropy_nats{0};
+  double known_fraction{0};
+  double accuracy{0};
+  Eigen::Vector3d position_m{Eigen::Vector3d::Zero()};
+  int explorer_state{0};
+};
+
+struct MissionResult {
+  double sim_time_s{0};           ///< simulated time at the end
+  double wall_time_s{0};          ///< wall time of the run
+  double exploration_time_s{-1};  ///< take-off to the explorer's land command (-1: never)
+  bool landed{false};             ///< the controller ended in IDLE after the land command
+  int collisions{0};              ///< collision episodes (obstacles and floor crashes)
+  double path_length_m{0};        ///< flown distance (true state)
+  int plans{0};
+  double planning_wall_s{0};  ///< total wall time of all plans
+  int64_t scans_applied{0};
+  bool mapper_applied_every_message{false};
+  uint64_t map_hash{0};
+  double final_entropy_nats{0};
+  MapQuality quality;       ///< at the end (section 10), if computed
+  double time_to_95_s{-1};  ///< first sample with known fraction >= 0.95 (-1: never)
+  std::vector<MissionSample> samples;
+  std::string end_reason;
+};
+
+/// Runs a mission. @throws ConfigError / std::invalid_argument on bad configuration.
+MissionResult RunMission(const MissionConfig& config);
+
+/// Writes the time series as CSV.
+void WriteMissionCsv(const std::string& path, const MissionResult& result);
+
+/// A short human-readable summary.
+std::string MissionSummary(const MissionResult& result);
+
+}  // namespace kestrel
