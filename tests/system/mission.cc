@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <memory>
 #include <sstream>
 
 #include <lcm/lcm-cpp.hpp>
@@ -86,6 +87,29 @@ MissionResult RunMission(const MissionConfig& mc) {
   MapperNode mapper(lcm, mapper_config, clock);
   ExplorerNode explorer(lcm, explorer_config, clock);
 
+  // Every message in publication order, as lcm-logger would record it (stamped with the
+  // simulated time), so the run can be replayed into fresh processes.
+  std::unique_ptr<lcm::LogFile> log;
+  struct LogWriter {
+    lcm::LogFile* file;
+    const SimClock* clock;
+    int64_t events{0};
+    void Handle(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+      lcm::LogEvent ev;
+      ev.eventnum = events++;
+      ev.timestamp = clock->NowUtime();
+      ev.channel = channel;
+      ev.datalen = static_cast<int32_t>(rbuf->data_size);
+      ev.data = rbuf->data;
+      file->writeEvent(&ev);
+    }
+  } writer{nullptr, &clock};
+  if (!mc.log_path.empty()) {
+    log = std::make_unique<lcm::LogFile>(mc.log_path, "w");
+    KESTREL_THROW_UNLESS(log->good(), "cannot write the log " << mc.log_path);
+    writer.file = log.get();
+    lcm.subscribe(".*", &LogWriter::Handle, &writer);
+  }
   GuardedSubscriptions watch(lcm);
   if (mc.verbose) {
     watch.Add<exploration_status_t>(

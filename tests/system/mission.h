@@ -28,6 +28,7 @@ struct MissionConfig {
   double takeoff_at_s{0.5};      ///< the take-off command (as kestrel-cmd sends it), s after start
   double quality_period_s{5.0};  ///< known fraction / entropy sampling period, s
   bool compute_quality{true};    ///< ground truth and observable cells (section 10)
+  std::string log_path;          ///< every message, as an LCM log (lcm-logplayer replays it)
   std::string csv_path;          ///< time series (t, entropy, known fraction, ...) if set
   std::string map_path;          ///< final map file (Kestrel map) if set
   std::string octomap_path;      ///< final map exported for OctoMap tools (.bt or .ot) if set

@@ -8,6 +8,7 @@ namespace {
 const char* const kUsage =
     "usage: kestrel-mission [--root DIR] [--world FILE] [--seed N] [--max-time S] [--csv FILE]\n"
     "                       [--map FILE] [--octomap FILE.bt] [--ply FILE] [--sim FILE]\n"
+    "                       [--log FILE.lcmlog]\n"
     "                       [--sim-set k=v]... [--mapper-set k=v]...\n"
     "                       [--explorer-set k=v]... [--no-quality] [--verbose]\n"
     "Runs simulator, controller, mapper and explorer in lockstep over memq:// and prints a\n"
@@ -37,6 +38,8 @@ int main(int argc, char** argv) {
             mc.csv_path = value();
           else if (p[i] == "--map")
             mc.map_path = value();
+          else if (p[i] == "--log")
+            mc.log_path = value();
           else if (p[i] == "--octomap")
             mc.octomap_path = value();
           else if (p[i] == "--ply")
