@@ -52,8 +52,10 @@ void NodeLoop::FireDueTimers() {
     if (next == nullptr) break;
     const int64_t scheduled = next->next_due_utime;
     next->next_due_utime += next->period_us;
-    if (!clock_.is_simulated() && next->next_due_utime <= now) {
-      // Wall clock fell behind by whole periods: skip them rather than burst.
+    // Wall clock behind by whole periods, or a simulated clock that jumped (a simulator restarted):
+    // skip rather than burst (a simulated clock catches up exactly up to 1000 periods).
+    if (next->next_due_utime <= now &&
+        (!clock_.is_simulated() || now - next->next_due_utime > 1000 * next->period_us)) {
       const int64_t behind = (now - next->next_due_utime) / next->period_us + 1;
       skipped_ticks_ += behind;
       next->next_due_utime += behind * next->period_us;

@@ -16,6 +16,8 @@ ProcessArgs ParseProcessArgs(int argc, char** argv, const std::string& usage) {
       "  --config FILE        YAML configuration (keys are checked; unknown keys are errors)\n"
       "  --set KEY.PATH=VALUE override one configuration value (repeatable)\n"
       "  --lcm-url URL        LCM provider, e.g. udpm://239.255.76.67:7667?ttl=0\n"
+      "  --sim-clock CHANNEL  follow the simulator's time (sim_truth_t on CHANNEL, e.g. "
+      "SIM_TRUTH)\n"
       "  -h, --help           this text\n";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -38,6 +40,8 @@ ProcessArgs ParseProcessArgs(int argc, char** argv, const std::string& usage) {
       args.overrides.push_back(value("--set"));
     } else if (a == "--lcm-url" || a.rfind("--lcm-url=", 0) == 0) {
       args.lcm_url = value("--lcm-url");
+    } else if (a == "--sim-clock" || a.rfind("--sim-clock=", 0) == 0) {
+      args.sim_clock_channel = value("--sim-clock");
     } else if (a.rfind("--", 0) == 0 && a.size() > 2) {
       args.positional.push_back(a);  // process-specific flags are the body's to check
     } else {

@@ -31,6 +31,7 @@ struct ProcessArgs {
   std::string config_path;              ///< --config FILE (empty: defaults only)
   std::vector<std::string> overrides;   ///< --set key.path=value, in order
   std::string lcm_url;                  ///< --lcm-url URL ("" = LCM_DEFAULT_URL or LCM's default)
+  std::string sim_clock_channel;        ///< --sim-clock CHANNEL: run on the simulator's time
   std::vector<std::string> positional;  ///< anything else, in order
 };
 

@@ -1,88 +1,61 @@
 // kestrel-controller: the geometric SE(3) flight controller process (runs on the vehicle).
 // Reads POSE_VICON, IMU, TRAJECTORY, COMMAND; writes MOTOR_COMMAND, CONTROLLER_STATUS and a
 // heartbeat. See control/controller_node.h.
-#include <cstdio>
-#include <cstring>
-#include <exception>
-#include <string>
-
 #include <lcm/lcm-cpp.hpp>
 
-#include "common/clock.h"
-#include "common/config.h"
 #include "common/heartbeat.h"
-#include "common/log.h"
 #include "common/node_loop.h"
+#include "common/process.h"
+#include "common/sim_truth_clock.h"
 #include "control/controller_node.h"
 
 namespace {
-
-void PrintUsage() {
-  std::printf(
-      "usage: kestrel-controller [--vehicle FILE] [--config FILE] [--lcm-url URL]\n"
-      "  --vehicle FILE  vehicle parameters (default config/vehicle/paper.yaml)\n"
-      "  --config FILE   controller YAML (rate_hz, channels, controller, estimator, safety);\n"
-      "                  optional, defaults otherwise\n"
-      "  --lcm-url URL   LCM provider (default: LCM's default, e.g. udpm://...?ttl=0)\n");
-}
-
+const char* const kUsage =
+    "usage: kestrel-controller [--vehicle FILE] [--config FILE] [--set key=value]...\n"
+    "                          [--lcm-url URL] [--sim-clock SIM_TRUTH]\n"
+    "  --vehicle FILE  vehicle parameters (default config/vehicle/paper.yaml)\n"
+    "  --config FILE   controller YAML (rate_hz, channels, controller, estimator, safety);\n"
+    "                  optional, defaults otherwise\n";
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string vehicle_path = "config/vehicle/paper.yaml";
-  std::string config_path;
-  std::string lcm_url;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      PrintUsage();
-      return 0;
-    }
-    if (i + 1 >= argc || (arg != "--vehicle" && arg != "--config" && arg != "--lcm-url")) {
-      std::fprintf(stderr, "kestrel-controller: bad argument '%s'\n", arg.c_str());
-      PrintUsage();
-      return 2;
-    }
-    const std::string value = argv[++i];
-    if (arg == "--vehicle") vehicle_path = value;
-    if (arg == "--config") config_path = value;
-    if (arg == "--lcm-url") lcm_url = value;
-  }
-  kestrel::SetLogProcessName("kestrel-controller");
-  try {
-    const kestrel::VehicleConfig vehicle = kestrel::LoadVehicleConfigFile(vehicle_path);
-    kestrel::ControllerConfig config;
-    config.flight.vehicle = vehicle;
-    if (!config_path.empty()) {
-      config = kestrel::LoadControllerConfig(kestrel::ConfigNode::LoadFile(config_path), vehicle);
-    }
-    config.Validate();
-    lcm::LCM lcm(lcm_url);
-    if (!lcm.good()) {
-      kestrel::Log(kestrel::LogLevel::kError, "LCM failed to start with url '" + lcm_url + "'");
-      return 1;
-    }
-    kestrel::WallClock clock;
-    kestrel::ControllerNode node(lcm, config, clock);
-    kestrel::Heartbeat heartbeat(lcm, clock, "kestrel-controller", "HEARTBEAT_CONTROLLER");
-    kestrel::NodeLoop loop(lcm, clock);
-    loop.AddTimer("control", kestrel::SecondsToUtime(1.0 / config.rate_hz),
-                  [&node](int64_t utime) { node.Tick(utime); });
-    loop.AddTimer("heartbeat", 1000000, [&](int64_t) {
-      heartbeat.SetState(kestrel::heartbeat_t::STATE_OK);
-      heartbeat.SetValue("mode", static_cast<double>(node.flight().supervisor().mode()));
-      heartbeat.SetValue("drops", static_cast<double>(node.drops().total()));
-      heartbeat.SetLastError(node.drops().last_reason());
-      heartbeat.Publish();
-    });
-    loop.AddShutdownHook([&] {
-      heartbeat.SetState(kestrel::heartbeat_t::STATE_STOPPING);
-      heartbeat.Publish();
-    });
-    kestrel::NodeLoop::InstallSignalHandlers();
-    return loop.Run();
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "kestrel-controller: %s\n", e.what());
-    return 1;
-  }
+  return kestrel::RunProcess(
+      "kestrel-controller", argc, argv, kUsage,
+      [](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
+        std::string vehicle_path = "config/vehicle/paper.yaml";
+        const auto& p = args.positional;
+        for (size_t i = 0; i < p.size(); ++i) {
+          if (p[i] == "--vehicle" && i + 1 < p.size()) {
+            vehicle_path = p[++i];
+          } else {
+            throw kestrel::ConfigError("unexpected argument '" + p[i] + "'\n" + kUsage);
+          }
+        }
+        const kestrel::VehicleConfig vehicle = kestrel::LoadVehicleConfigFile(vehicle_path);
+        kestrel::ControllerConfig config = kestrel::LoadControllerConfig(node, vehicle);
+        config.flight.vehicle = vehicle;
+        node.CheckNoUnknownKeys();
+        config.Validate();
+        lcm::LCM lcm(args.lcm_url);
+        if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");
+        const std::unique_ptr<kestrel::Clock> clock =
+            kestrel::MakeProcessClock(lcm, args.sim_clock_channel);
+        kestrel::ControllerNode controller(lcm, config, *clock);
+        kestrel::Heartbeat heartbeat(lcm, *clock, "kestrel-controller", "HEARTBEAT_CONTROLLER");
+        kestrel::NodeLoop loop(lcm, *clock);
+        loop.AddTimer("control", kestrel::SecondsToUtime(1.0 / config.rate_hz),
+                      [&controller](int64_t utime) { controller.Tick(utime); });
+        loop.AddTimer("heartbeat", 1000000, [&](int64_t) {
+          heartbeat.SetState(kestrel::heartbeat_t::STATE_OK);
+          heartbeat.SetValue("mode", static_cast<double>(controller.flight().supervisor().mode()));
+          heartbeat.SetValue("drops", static_cast<double>(controller.drops().total()));
+          heartbeat.SetLastError(controller.drops().last_reason());
+          heartbeat.Publish();
+        });
+        loop.AddShutdownHook([&] {
+          heartbeat.SetState(kestrel::heartbeat_t::STATE_STOPPING);
+          heartbeat.Publish();
+        });
+        return loop.Run();
+      });
 }

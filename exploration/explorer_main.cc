@@ -3,6 +3,7 @@
 
 #include "common/node_loop.h"
 #include "common/process.h"
+#include "common/sim_truth_clock.h"
 #include "exploration/explorer_node.h"
 
 namespace {
@@ -25,9 +26,10 @@ int main(int argc, char** argv) {
         node.CheckNoUnknownKeys();
         lcm::LCM lcm(args.lcm_url);
         if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");
-        kestrel::WallClock clock;
-        kestrel::ExplorerNode explorer(lcm, config, clock);
-        kestrel::NodeLoop loop(lcm, clock);
+        const std::unique_ptr<kestrel::Clock> clock =
+            kestrel::MakeProcessClock(lcm, args.sim_clock_channel);
+        kestrel::ExplorerNode explorer(lcm, config, *clock);
+        kestrel::NodeLoop loop(lcm, *clock);
         loop.AddTimer("step", 50000, [&](int64_t) { explorer.Step(); });
         return loop.Run();
       });

@@ -32,7 +32,6 @@ void ExplorerConfig::Validate() const {
 ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
   ExplorerConfig c;
   // The planner reads its own keys; the map and explorer sections are ours.
-  c.planner = LoadPlannerConfig(node);
   if (node.Has("map")) {
     const ConfigNode m = node.Child("map");
     m.Read("min_m", &c.map.min_m);
@@ -61,6 +60,8 @@ ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
     e.Read("land_at_end", &c.land_at_end);
     e.Read("max_status_candidates", &c.max_status_candidates, Range::Closed(1, 100000));
   }
+  // Last: the planner's reader also checks that no key of the file is left unread.
+  c.planner = LoadPlannerConfig(node);
   try {
     c.Validate();
   } catch (const std::invalid_argument& e) {

@@ -4,6 +4,7 @@
 #include "common/log.h"
 #include "common/node_loop.h"
 #include "common/process.h"
+#include "common/sim_truth_clock.h"
 #include "mapping/mapper_node.h"
 
 namespace {
@@ -36,8 +37,9 @@ int main(int argc, char** argv) {
         node.CheckNoUnknownKeys();
         lcm::LCM lcm(args.lcm_url);
         if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");
-        kestrel::WallClock clock;
-        kestrel::MapperNode mapper(lcm, config, clock);
+        const std::unique_ptr<kestrel::Clock> clock =
+            kestrel::MakeProcessClock(lcm, args.sim_clock_channel);
+        kestrel::MapperNode mapper(lcm, config, *clock);
         while (!kestrel::NodeLoop::signal_received()) {
           // Drain the socket into the node's queue first, so the backlog is visible, then apply
           // one scan at a time.
