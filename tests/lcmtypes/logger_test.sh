@@ -15,7 +15,7 @@ exec "$in_netns" bash -c '
   lcm-logger --quiet --force --lcm-url="$url" "$dir/run.lcmlog" &
   logger=$!
   sleep 0.5
-  "$peer" publish "$url" 30 2
+  "$peer" publish "$url" 30 10
   sleep 0.5
   kill -INT $logger
   wait $logger || true

@@ -13,7 +13,7 @@ exec "$in_netns" bash -c '
   "$peer" receive "$url" 50 30 >"$out" &
   receiver=$!
   for i in $(seq 100); do grep -q ready "$out" && break; sleep 0.05; done
-  "$peer" publish "$url" 50 2
+  "$peer" publish "$url" 50 5
   status=0
   wait $receiver || status=$?
   cat "$out"

@@ -1,0 +1,103 @@
+// flight_check: listens to a running system for SECONDS and checks that it is flying and
+// mapping: every process's heartbeat, message counts, map entropy falling, the vehicle moving,
+// no collision. Prints what it saw; exits 0 when every check passes.
+//   flight_check URL SECONDS
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <set>
+#include <string>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "common/lcm_decode.h"
+#include "kestrel/controller_status_t.hpp"
+#include "kestrel/heartbeat_t.hpp"
+#include "kestrel/map_status_t.hpp"
+#include "kestrel/sim_truth_t.hpp"
+
+int main(int argc, char** argv) {
+  if (argc != 3) {
+    std::fprintf(stderr, "usage: flight_check URL SECONDS\n");
+    return 2;
+  }
+  lcm::LCM lcm(argv[1]);
+  if (!lcm.good()) return 1;
+  const double seconds = std::atof(argv[2]);
+  std::map<std::string, int> counts;
+  std::set<std::string> processes;
+  double first_entropy = -1, last_entropy = -1;
+  bool have_start = false;
+  double start[3] = {0, 0, 0}, max_distance = 0, max_height = 0;
+  int collisions = 0;
+  std::set<int> modes;
+  struct Counter {
+    std::map<std::string, int>* counts;
+    void Handle(const lcm::ReceiveBuffer*, const std::string& channel) { ++(*counts)[channel]; }
+  } counter{&counts};
+  lcm.subscribe(".*", &Counter::Handle, &counter);
+  kestrel::GuardedSubscriptions subs(lcm);
+  subs.Add<kestrel::heartbeat_t>(
+      "HEARTBEAT_.*",
+      [&](const std::string&, const kestrel::heartbeat_t& m) { processes.insert(m.process); },
+      nullptr);
+  subs.Add<kestrel::map_status_t>(
+      "MAP_STATUS",
+      [&](const std::string&, const kestrel::map_status_t& m) {
+        if (first_entropy < 0) first_entropy = m.map_entropy_nats;
+        last_entropy = m.map_entropy_nats;
+      },
+      nullptr);
+  subs.Add<kestrel::sim_truth_t>(
+      "SIM_TRUTH",
+      [&](const std::string&, const kestrel::sim_truth_t& m) {
+        if (!have_start) {
+          for (int a = 0; a < 3; ++a) start[a] = m.position_m[a];
+          have_start = true;
+        }
+        const double dx = m.position_m[0] - start[0], dy = m.position_m[1] - start[1];
+        max_distance = std::max(max_distance, std::sqrt(dx * dx + dy * dy));
+        max_height = std::max(max_height, m.position_m[2]);
+        collisions = m.collision_count;
+      },
+      nullptr);
+  subs.Add<kestrel::controller_status_t>(
+      "CONTROLLER_STATUS",
+      [&](const std::string&, const kestrel::controller_status_t& m) { modes.insert(m.mode); },
+      nullptr);
+  const auto end = std::chrono::steady_clock::now() +
+                   std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000));
+  while (std::chrono::steady_clock::now() < end) lcm.handleTimeout(50);
+
+  for (const auto& [channel, n] : counts) std::printf("%-22s %7d messages\n", channel.c_str(), n);
+  std::printf("processes:");
+  for (const auto& p : processes) std::printf(" %s", p.c_str());
+  std::printf("\nentropy %.0f -> %.0f nats; moved %.2f m, highest %.2f m; collisions %d\n",
+              first_entropy, last_entropy, max_distance, max_height, collisions);
+  int failures = 0;
+  auto check = [&](bool ok, const char* what) {
+    if (!ok) {
+      std::printf("FAIL: %s\n", what);
+      ++failures;
+    }
+  };
+  for (const char* p :
+       {"kestrel-sim", "kestrel-controller", "kestrel-mapper", "kestrel-explorer"}) {
+    check(processes.count(p) == 1, (std::string("no heartbeat from ") + p).c_str());
+  }
+  // Generous bounds: the simulator runs at its speed factor on a loaded machine.
+  check(counts["POSE_VICON"] > 20 * seconds, "too few POSE_VICON");
+  check(counts["DEPTH_XTION"] > 2 * seconds, "too few DEPTH_XTION");
+  check(counts["SCAN_HOKUYO"] > 2 * seconds, "too few SCAN_HOKUYO");
+  check(counts["MOTOR_COMMAND"] > 50 * seconds, "too few MOTOR_COMMAND");
+  check(counts["TRAJECTORY"] >= 2, "the explorer sent fewer than 2 trajectories");
+  check(first_entropy > 0 && last_entropy < 0.9 * first_entropy, "map entropy did not fall by 10%");
+  check(max_height > 0.5, "the vehicle did not take off");
+  check(max_distance > 0.5, "the vehicle did not move 0.5 m");
+  check(modes.count(kestrel::controller_status_t::MODE_TRACK) == 1, "the controller never tracked");
+  check(collisions == 0, "collision");
+  std::printf("%s\n", failures == 0 ? "PASS" : "FAIL");
+  return failures == 0 ? 0 : 1;
+}

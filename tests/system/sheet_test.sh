@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# The sim sheet through the runner (issue 8, multi-process): kestrel-procman starts the
+# simulator, controller, mapper, explorer and logger as separate processes over UDP multicast in
+# a private network namespace and runs the sheet's "fly" script (take-off by kestrel-cmd);
+# flight_check then listens and asserts every process alive, message counts, entropy falling,
+# the vehicle moving. Finally the mapper is killed with -9 and must be respawned by the runner,
+# resuming from its checkpoint.
+# Usage: sheet_test.sh BUILD_DIR ROOT IN_NETNS SECONDS
+set -euo pipefail
+build=$1; root=$2; in_netns=$3; seconds=${4:-40}
+exec "$in_netns" bash -c '
+  set -euo pipefail
+  build=$1; root=$2; seconds=$3
+  cd "$root"
+  export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304"
+  export KESTREL_BUILD="$build" KESTREL_RUN=$(mktemp -d) KESTREL_SPEED=${KESTREL_SPEED:-1}
+  trap "kill -TERM \$(jobs -p) 2>/dev/null || true; sleep 2; kill -9 \$(jobs -p) 2>/dev/null || true; rm -rf \$KESTREL_RUN" EXIT
+  "$build/common/procman/kestrel-procman" scripts/sheets/sim.procman --host sim --script fly \
+    --log-dir "$KESTREL_RUN/logs" 2>"$KESTREL_RUN/runner.log" &
+  runner=$!
+  status=0
+  "$build/tests/system/flight_check" "$LCM_DEFAULT_URL" "$seconds" || status=1
+  # Fault: kill -9 the mapper; the runner respawns it and it resumes from its checkpoint.
+  mapper_pid=$(pgrep -f "^$build/mapping/kestrel-mapper " | head -1)
+  kill -9 "$mapper_pid"
+  for i in $(seq 100); do
+    grep -q "resumed from checkpoint" "$KESTREL_RUN/logs/mapper.log" 2>/dev/null && break
+    sleep 0.1
+  done
+  if grep -q "resumed from checkpoint" "$KESTREL_RUN/logs/mapper.log"; then
+    echo "mapper killed with -9, respawned, resumed: $(grep "resumed from checkpoint" "$KESTREL_RUN/logs/mapper.log" | tail -1)"
+  else
+    echo "FAIL: the mapper did not resume after kill -9"; tail -20 "$KESTREL_RUN/runner.log"; status=1
+  fi
+  if [[ $status -ne 0 ]]; then
+    for f in "$KESTREL_RUN"/logs/*.log; do echo "== $f"; tail -5 "$f"; done
+  fi
+  kill -TERM $runner
+  wait $runner || true
+  test -s "$KESTREL_RUN/run.lcmlog" || { echo "FAIL: no LCM log"; status=1; }
+  exit $status
+' _ "$build" "$root" "$seconds"
