@@ -15,6 +15,7 @@
 #include "control/controller_node.h"
 #include "exploration/explorer_node.h"
 #include "kestrel/command_t.hpp"
+#include "kestrel/grid_map_t.hpp"
 #include "mapping/mapper_node.h"
 #include "sim/ground_truth.h"
 #include "sim/sim_node.h"
@@ -122,6 +123,32 @@ MissionResult RunMission(const MissionConfig& mc) {
         nullptr);
   }
 
+  Eigen::Vector3d vehicle_position = world.start_X_WB.p;
+  if (mc.verbose) {
+    // The collision map around the vehicle at each plan: '.' traversable, '#' occupied (P > 0.5),
+    // '?' neither, 'V' the vehicle's cell.
+    watch.Add<grid_map_t>(
+        explorer_config.map2d_prefix + "COLLISION",
+        [&](const std::string&, const grid_map_t& m) {
+          const int vx =
+              static_cast<int>(std::floor((vehicle_position.x() - m.origin_m[0]) / m.resolution_m));
+          const int vy =
+              static_cast<int>(std::floor((vehicle_position.y() - m.origin_m[1]) / m.resolution_m));
+          for (int y = std::min(m.height - 1, vy + 5); y >= std::max(0, vy - 5); --y) {
+            std::string row = "    ";
+            for (int x = std::max(0, vx - 8); x <= std::min(m.width - 1, vx + 8); ++x) {
+              const float p = m.values[static_cast<size_t>(y * m.width + x)];
+              row += (x == vx && y == vy)                                          ? 'V'
+                     : p <= explorer_config.planner.projection.collision_threshold ? '.'
+                     : p > 0.5                                                     ? '#'
+                                                                                   : '?';
+            }
+            std::fprintf(stderr, "%s\n", row.c_str());
+          }
+        },
+        nullptr);
+  }
+
   // --- Ground truth for map quality (section 10), on the mapper's lattice.
   const GridGeometry& geometry = mapper.geometry();
   const GridSpec grid{geometry.origin_m(), geometry.resolution_m(),
@@ -192,6 +219,7 @@ MissionResult RunMission(const MissionConfig& mc) {
       drain();
     }
     const Eigen::Vector3d p = sim.simulator().vehicle().state().p_W;
+    vehicle_position = p;
     r.path_length_m += (p - last_position).norm();
     last_position = p;
     if (land_utime < 0 && explorer.state() == exploration_status_t::STATE_DONE) {
