@@ -1,7 +1,9 @@
 // flight_check: listens to a running system for SECONDS and checks that it is flying and
 // mapping: every process's heartbeat, message counts, map entropy falling, the vehicle moving,
 // no collision. Prints what it saw; exits 0 when every check passes.
-//   flight_check URL SECONDS
+//   flight_check URL SECONDS [--until-landed] [--csv FILE]
+// --until-landed: stop listening as soon as the explorer is done and the controller is idle
+// again (the whole exploration), and require that it happened. --csv: MAP_STATUS over time.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,15 +16,31 @@
 
 #include "common/lcm_decode.h"
 #include "kestrel/controller_status_t.hpp"
+#include "kestrel/exploration_status_t.hpp"
 #include "kestrel/heartbeat_t.hpp"
 #include "kestrel/map_status_t.hpp"
 #include "kestrel/sim_truth_t.hpp"
 
 int main(int argc, char** argv) {
-  if (argc != 3) {
-    std::fprintf(stderr, "usage: flight_check URL SECONDS\n");
+  if (argc < 3) {
+    std::fprintf(stderr, "usage: flight_check URL SECONDS [--until-landed] [--csv FILE]\n");
     return 2;
   }
+  bool until_landed = false;
+  FILE* csv = nullptr;
+  for (int i = 3; i < argc; ++i) {
+    if (std::string(argv[i]) == "--until-landed") until_landed = true;
+    if (std::string(argv[i]) == "--csv" && i + 1 < argc) {
+      csv = std::fopen(argv[++i], "w");
+      if (csv != nullptr)
+        std::fprintf(csv, "time_s,entropy_nats,x_m,y_m,z_m,explorer_state,collisions\n");
+    }
+  }
+  int explorer_state = 0;
+  int controller_mode = -1;
+  bool explorer_done = false;
+  double position[3] = {0, 0, 0};
+  int64_t first_status_utime = -1;
   lcm::LCM lcm(argv[1]);
   if (!lcm.good()) return 1;
   const double seconds = std::atof(argv[2]);
@@ -48,6 +66,12 @@ int main(int argc, char** argv) {
       [&](const std::string&, const kestrel::map_status_t& m) {
         if (first_entropy < 0) first_entropy = m.map_entropy_nats;
         last_entropy = m.map_entropy_nats;
+        if (first_status_utime < 0) first_status_utime = m.utime;
+        if (csv != nullptr) {
+          std::fprintf(csv, "%.3f,%.1f,%.3f,%.3f,%.3f,%d,%d\n",
+                       static_cast<double>(m.utime - first_status_utime) * 1e-6, m.map_entropy_nats,
+                       position[0], position[1], position[2], explorer_state, collisions);
+        }
       },
       nullptr);
   subs.Add<kestrel::sim_truth_t>(
@@ -61,21 +85,42 @@ int main(int argc, char** argv) {
         max_distance = std::max(max_distance, std::sqrt(dx * dx + dy * dy));
         max_height = std::max(max_height, m.position_m[2]);
         collisions = m.collision_count;
+        for (int a = 0; a < 3; ++a) position[a] = m.position_m[a];
+        for (int a = 0; a < 3; ++a) position[a] = m.position_m[a];
       },
       nullptr);
   subs.Add<kestrel::controller_status_t>(
       "CONTROLLER_STATUS",
-      [&](const std::string&, const kestrel::controller_status_t& m) { modes.insert(m.mode); },
+      [&](const std::string&, const kestrel::controller_status_t& m) {
+        modes.insert(m.mode);
+        controller_mode = m.mode;
+      },
+      nullptr);
+  subs.Add<kestrel::exploration_status_t>(
+      "EXPLORATION_STATUS",
+      [&](const std::string&, const kestrel::exploration_status_t& m) {
+        explorer_state = m.state;
+        explorer_done = explorer_done || m.state == kestrel::exploration_status_t::STATE_DONE;
+      },
       nullptr);
   const auto end = std::chrono::steady_clock::now() +
                    std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000));
-  while (std::chrono::steady_clock::now() < end) lcm.handleTimeout(50);
+  const auto t_start = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() < end) {
+    lcm.handleTimeout(50);
+    if (until_landed && explorer_done && controller_mode == kestrel::controller_status_t::MODE_IDLE)
+      break;
+  }
+  const double listened_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  if (csv != nullptr) std::fclose(csv);
 
   for (const auto& [channel, n] : counts) std::printf("%-22s %7d messages\n", channel.c_str(), n);
   std::printf("processes:");
   for (const auto& p : processes) std::printf(" %s", p.c_str());
-  std::printf("\nentropy %.0f -> %.0f nats; moved %.2f m, highest %.2f m; collisions %d\n",
-              first_entropy, last_entropy, max_distance, max_height, collisions);
+  std::printf(
+      "\nentropy %.0f -> %.0f nats; moved %.2f m, highest %.2f m; collisions %d; listened %.1f s\n",
+      first_entropy, last_entropy, max_distance, max_height, collisions, listened_s);
   int failures = 0;
   auto check = [&](bool ok, const char* what) {
     if (!ok) {
@@ -88,16 +133,20 @@ int main(int argc, char** argv) {
     check(processes.count(p) == 1, (std::string("no heartbeat from ") + p).c_str());
   }
   // Generous bounds: the simulator runs at its speed factor on a loaded machine.
-  check(counts["POSE_VICON"] > 20 * seconds, "too few POSE_VICON");
-  check(counts["DEPTH_XTION"] > 2 * seconds, "too few DEPTH_XTION");
-  check(counts["SCAN_HOKUYO"] > 2 * seconds, "too few SCAN_HOKUYO");
-  check(counts["MOTOR_COMMAND"] > 50 * seconds, "too few MOTOR_COMMAND");
+  check(counts["POSE_VICON"] > 20 * listened_s, "too few POSE_VICON");
+  check(counts["DEPTH_XTION"] > 2 * listened_s, "too few DEPTH_XTION");
+  check(counts["SCAN_HOKUYO"] > 2 * listened_s, "too few SCAN_HOKUYO");
+  check(counts["MOTOR_COMMAND"] > 50 * listened_s, "too few MOTOR_COMMAND");
   check(counts["TRAJECTORY"] >= 2, "the explorer sent fewer than 2 trajectories");
   check(first_entropy > 0 && last_entropy < 0.9 * first_entropy, "map entropy did not fall by 10%");
   check(max_height > 0.5, "the vehicle did not take off");
   check(max_distance > 0.5, "the vehicle did not move 0.5 m");
   check(modes.count(kestrel::controller_status_t::MODE_TRACK) == 1, "the controller never tracked");
   check(collisions == 0, "collision");
+  if (until_landed) {
+    check(explorer_done, "the explorer did not finish");
+    check(controller_mode == kestrel::controller_status_t::MODE_IDLE, "the vehicle did not land");
+  }
   std::printf("%s\n", failures == 0 ? "PASS" : "FAIL");
   return failures == 0 ? 0 : 1;
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include <lcm/lcm-cpp.hpp>
@@ -19,6 +20,7 @@
 #include "mapping/mapper_node.h"
 #include "sim/ground_truth.h"
 #include "sim/sim_node.h"
+#include "tests/system/map_scorer.h"
 
 namespace kestrel {
 
@@ -153,25 +155,14 @@ MissionResult RunMission(const MissionConfig& mc) {
   const GridGeometry& geometry = mapper.geometry();
   const GridSpec grid{geometry.origin_m(), geometry.resolution_m(),
                       Eigen::Vector3i(geometry.upper().x, geometry.upper().y, geometry.upper().z)};
-  std::vector<uint8_t> truth, observable;
+  std::optional<MapScorer> scorer;
   if (mc.compute_quality) {
-    truth = VoxelizeWorld(world, grid);
-    ObservabilityConfig oc;
-    oc.max_range_m = mapper_config.sensors[0].model.z_max_m;
-    oc.elevation_min_rad = -0.5 * (sim_config.depth.vfov_deg * M_PI / 180.0);
-    oc.elevation_max_rad = 0.5 * (sim_config.depth.vfov_deg * M_PI / 180.0);
-    observable = ComputeObservableCells(world, sim.simulator().caster(), grid, oc).observable;
+    scorer.emplace(world, sim.simulator().caster(), grid, mapper_config.sensors[0].model.z_max_m,
+                   sim_config.depth.vfov_deg * M_PI / 180.0);
   }
   auto quality = [&]() {
-    std::vector<double> p(grid.size());
-    for (int z = 0; z < grid.dims.z(); ++z) {
-      for (int y = 0; y < grid.dims.y(); ++y) {
-        for (int x = 0; x < grid.dims.x(); ++x) {
-          p[grid.IndexOf(Eigen::Vector3i(x, y, z))] = mapper.ProbabilityAt(CellIndex{x, y, z});
-        }
-      }
-    }
-    return ComputeMapQuality(p, truth, observable, mapper_config.occupancy.p_init);
+    return scorer->Score([&](const CellIndex& c) { return mapper.ProbabilityAt(c); },
+                         mapper_config.occupancy.p_init);
   };
 
   // --- Lockstep.

@@ -1,0 +1,35 @@
+#pragma once
+/// @file
+/// Map quality against the simulator's ground truth (ALGORITHMS.md section 10) on the mapper's
+/// lattice: the world voxelised on it, and the observable cells from a dense sweep of
+/// collision-free poses at the exploration height.
+
+#include <functional>
+#include <vector>
+
+#include "mapping/grid.h"
+#include "mapping/map_quality.h"
+#include "sim/ground_truth.h"
+#include "sim/world.h"
+#include "sim/world_ray_caster.h"
+
+namespace kestrel {
+
+class MapScorer {
+ public:
+  /// Ground truth of `world` on `grid`; rays of the sweep reach max_range_m within +-vfov/2.
+  MapScorer(const World& world, const WorldRayCaster& caster, const GridSpec& grid,
+            double max_range_m, double vertical_fov_rad);
+
+  /// Scores a map given the probability of each cell; p_init is the map's prior.
+  [[nodiscard]] MapQuality Score(const std::function<double(const CellIndex&)>& probability,
+                                 double p_init) const;
+  [[nodiscard]] const GridSpec& grid() const { return grid_; }
+
+ private:
+  GridSpec grid_;
+  std::vector<uint8_t> truth_;
+  std::vector<uint8_t> observable_;
+};
+
+}  // namespace kestrel
