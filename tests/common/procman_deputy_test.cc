@@ -137,6 +137,7 @@ TEST_F(DeputyTest, ObeysOrdersForItsHostAndReportsStatus) {
   lcm_.publish("PROCMAN_ORDERS", &order);
   d->Poll();
   EXPECT_GT(d->state("a")->pid, 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the child exec (its RSS)
   d->PublishStatus();
   lcm_.handleTimeout(0);
   ASSERT_FALSE(statuses.empty());
