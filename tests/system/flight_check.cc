@@ -1,7 +1,7 @@
 // flight_check: listens to a running system for SECONDS and checks that it is flying and
 // mapping: every process's heartbeat, message counts, map entropy falling, the vehicle moving,
 // no collision. Prints what it saw; exits 0 when every check passes.
-//   flight_check URL SECONDS [--until-landed] [--csv FILE]
+//   flight_check URL SECONDS [--until-landed] [--csv FILE] [--hover HEIGHT_M]
 // --until-landed: stop listening as soon as the explorer is done and the controller is idle
 // again (the whole exploration), and require that it happened. --csv: MAP_STATUS over time.
 #include <chrono>
@@ -27,9 +27,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   bool until_landed = false;
+  double hover_height_m = -1.0;  // --hover H: only the simulator and the controller, hovering at H
   FILE* csv = nullptr;
   for (int i = 3; i < argc; ++i) {
     if (std::string(argv[i]) == "--until-landed") until_landed = true;
+    if (std::string(argv[i]) == "--hover" && i + 1 < argc) hover_height_m = std::atof(argv[++i]);
     if (std::string(argv[i]) == "--csv" && i + 1 < argc) {
       csv = std::fopen(argv[++i], "w");
       if (csv != nullptr)
@@ -128,24 +130,36 @@ int main(int argc, char** argv) {
       ++failures;
     }
   };
-  for (const char* p :
-       {"kestrel-sim", "kestrel-controller", "kestrel-mapper", "kestrel-explorer"}) {
-    check(processes.count(p) == 1, (std::string("no heartbeat from ") + p).c_str());
-  }
-  // Generous bounds: the simulator runs at its speed factor on a loaded machine.
-  check(counts["POSE_VICON"] > 20 * listened_s, "too few POSE_VICON");
-  check(counts["DEPTH_XTION"] > 2 * listened_s, "too few DEPTH_XTION");
-  check(counts["SCAN_HOKUYO"] > 2 * listened_s, "too few SCAN_HOKUYO");
-  check(counts["MOTOR_COMMAND"] > 50 * listened_s, "too few MOTOR_COMMAND");
-  check(counts["TRAJECTORY"] >= 2, "the explorer sent fewer than 2 trajectories");
-  check(first_entropy > 0 && last_entropy < 0.9 * first_entropy, "map entropy did not fall by 10%");
-  check(max_height > 0.5, "the vehicle did not take off");
-  check(max_distance > 0.5, "the vehicle did not move 0.5 m");
-  check(modes.count(kestrel::controller_status_t::MODE_TRACK) == 1, "the controller never tracked");
-  check(collisions == 0, "collision");
-  if (until_landed) {
-    check(explorer_done, "the explorer did not finish");
-    check(controller_mode == kestrel::controller_status_t::MODE_IDLE, "the vehicle did not land");
+  if (hover_height_m > 0) {
+    for (const char* p : {"kestrel-sim", "kestrel-controller"}) {
+      check(processes.count(p) == 1, (std::string("no heartbeat from ") + p).c_str());
+    }
+    check(counts["MOTOR_COMMAND"] > 50 * listened_s, "too few MOTOR_COMMAND");
+    check(std::abs(position[2] - hover_height_m) < 0.15, "not hovering at the commanded height");
+    check(max_distance < 0.3, "drifted more than 0.3 m while hovering");
+    check(collisions == 0, "collision");
+  } else {
+    for (const char* p :
+         {"kestrel-sim", "kestrel-controller", "kestrel-mapper", "kestrel-explorer"}) {
+      check(processes.count(p) == 1, (std::string("no heartbeat from ") + p).c_str());
+    }
+    // Generous bounds: the simulator runs at its speed factor on a loaded machine.
+    check(counts["POSE_VICON"] > 20 * listened_s, "too few POSE_VICON");
+    check(counts["DEPTH_XTION"] > 2 * listened_s, "too few DEPTH_XTION");
+    check(counts["SCAN_HOKUYO"] > 2 * listened_s, "too few SCAN_HOKUYO");
+    check(counts["MOTOR_COMMAND"] > 50 * listened_s, "too few MOTOR_COMMAND");
+    check(counts["TRAJECTORY"] >= 2, "the explorer sent fewer than 2 trajectories");
+    check(first_entropy > 0 && last_entropy < 0.9 * first_entropy,
+          "map entropy did not fall by 10%");
+    check(max_height > 0.5, "the vehicle did not take off");
+    check(max_distance > 0.5, "the vehicle did not move 0.5 m");
+    check(modes.count(kestrel::controller_status_t::MODE_TRACK) == 1,
+          "the controller never tracked");
+    check(collisions == 0, "collision");
+    if (until_landed) {
+      check(explorer_done, "the explorer did not finish");
+      check(controller_mode == kestrel::controller_status_t::MODE_IDLE, "the vehicle did not land");
+    }
   }
   std::printf("%s\n", failures == 0 ? "PASS" : "FAIL");
   return failures == 0 ? 0 : 1;
