@@ -5,6 +5,7 @@
 #include <fstream>
 #include <memory>
 #include <optional>
+#include <random>
 #include <sstream>
 
 #include <lcm/lcm-cpp.hpp>
@@ -44,6 +45,12 @@ MissionResult RunMission(const MissionConfig& mc) {
   const auto wall_start = std::chrono::steady_clock::now();
   // --- Configuration: one world, its limits everywhere.
   std::vector<std::string> sim_overrides = mc.sim_overrides;
+  const bool faults = mc.sensor_drop_fraction > 0 || mc.mocap_outage_s > 0;
+  if (faults) {  // the simulator publishes on SIM_*; a relay drops what the fault asks
+    sim_overrides.push_back("channels.depth=SIM_DEPTH_XTION");
+    sim_overrides.push_back("channels.scan=SIM_SCAN_HOKUYO");
+    sim_overrides.push_back("channels.pose=SIM_POSE_VICON");
+  }
   sim_overrides.push_back("world_file=" + Resolve(mc.root, mc.world_file));
   sim_overrides.push_back("seed=" + std::to_string(mc.seed));
   ConfigNode sim_node_cfg = Load(mc.root, mc.sim_file, sim_overrides);
@@ -81,6 +88,8 @@ MissionResult RunMission(const MissionConfig& mc) {
   controller_config.flight.safety.geofence_min_m = world.map_min_m - Eigen::Vector3d(0, 0, 0.2);
   controller_config.flight.safety.geofence_max_m = world.map_max_m + Eigen::Vector3d(0, 0, 1.0);
 
+  int64_t r_sensor_dropped_ = 0;
+  int64_t r_poses_dropped_ = 0;
   // --- The nodes, in one process.
   lcm::LCM lcm("memq://");
   KESTREL_THROW_UNLESS(lcm.good(), "memq:// LCM unavailable");
@@ -165,6 +174,45 @@ MissionResult RunMission(const MissionConfig& mc) {
                          mapper_config.occupancy.p_init);
   };
 
+  // --- Fault injection: relay the simulator's sensors, dropping a seeded fraction of depth
+  // images and scans, and every pose during the motion-capture outage.
+  struct Relay {
+    lcm::LCM* lcm;
+    const SimClock* clock;
+    std::string to;
+    double drop_fraction;
+    int64_t outage_begin, outage_end;  // utime, pose relay only
+    std::mt19937_64* rng;
+    int64_t* dropped;
+    void Handle(const lcm::ReceiveBuffer* rbuf, const std::string&) {
+      const int64_t now = clock->NowUtime();
+      const bool drop = (drop_fraction > 0 &&
+                         std::uniform_real_distribution<double>(0, 1)(*rng) < drop_fraction) ||
+                        (now >= outage_begin && now < outage_end);
+      if (drop) {
+        ++*dropped;
+        return;
+      }
+      lcm->publish(to, rbuf->data, rbuf->data_size);
+    }
+  };
+  std::mt19937_64 fault_rng(static_cast<uint64_t>(mc.seed) * 7 + 3);
+  const int64_t start_utime = clock.NowUtime();
+  const int64_t outage_begin =
+      mc.mocap_outage_s > 0 ? start_utime + SecondsToUtime(mc.mocap_outage_at_s) : -1;
+  const int64_t outage_end = outage_begin + SecondsToUtime(mc.mocap_outage_s);
+  Relay depth_relay{&lcm, &clock, "DEPTH_XTION", mc.sensor_drop_fraction,
+                    -1,   -1,     &fault_rng,    &r_sensor_dropped_};
+  Relay scan_relay{&lcm, &clock, "SCAN_HOKUYO", mc.sensor_drop_fraction,
+                   -1,   -1,     &fault_rng,    &r_sensor_dropped_};
+  Relay pose_relay{&lcm,         &clock,     "POSE_VICON", 0.0,
+                   outage_begin, outage_end, &fault_rng,   &r_poses_dropped_};
+  if (faults) {
+    lcm.subscribe("SIM_DEPTH_XTION", &Relay::Handle, &depth_relay);
+    lcm.subscribe("SIM_SCAN_HOKUYO", &Relay::Handle, &scan_relay);
+    lcm.subscribe("SIM_POSE_VICON", &Relay::Handle, &pose_relay);
+  }
+
   // --- Lockstep.
   MissionResult r;
   const int64_t t0 = clock.NowUtime();
@@ -209,6 +257,10 @@ MissionResult RunMission(const MissionConfig& mc) {
       next_explore += 50000;
       drain();
     }
+    if (outage_begin >= 0 && now > outage_end + SecondsToUtime(1.0) &&
+        controller.flight().supervisor().mode() == FlightMode::kTrack) {
+      r.tracked_after_outage = true;
+    }
     const Eigen::Vector3d p = sim.simulator().vehicle().state().p_W;
     vehicle_position = p;
     r.path_length_m += (p - last_position).norm();
@@ -250,6 +302,8 @@ MissionResult RunMission(const MissionConfig& mc) {
     }
   }
   r.sim_time_s = UtimeToSeconds(clock.NowUtime() - t0);
+  r.sensor_messages_dropped = r_sensor_dropped_;
+  r.poses_dropped = r_poses_dropped_;
   r.collisions = sim.simulator().vehicle().collision_count();
   r.plans = static_cast<int>(explorer.plans());
   r.planning_wall_s = explorer.total_planning_s();
@@ -295,7 +349,10 @@ std::string MissionSummary(const MissionResult& r) {
     << "known fraction: " << r.quality.known_fraction << " of " << r.quality.observable_cells
     << " observable cells; accuracy " << r.quality.accuracy << "; Brier " << r.quality.brier
     << "; ROC AUC " << r.quality.roc_auc << "\n"
-    << "time to 95% known: " << r.time_to_95_s << " s\n";
+    << "time to 95% known: " << r.time_to_95_s << " s\n"
+    << "faults: " << r.sensor_messages_dropped << " sensor messages and " << r.poses_dropped
+    << " poses dropped; tracking after the outage: " << (r.tracked_after_outage ? "yes" : "no")
+    << "\n";
   return s.str();
 }
 

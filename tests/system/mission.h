@@ -34,6 +34,10 @@ struct MissionConfig {
   std::string octomap_path;      ///< final map exported for OctoMap tools (.bt or .ot) if set
   std::string ply_path;          ///< occupied cells as a PLY point cloud if set
   bool verbose{false};           ///< progress lines on stderr
+  // Faults (issue 8), injected between the simulator and the other nodes.
+  double sensor_drop_fraction{0.0};  ///< drop this fraction of depth images and scans (seeded)
+  double mocap_outage_at_s{-1.0};    ///< motion capture lost from this time (s after start)...
+  double mocap_outage_s{0.0};        ///< ...for this long (poses not delivered)
 };
 
 /// One row of the time series.
@@ -63,6 +67,9 @@ struct MissionResult {
   double time_to_95_s{-1};  ///< first sample with known fraction >= 0.95 (-1: never)
   std::vector<MissionSample> samples;
   std::string end_reason;
+  int64_t sensor_messages_dropped{0};  ///< by the fault injection
+  int64_t poses_dropped{0};            ///< by the motion-capture outage
+  bool tracked_after_outage{false};    ///< the controller was in TRACK after the outage
 };
 
 /// Runs a mission. @throws ConfigError / std::invalid_argument on bad configuration.

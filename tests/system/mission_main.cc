@@ -8,7 +8,8 @@ namespace {
 const char* const kUsage =
     "usage: kestrel-mission [--root DIR] [--world FILE] [--seed N] [--max-time S] [--csv FILE]\n"
     "                       [--map FILE] [--octomap FILE.bt] [--ply FILE] [--sim FILE]\n"
-    "                       [--log FILE.lcmlog]\n"
+    "                       [--log FILE.lcmlog] [--drop-sensors FRACTION]\n"
+    "                       [--mocap-outage-at S --mocap-outage DURATION_S]\n"
     "                       [--sim-set k=v]... [--mapper-set k=v]...\n"
     "                       [--explorer-set k=v]... [--no-quality] [--verbose]\n"
     "Runs simulator, controller, mapper and explorer in lockstep over memq:// and prints a\n"
@@ -38,6 +39,12 @@ int main(int argc, char** argv) {
             mc.csv_path = value();
           else if (p[i] == "--map")
             mc.map_path = value();
+          else if (p[i] == "--drop-sensors")
+            mc.sensor_drop_fraction = std::stod(value());
+          else if (p[i] == "--mocap-outage-at")
+            mc.mocap_outage_at_s = std::stod(value());
+          else if (p[i] == "--mocap-outage")
+            mc.mocap_outage_s = std::stod(value());
           else if (p[i] == "--log")
             mc.log_path = value();
           else if (p[i] == "--octomap")
