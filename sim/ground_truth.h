@@ -17,8 +17,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "sim/world_ray_caster.h"
 #include "sim/world.h"
+#include "sim/world_ray_caster.h"
 
 namespace kestrel {
 
@@ -96,7 +96,8 @@ struct ObservableCells {
 /// through clear lattice neighbours), with rays at every azimuth step over all headings and
 /// every elevation step in [elevation_min, elevation_max], each to its first hit (the hit cell
 /// included) or to max_range_m. Sensor origins are the lattice points (extrinsic offsets ignored).
-[[nodiscard]] ObservableCells ComputeObservableCells(const World& world, const WorldRayCaster& caster,
+[[nodiscard]] ObservableCells ComputeObservableCells(const World& world,
+                                                     const WorldRayCaster& caster,
                                                      const GridSpec& grid,
                                                      const ObservabilityConfig& config);
 

@@ -81,8 +81,8 @@ DepthCamera::DepthCamera(const DepthCameraConfig& config) : config_(config) {
   }
 }
 
-void DepthCamera::RenderRows(const WorldRayCaster& caster, const Pose3& X_WS, int row_begin, int row_end,
-                             const uint64_t* frame_seed, std::vector<double>* depth_m,
+void DepthCamera::RenderRows(const WorldRayCaster& caster, const Pose3& X_WS, int row_begin,
+                             int row_end, const uint64_t* frame_seed, std::vector<double>* depth_m,
                              std::vector<uint16_t>* counts) const {
   const Eigen::Matrix3d R_WS = X_WS.rotation();
   const int w = config_.width_px;
@@ -281,8 +281,9 @@ Imu::Imu(const ImuConfig& config, SimRandom* rng) : config_(config) {
   for (int a = 0; a < 3; ++a) accel_bias_[a] = config_.accel_bias_sigma_mps2 * rng->Gaussian();
 }
 
-SimulatedImuSample Imu::Measure(int64_t utime, const Eigen::Matrix3d& R_WB, const Eigen::Vector3d& w_B,
-                       const Eigen::Vector3d& a_W, double dt_s, SimRandom* rng) {
+SimulatedImuSample Imu::Measure(int64_t utime, const Eigen::Matrix3d& R_WB,
+                                const Eigen::Vector3d& w_B, const Eigen::Vector3d& a_W, double dt_s,
+                                SimRandom* rng) {
   KESTREL_THROW_UNLESS(dt_s >= 0.0 && std::isfinite(dt_s), "imu dt_s = " << dt_s);
   const double root_dt = std::sqrt(dt_s);
   for (int a = 0; a < 3; ++a) {

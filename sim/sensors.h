@@ -15,8 +15,8 @@
 #include <Eigen/Core>
 
 #include "common/se3.h"
-#include "sim/world_ray_caster.h"
 #include "sim/sim_random.h"
+#include "sim/world_ray_caster.h"
 
 namespace kestrel {
 
@@ -207,8 +207,8 @@ class Imu {
   /// Measures the true state: attitude R_WB, body angular velocity w_B (rad/s), acceleration a_W
   /// of the body origin in W (m/s^2); dt_s (>= 0) since the previous sample drives the bias walk.
   [[nodiscard]] SimulatedImuSample Measure(int64_t utime, const Eigen::Matrix3d& R_WB,
-                                  const Eigen::Vector3d& w_B, const Eigen::Vector3d& a_W,
-                                  double dt_s, SimRandom* rng);
+                                           const Eigen::Vector3d& w_B, const Eigen::Vector3d& a_W,
+                                           double dt_s, SimRandom* rng);
   /// Current gyro bias b_g, B, rad/s.
   [[nodiscard]] const Eigen::Vector3d& gyro_bias_radps() const { return gyro_bias_; }
   /// Current accelerometer bias b_a, B, m/s^2.

@@ -17,9 +17,9 @@
 #include "common/vehicle_config.h"
 #include "sim/bullet_world.h"
 #include "sim/quadrotor.h"
-#include "sim/world_ray_caster.h"
 #include "sim/sensors.h"
 #include "sim/world.h"
+#include "sim/world_ray_caster.h"
 
 namespace kestrel {
 
@@ -70,7 +70,7 @@ struct SimConfig {
 /// What became due in one Step.
 struct SimFrame {
   std::vector<MotionCaptureSample> poses;  ///< poses delivered now (stamped at acquisition)
-  std::optional<SimulatedImuSample> imu;            ///< an IMU sample taken now
+  std::optional<SimulatedImuSample> imu;   ///< an IMU sample taken now
   bool depth{false};                       ///< a depth frame taken now (Simulator::depth_counts)
   bool scan{false};                        ///< a scan taken now (Simulator::scan_ranges)
   bool truth{false};                       ///< a truth sample is due now

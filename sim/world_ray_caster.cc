@@ -220,7 +220,7 @@ void WorldRayCaster::TestPrimitive(int id, const Ray& ray, double* best, int* hi
 }
 
 void WorldRayCaster::TestPlanes(const Eigen::Vector3d& o, const Eigen::Vector3d& u, double* best,
-                           int* hit) const {
+                                int* hit) const {
   for (size_t i = 0; i < planes_.size(); ++i) {
     const Plane& p = planes_[i];
     const double height = p.normal.dot(o) - p.offset;
@@ -240,7 +240,7 @@ void WorldRayCaster::TestPlanes(const Eigen::Vector3d& o, const Eigen::Vector3d&
 }
 
 double WorldRayCaster::CastRayBruteForce(const Eigen::Vector3d& o_W, const Eigen::Vector3d& u_W,
-                                    double max_range_m, int* primitive) const {
+                                         double max_range_m, int* primitive) const {
   double best = kInf;
   int hit = kNoHit;
   TestPlanes(o_W, u_W, &best, &hit);
@@ -255,7 +255,7 @@ double WorldRayCaster::CastRayBruteForce(const Eigen::Vector3d& o_W, const Eigen
 }
 
 int WorldRayCaster::BuildBvh(std::vector<int>* ids, int begin, int end,
-                        const std::vector<Eigen::AlignedBox3d>& bounds) {
+                             const std::vector<Eigen::AlignedBox3d>& bounds) {
   constexpr int kLeafSize = 1;
   Eigen::AlignedBox3d box;
   for (int i = begin; i < end; ++i) {
@@ -433,7 +433,7 @@ void WorldRayCaster::WalkGrid(const Ray& ray, double max_range_m, double* best, 
 }
 
 double WorldRayCaster::CastRay(const Eigen::Vector3d& o_W, const Eigen::Vector3d& u_W,
-                          double max_range_m, int* primitive, int hint) const {
+                               double max_range_m, int* primitive, int hint) const {
   KESTREL_ASSERT(std::abs(u_W.squaredNorm() - 1.0) < 1e-9);
   double best = kInf;
   int hit = kNoHit;
@@ -456,7 +456,8 @@ double WorldRayCaster::CastRay(const Eigen::Vector3d& o_W, const Eigen::Vector3d
 }
 
 void WorldRayCaster::CastRays(const Eigen::Vector3d& o_W, const std::vector<Eigen::Vector3d>& u_W,
-                         double max_range_m, std::vector<double>* out_m, int num_threads) const {
+                              double max_range_m, std::vector<double>* out_m,
+                              int num_threads) const {
   out_m->resize(u_W.size());
   const size_t n = u_W.size();
   auto work = [&](size_t begin, size_t end) {

@@ -37,7 +37,7 @@ class WorldRayCaster {
   /// is capped at 256, which enlarges the bins for huge worlds); `accelerator` picks the one
   /// CastRay walks. @throws std::invalid_argument on bad `bin_m`.
   explicit WorldRayCaster(const World& world, double bin_m = 0.5,
-                     Accelerator accelerator = Accelerator::kBvh);
+                          Accelerator accelerator = Accelerator::kBvh);
 
   /// Distance (m) along the unit direction u_W from o_W to the first primitive surface in
   /// [0, max_range_m]; +infinity when there is none. A ray starting inside (or on the surface

@@ -16,9 +16,9 @@
 #include "kestrel/motor_command_t.hpp"
 #include "sim/bullet_world.h"
 #include "sim/ground_truth.h"
-#include "sim/world_ray_caster.h"
 #include "sim/sensors.h"
 #include "sim/sim_node.h"
+#include "sim/world_ray_caster.h"
 
 namespace kestrel {
 namespace {
@@ -55,7 +55,8 @@ std::vector<Eigen::Vector3d> VgaRays(const Pose3& X_WS) {
 void BM_FastRays(benchmark::State& state) {
   const World& w = PaperSim();
   const WorldRayCaster caster(
-      w, 0.5, state.range(1) == 0 ? WorldRayCaster::Accelerator::kBvh : WorldRayCaster::Accelerator::kGrid);
+      w, 0.5,
+      state.range(1) == 0 ? WorldRayCaster::Accelerator::kBvh : WorldRayCaster::Accelerator::kGrid);
   state.SetLabel(state.range(1) == 0 ? "bvh" : "grid 0.5 m");
   const Pose3 X_WS = CameraPose(w);
   const std::vector<Eigen::Vector3d> dirs = VgaRays(X_WS);

@@ -79,7 +79,8 @@ TEST(LcmDecode, EveryTypeRoundTrips) {
 
 // Every schema compiled into the build is a message the tests visit, or a nested type.
 TEST(LcmDecode, EverySchemaIsCovered) {
-  EXPECT_EQ(static_cast<int>(LcmSchemaSources().size()), testing::kNumMessageTypes + 3);  // + nested
+  EXPECT_EQ(static_cast<int>(LcmSchemaSources().size()),
+            testing::kNumMessageTypes + 3);  // + nested
 }
 
 // DESIGN.md: utime (int64, us) is the first field of every message.

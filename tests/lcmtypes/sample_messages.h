@@ -284,19 +284,36 @@ inline void Fill(Filler& f, map_status_t* m) {
 }
 
 inline void Fill(Filler& f, procman_command_t* m) {
-  m->id = f.Text(); m->group = f.Text(); m->exec = f.Text(); m->desired_running = true;
-  m->state = procman_command_t::STATE_RESPAWN_WAIT; m->pid = f.Small(2, 99999);
-  m->exit_code = f.Small(-9, 3); m->restarts = f.Small(0, 9); m->cpu_percent = f.Real();
-  m->rss_mb = f.Real(); m->uptime_s = f.Real();
+  m->id = f.Text();
+  m->group = f.Text();
+  m->exec = f.Text();
+  m->desired_running = true;
+  m->state = procman_command_t::STATE_RESPAWN_WAIT;
+  m->pid = f.Small(2, 99999);
+  m->exit_code = f.Small(-9, 3);
+  m->restarts = f.Small(0, 9);
+  m->cpu_percent = f.Real();
+  m->rss_mb = f.Real();
+  m->uptime_s = f.Real();
 }
 inline void Fill(Filler& f, procman_status_t* m) {
-  m->utime = f.Int(); m->seq = f.Int(); m->host = f.Text(); m->sheet = f.Text(); m->script = f.Text();
-  m->num_commands = 3; m->commands.resize(3);
+  m->utime = f.Int();
+  m->seq = f.Int();
+  m->host = f.Text();
+  m->sheet = f.Text();
+  m->script = f.Text();
+  m->num_commands = 3;
+  m->commands.resize(3);
   for (auto& c : m->commands) Fill(f, &c);
 }
 inline void Fill(Filler& f, procman_order_t* m) {
-  m->utime = f.Int(); m->seq = f.Int(); m->source = f.Text(); m->host = f.Text();
-  m->action = procman_order_t::ACTION_RESTART; m->is_group = true; m->target = f.Text();
+  m->utime = f.Int();
+  m->seq = f.Int();
+  m->source = f.Text();
+  m->host = f.Text();
+  m->action = procman_order_t::ACTION_RESTART;
+  m->is_group = true;
+  m->target = f.Text();
 }
 
 /// Sample number `index` of type T: the same in every process.

@@ -360,8 +360,9 @@ TEST(Imu, MeasuresSpecificForceAndRateWithConfiguredNoise) {
   EXPECT_TRUE(s.specific_force_mps2.isApprox(f_B, 1e-12)) << s.specific_force_mps2.transpose();
   EXPECT_EQ(s.angular_velocity_radps, w_B);
   // Level and still: reads +g on z.
-  const SimulatedImuSample level = ideal.Measure(0, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero(),
-                                        Eigen::Vector3d::Zero(), 0.002, &rng);
+  const SimulatedImuSample level =
+      ideal.Measure(0, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero(),
+                    Eigen::Vector3d::Zero(), 0.002, &rng);
   EXPECT_EQ(level.specific_force_mps2, Eigen::Vector3d(0, 0, 9.81));
 }
 
