@@ -11,6 +11,7 @@
 #include "exploration/planner_config_io.h"
 #include "kestrel/command_t.hpp"
 #include "kestrel/grid_map_t.hpp"
+#include "mapping/mapping_config.h"
 
 namespace kestrel {
 
@@ -33,10 +34,8 @@ ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
   ExplorerConfig c;
   // The planner reads its own keys; the map and explorer sections are ours.
   if (node.Has("map")) {
-    const ConfigNode m = node.Child("map");
-    m.Read("min_m", &c.map.min_m);
-    m.Read("max_m", &c.map.max_m);
-    m.Read("resolution_m", &c.map.resolution_m, Range::Positive());
+    const ConfigNode m = node.Child("map");  // the mapper's keys (config/mapper.yaml)
+    ReadMapLimits(m, &c.map);
     m.Read("p_init", &c.p_init, Range::Open(0.0, 1.0));
   }
   if (node.Has("explorer")) {

@@ -4,6 +4,7 @@
 
 #include "common/check.h"
 #include "common/vehicle_config.h"
+#include "mapping/mapping_config.h"
 
 namespace kestrel {
 
@@ -49,17 +50,6 @@ void MapperConfig::Validate() const {
 
 namespace {
 
-void ReadSensorModel(const ConfigNode& n, SensorModelConfig* m) {
-  n.Read("sigma_m", &m->sigma_m, Range::Positive());
-  n.Read("z_min_m", &m->z_min_m, Range::NonNegative());
-  n.Read("z_max_m", &m->z_max_m, Range::Positive());
-  n.Read("p_rand", &m->p_rand, Range::Open(0.0, 1.0));
-  n.Read("p_miss", &m->p_miss, Range::Open(0.0, 1.0));
-  n.Read("cutoff_sigmas", &m->cutoff_sigmas, Range::AtLeast(5.0));
-  n.Read("interpolated_gaussian", &m->interpolated_gaussian);
-  if (!(m->z_min_m < m->z_max_m)) n.Fail("z_max_m", "must be greater than z_min_m");
-}
-
 std::string ResolvePath(const std::string& relative, const std::string& config_file) {
   if (relative.empty() || relative[0] == '/') return relative;
   const size_t slash = config_file.rfind('/');
@@ -76,25 +66,12 @@ MapperConfig LoadMapperConfig(const ConfigNode& node) {
   MapperConfig c;
   node.Read("grid", &c.grid, {"dense", "growing"});
   node.Read("model", &c.model, {"exact", "log_odds"});
-  if (node.Has("map")) {
+  if (node.Has("map")) {  // limits, resolution, P_init and the clamp share one section
     const ConfigNode map = node.Child("map");
-    map.Read("min_m", &c.limits.min_m);
-    map.Read("max_m", &c.limits.max_m);
-    map.Read("resolution_m", &c.limits.resolution_m, Range::Positive());
-    map.Read("p_init", &c.occupancy.p_init, Range::Open(0.0, 1.0));
-    map.Read("p_min", &c.occupancy.p_min, Range::Open(0.0, 0.5));
-    for (int a = 0; a < 3; ++a) {
-      if (!(c.limits.max_m[a] > c.limits.min_m[a]))
-        map.Fail("max_m", "must exceed min_m on every axis");
-    }
+    ReadMapLimits(map, &c.limits);
+    ReadOccupancyLimits(map, &c.occupancy);
   }
-  if (node.Has("log_odds")) {
-    const ConfigNode lo = node.Child("log_odds");
-    lo.Read("p_hit", &c.log_odds.p_hit, Range::Open(0.5, 1.0));
-    lo.Read("p_miss", &c.log_odds.p_miss, Range::Open(0.0, 0.5));
-    lo.Read("p_clamp_min", &c.log_odds.p_clamp_min, Range::Open(0.0, 0.5));
-    lo.Read("p_clamp_max", &c.log_odds.p_clamp_max, Range::Open(0.5, 1.0));
-  }
+  if (node.Has("log_odds")) ReadLogOddsConfig(node.Child("log_odds"), &c.log_odds);
   VehicleConfig vehicle;
   if (node.Has("vehicle_config")) {
     std::string path;
@@ -115,17 +92,12 @@ MapperConfig LoadMapperConfig(const ConfigNode& node) {
           sensor.name == "xtion" ? SensorModelConfig::Xtion() : SensorModelConfig::Hokuyo();
       sensor.X_BS = sensor.name == "xtion" ? vehicle.X_BS_xtion : vehicle.X_BS_hokuyo;
       s.Read("channel", &sensor.channel);
-      if (s.Has("model")) ReadSensorModel(s.Child("model"), &sensor.model);
+      if (s.Has("model")) ReadSensorModelConfig(s.Child("model"), &sensor.model);
       c.sensors.push_back(sensor);
     }
   }
   node.Read("pose_channel", &c.pose_channel);
-  if (node.Has("pose_history")) {
-    const ConfigNode ph = node.Child("pose_history");
-    ph.Read("history_s", &c.pose_history.history_s, Range::Positive());
-    ph.Read("max_gap_s", &c.pose_history.max_gap_s, Range::Positive());
-    ph.Read("max_wait_s", &c.pose_history.max_wait_s, Range::Positive());
-  }
+  if (node.Has("pose_history")) ReadPoseHistoryConfig(node.Child("pose_history"), &c.pose_history);
   node.Read("map_channel", &c.map_channel);
   node.Read("delta_channel", &c.delta_channel);
   node.Read("status_channel", &c.status_channel);
