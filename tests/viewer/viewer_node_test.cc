@@ -1,0 +1,86 @@
+// The bridge node over LCM (memq://): malformed messages are counted by channel and dropped
+// before they reach the scene; a viewer started mid-run waits for a snapshot without counting
+// the deltas before it as errors.
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+
+#include "common/clock.h"
+#include "viewer/bridge/viewer_node.h"
+
+namespace kestrel {
+namespace {
+
+ViewerConfig TestConfig() {
+  ViewerConfig c;
+  c.port = 0;  // any free loopback port
+  return c;
+}
+
+void Drain(lcm::LCM& lcm) {
+  while (lcm.handleTimeout(0) > 0) {
+  }
+}
+
+pose_t ValidPose() {
+  pose_t m{};
+  m.utime = 1000;
+  m.frame_id = "world";
+  m.child_frame_id = "kestrel";
+  m.valid = true;
+  m.position_m[2] = 1.0;
+  m.orientation_wxyz[0] = 1.0;
+  return m;
+}
+
+// Garbage, a truncated message and a message of another type are counted by channel as
+// malformed; none reaches the scene, and a good message afterwards does.
+TEST(ViewerNode, MalformedMessagesAreCountedAndDropped) {
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  ViewerNode node(lcm, TestConfig(), "", clock);
+  const std::string garbage(100, '\x5a');
+  lcm.publish("MAP3D", garbage.data(), static_cast<unsigned>(garbage.size()));
+  lcm.publish("MAP3D_DELTA", garbage.data(), static_cast<unsigned>(garbage.size()));
+  const pose_t pose = ValidPose();
+  std::vector<uint8_t> bytes(static_cast<size_t>(pose.getEncodedSize()));
+  ASSERT_EQ(pose.encode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  lcm.publish("POSE_VICON", bytes.data(), static_cast<unsigned>(bytes.size() / 2));  // truncated
+  lcm.publish("TRAJECTORY", &pose);  // a pose where a trajectory belongs
+  Drain(lcm);
+  EXPECT_EQ(node.dropped().count("malformed MAP3D"), 1);
+  EXPECT_EQ(node.dropped().count("malformed MAP3D_DELTA"), 1);
+  EXPECT_EQ(node.dropped().count("malformed POSE_VICON"), 1);
+  EXPECT_EQ(node.dropped().count("malformed TRAJECTORY"), 1);
+  EXPECT_EQ(node.messages_received(), 0);
+  EXPECT_EQ(node.scene().path_points(), 0u);
+  lcm.publish("POSE_VICON", &pose);
+  Drain(lcm);
+  EXPECT_EQ(node.messages_received(), 1);
+  EXPECT_EQ(node.scene().path_points(), 1u);
+  node.Tick();  // no page connected: nothing to send, nothing fails
+  EXPECT_EQ(node.server().clients(), 0);
+}
+
+// Deltas before the first snapshot are expected when the viewer starts mid-run: counted apart,
+// not as refused input.
+TEST(ViewerNode, DeltasBeforeTheFirstSnapshotAreNotErrors) {
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  ViewerNode node(lcm, TestConfig(), "", clock);
+  map3d_delta_t delta{};
+  delta.seq = 5;
+  delta.prev_seq = 4;
+  delta.resolution_m = 0.075;
+  lcm.publish("MAP3D_DELTA", &delta);
+  lcm.publish("MAP3D_DELTA", &delta);
+  Drain(lcm);
+  EXPECT_EQ(node.deltas_before_snapshot(), 2);
+  EXPECT_EQ(node.dropped().total(), 0);
+}
+
+}  // namespace
+}  // namespace kestrel

@@ -1,0 +1,60 @@
+// kestrel-viewer: the live viewer's bridge; Kestrel's channels in, a web page and WebSocket out.
+#include <csignal>
+#include <string>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "common/log.h"
+#include "common/node_loop.h"
+#include "common/process.h"
+#include "viewer/bridge/viewer_node.h"
+
+namespace {
+const char* const kUsage =
+    "usage: kestrel-viewer [--config config/viewer.yaml] [--set key=value]...\n"
+    "                      [--lcm-url URL]\n"
+    "Subscribes to MAP3D, MAP3D_DELTA, MAP_STATUS, MAP2D_*, POSE_VICON, TRAJECTORY and\n"
+    "EXPLORATION_STATUS (names from the configuration) and serves the live viewer page on\n"
+    "http://127.0.0.1:8740/ (host, port): the 3D map as voxels, the 2D maps, pose, trajectory,\n"
+    "candidates and the entropy history; a page opened late starts from the current state.\n";
+
+#ifndef KESTREL_VIEWER_WEB_ROOT
+#define KESTREL_VIEWER_WEB_ROOT ""
+#endif
+}  // namespace
+
+int main(int argc, char** argv) {
+  return kestrel::RunProcess(
+      "kestrel-viewer", argc, argv, kUsage,
+      [](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
+        if (!args.positional.empty()) {
+          throw kestrel::ConfigError("unexpected argument '" + args.positional[0] + "'\n" + kUsage);
+        }
+        const kestrel::ViewerConfig config = kestrel::LoadViewerConfig(node);
+        node.CheckNoUnknownKeys();
+        const std::string web_root =
+            config.web_root.empty() ? std::string(KESTREL_VIEWER_WEB_ROOT) : config.web_root;
+        std::signal(SIGPIPE, SIG_IGN);  // a page gone mid-send is an error code, not a signal
+        lcm::LCM lcm(args.lcm_url);
+        if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");
+        if (!args.sim_clock_channel.empty()) {
+          kestrel::Log(kestrel::LogLevel::kInfo,
+                       "--sim-clock ignored: pages are updated in wall-clock time");
+        }
+        const kestrel::WallClock clock;
+        kestrel::ViewerNode viewer(lcm, config, web_root, clock);
+        kestrel::Log(kestrel::LogLevel::kInfo, "serving http://" + config.host + ":" +
+                                                   std::to_string(viewer.port()) + "/ from " +
+                                                   web_root);
+        while (!kestrel::NodeLoop::signal_received()) {
+          // Drain what LCM has (bounded, so the pages are served under a flood), then sockets.
+          int handled = 0;
+          while (handled < 500 && lcm.handleTimeout(0) > 0) ++handled;
+          viewer.Poll();
+          viewer.PublishDue();
+          if (handled == 0) lcm.handleTimeout(5);
+        }
+        kestrel::Log(kestrel::LogLevel::kInfo, "stopping");
+        return 0;
+      });
+}

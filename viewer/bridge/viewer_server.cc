@@ -1,0 +1,233 @@
+#include "viewer/bridge/viewer_server.h"
+
+#ifndef ASIO_STANDALONE
+#define ASIO_STANDALONE
+#endif
+#include <websocketpp/config/asio_no_tls.hpp>
+#include <websocketpp/server.hpp>
+
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "common/log.h"
+
+namespace kestrel {
+
+ClientAction DecideClientAction(bool needs_snapshot, int64_t unsent_bytes,
+                                int64_t max_unsent_bytes) {
+  if (unsent_bytes > max_unsent_bytes) return ClientAction::kSkip;
+  return needs_snapshot ? ClientAction::kSendSnapshot : ClientAction::kSendUpdate;
+}
+
+std::string ContentTypeOf(const std::string& path) {
+  const auto ends_with = [&](const std::string& suffix) {
+    return path.size() >= suffix.size() &&
+           path.compare(path.size() - suffix.size(), suffix.size(), suffix) == 0;
+  };
+  if (ends_with(".html")) return "text/html; charset=utf-8";
+  if (ends_with(".js") || ends_with(".mjs")) return "text/javascript; charset=utf-8";
+  if (ends_with(".css")) return "text/css; charset=utf-8";
+  if (ends_with(".json")) return "application/json";
+  if (ends_with(".png")) return "image/png";
+  if (ends_with(".svg")) return "image/svg+xml";
+  return "application/octet-stream";
+}
+
+std::string ResolveWebPath(const std::string& web_root, const std::string& target) {
+  std::string path = target.substr(0, target.find_first_of("?#"));
+  if (path.empty() || path[0] != '/') return "";
+  if (path == "/") path = "/index.html";
+  if (path.find("..") != std::string::npos || path.find("//") != std::string::npos) return "";
+  for (const char c : path) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    c == '.' || c == '_' || c == '-' || c == '/';
+    if (!ok) return "";
+  }
+  return web_root + path;
+}
+
+namespace {
+using WsServer = websocketpp::server<websocketpp::config::asio>;
+using Handle = websocketpp::connection_hdl;
+
+bool ReadWholeFile(const std::string& path, std::string* out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  *out = buffer.str();
+  return static_cast<bool>(in) || in.eof();
+}
+}  // namespace
+
+struct ViewerServer::Impl {
+  struct Client {
+    bool needs_snapshot{true};
+  };
+
+  Options options;
+  WsServer server;
+  std::map<Handle, Client, std::owner_less<Handle>> clients;
+  Counters counters;
+  bool stopped{false};
+
+  void OnHttp(Handle hdl) {
+    websocketpp::lib::error_code ec;
+    const WsServer::connection_ptr con = server.get_con_from_hdl(hdl, ec);
+    if (ec) return;
+    ++counters.http_requests;
+    const std::string path = ResolveWebPath(options.web_root, con->get_resource());
+    std::string body;
+    if (path.empty() || !ReadWholeFile(path, &body)) {
+      ++counters.http_not_found;
+      con->set_status(websocketpp::http::status_code::not_found);
+      con->append_header("Content-Type", "text/plain; charset=utf-8");
+      con->set_body("not found: " + con->get_resource() +
+                    (options.web_root.empty() ? "" : "\n(web root " + options.web_root + ")\n"));
+      return;
+    }
+    con->set_status(websocketpp::http::status_code::ok);
+    con->append_header("Content-Type", ContentTypeOf(path));
+    con->append_header("Cache-Control", "no-store");
+    con->set_body(body);
+  }
+
+  bool OnValidate(Handle) {
+    if (static_cast<int>(clients.size()) >= options.max_clients) {
+      ++counters.refused;
+      return false;
+    }
+    return true;
+  }
+
+  void OnOpen(Handle hdl) {
+    ++counters.connections;
+    clients[hdl] = Client{};
+  }
+
+  void OnGone(Handle hdl) { clients.erase(hdl); }
+
+  // Sends one frame; false if the page is gone (it is then forgotten by the close handler).
+  bool Send(Handle hdl, const ViewerFrame& frame) {
+    websocketpp::lib::error_code ec;
+    server.send(
+        hdl, frame.bytes,
+        frame.binary ? websocketpp::frame::opcode::binary : websocketpp::frame::opcode::text, ec);
+    if (ec) ++counters.send_errors;
+    return !ec;
+  }
+};
+
+ViewerServer::ViewerServer(const Options& options) : impl_(std::make_unique<Impl>()) {
+  Impl& s = *impl_;
+  s.options = options;
+  s.server.clear_access_channels(websocketpp::log::alevel::all);
+  s.server.clear_error_channels(websocketpp::log::elevel::all);
+  s.server.set_error_channels(websocketpp::log::elevel::fatal);
+  websocketpp::lib::error_code ec;
+  s.server.init_asio(ec);
+  if (ec) throw std::runtime_error("viewer server: " + ec.message());
+  s.server.set_reuse_addr(true);
+  s.server.set_max_message_size(64 * 1024);  // pages send nothing of interest
+  s.server.set_http_handler([this](Handle h) { impl_->OnHttp(h); });
+  s.server.set_validate_handler([this](Handle h) { return impl_->OnValidate(h); });
+  s.server.set_open_handler([this](Handle h) { impl_->OnOpen(h); });
+  s.server.set_close_handler([this](Handle h) { impl_->OnGone(h); });
+  s.server.set_fail_handler([this](Handle h) { impl_->OnGone(h); });
+  s.server.set_message_handler([](Handle, WsServer::message_ptr) {});
+  const asio::ip::address address = asio::ip::make_address(
+      options.host == "localhost" ? std::string("127.0.0.1") : options.host, ec);
+  if (ec) throw std::runtime_error("viewer server: bad host '" + options.host + "'");
+  s.server.listen(asio::ip::tcp::endpoint(address, static_cast<uint16_t>(options.port)), ec);
+  if (ec) {
+    throw std::runtime_error("viewer server: cannot listen on " + options.host + ":" +
+                             std::to_string(options.port) + ": " + ec.message());
+  }
+  s.server.start_accept(ec);
+  if (ec) throw std::runtime_error("viewer server: cannot accept: " + ec.message());
+}
+
+ViewerServer::~ViewerServer() { Stop(); }
+
+int ViewerServer::port() const {
+  websocketpp::lib::error_code ec;
+  const asio::ip::tcp::endpoint endpoint = impl_->server.get_local_endpoint(ec);
+  return ec ? -1 : endpoint.port();
+}
+
+void ViewerServer::Poll() {
+  if (impl_->server.stopped()) impl_->server.reset();
+  impl_->server.poll();
+}
+
+void ViewerServer::Broadcast(const std::vector<ViewerFrame>& update,
+                             const std::function<std::vector<ViewerFrame>()>& snapshot) {
+  Impl& s = *impl_;
+  std::vector<ViewerFrame> snapshot_frames;
+  bool have_snapshot = false;
+  std::vector<Handle> handles;
+  for (const auto& [hdl, client] : s.clients) handles.push_back(hdl);
+  for (const Handle& hdl : handles) {
+    websocketpp::lib::error_code ec;
+    const WsServer::connection_ptr con = s.server.get_con_from_hdl(hdl, ec);
+    if (ec || con->get_state() != websocketpp::session::state::open) continue;
+    const auto it = s.clients.find(hdl);
+    if (it == s.clients.end()) continue;
+    Impl::Client& client = it->second;
+    switch (DecideClientAction(client.needs_snapshot,
+                               static_cast<int64_t>(con->get_buffered_amount()),
+                               s.options.max_client_buffer_bytes)) {
+      case ClientAction::kSkip:
+        if (!update.empty()) ++s.counters.updates_coalesced;
+        client.needs_snapshot = true;
+        break;
+      case ClientAction::kSendSnapshot: {
+        if (!have_snapshot) {
+          snapshot_frames = snapshot();
+          have_snapshot = true;
+        }
+        bool ok = true;
+        for (const ViewerFrame& f : snapshot_frames) ok = ok && s.Send(hdl, f);
+        if (ok) {
+          client.needs_snapshot = false;
+          ++s.counters.snapshots_sent;
+        }
+        break;
+      }
+      case ClientAction::kSendUpdate: {
+        if (update.empty()) break;
+        bool ok = true;
+        for (const ViewerFrame& f : update) ok = ok && s.Send(hdl, f);
+        if (ok) {
+          ++s.counters.updates_sent;
+        } else {
+          client.needs_snapshot = true;
+        }
+        break;
+      }
+    }
+  }
+}
+
+int ViewerServer::clients() const { return static_cast<int>(impl_->clients.size()); }
+
+const ViewerServer::Counters& ViewerServer::counters() const { return impl_->counters; }
+
+void ViewerServer::Stop() {
+  Impl& s = *impl_;
+  if (s.stopped) return;
+  s.stopped = true;
+  websocketpp::lib::error_code ec;
+  s.server.stop_listening(ec);
+  std::vector<Handle> handles;
+  for (const auto& [hdl, client] : s.clients) handles.push_back(hdl);
+  for (const Handle& hdl : handles) {
+    s.server.close(hdl, websocketpp::close::status::going_away, "kestrel-viewer stopping", ec);
+  }
+  s.server.poll();
+  s.clients.clear();
+}
+
+}  // namespace kestrel

@@ -1,0 +1,79 @@
+#pragma once
+/// @file
+/// The viewer's HTTP + WebSocket server (websocketpp over standalone asio, one thread, polled):
+/// serves the page's files from a folder and pushes ViewerFrames to every connected page.
+///
+/// Pacing: each page is either up to date (it gets every update) or behind. A page whose unsent
+/// bytes exceed max_client_buffer_bytes gets no updates (counted as coalesced) and is behind; a
+/// page that is new or behind gets one full snapshot at the first broadcast where its unsent
+/// bytes are below the limit. So a slow page sees coalesced state, never an unbounded queue. A
+/// page that disconnects, even in the middle of a send, is forgotten; no error escapes.
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "viewer/bridge/viewer_scene.h"
+
+namespace kestrel {
+
+/// What a page that may still be sent to should get now, from its state (pure, see file comment).
+enum class ClientAction { kSendUpdate, kSendSnapshot, kSkip };
+[[nodiscard]] ClientAction DecideClientAction(bool needs_snapshot, int64_t unsent_bytes,
+                                              int64_t max_unsent_bytes);
+
+/// The content type of a served file, from its extension ("application/octet-stream" if unknown).
+[[nodiscard]] std::string ContentTypeOf(const std::string& path);
+/// The file under `web_root` for an HTTP request target ("/" is index.html; a query is ignored),
+/// or "" if the target is not a plain relative path (no "..", only [A-Za-z0-9._/-]).
+[[nodiscard]] std::string ResolveWebPath(const std::string& web_root, const std::string& target);
+
+class ViewerServer {
+ public:
+  struct Options {
+    std::string host{"127.0.0.1"};  ///< listen address
+    int port{8740};                 ///< 0: any free port (see port())
+    std::string web_root;           ///< folder served over HTTP
+    int64_t max_client_buffer_bytes{8 << 20};
+    int max_clients{16};
+  };
+  /// Counters since start.
+  struct Counters {
+    int64_t connections{0};        ///< WebSocket connections accepted
+    int64_t refused{0};            ///< connections refused (max_clients)
+    int64_t snapshots_sent{0};     ///< full snapshots sent
+    int64_t updates_sent{0};       ///< update batches sent (to any page)
+    int64_t updates_coalesced{0};  ///< update batches a page behind did not get
+    int64_t send_errors{0};        ///< sends that failed (page gone)
+    int64_t http_requests{0};
+    int64_t http_not_found{0};
+  };
+
+  /// Binds and listens. @throws std::runtime_error if it cannot.
+  explicit ViewerServer(const Options& options);
+  ~ViewerServer();
+  ViewerServer(const ViewerServer&) = delete;
+  ViewerServer& operator=(const ViewerServer&) = delete;
+
+  /// The port listened on.
+  [[nodiscard]] int port() const;
+  /// Runs whatever socket work is ready (accepts, requests, writes), without blocking.
+  void Poll();
+  /// Sends `update` to the pages that are up to date and snapshot() to the new or caught-up ones
+  /// (see the file comment). snapshot() is called at most once.
+  void Broadcast(const std::vector<ViewerFrame>& update,
+                 const std::function<std::vector<ViewerFrame>()>& snapshot);
+  /// Pages connected now.
+  [[nodiscard]] int clients() const;
+  [[nodiscard]] const Counters& counters() const;
+  /// Stops listening and closes every connection (also done by the destructor).
+  void Stop();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace kestrel

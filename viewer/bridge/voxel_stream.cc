@@ -1,0 +1,237 @@
+#include "viewer/bridge/voxel_stream.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "common/check.h"
+
+namespace kestrel {
+
+uint8_t QuantizeProbability(double p, double occupied_threshold) {
+  if (!(p > occupied_threshold)) return 0;
+  const double q = std::round(std::min(1.0, p) * 255.0);
+  return static_cast<uint8_t>(std::clamp(q, 1.0, 255.0));
+}
+
+VoxelStream::VoxelStream(double occupied_threshold) : threshold_(occupied_threshold) {
+  KESTREL_THROW_UNLESS(occupied_threshold >= 0.0 && occupied_threshold < 1.0,
+                       "occupied_threshold " << occupied_threshold << " is outside [0, 1)");
+}
+
+bool VoxelStream::MakeKey(int x, int y, int z, Key* key) {
+  const auto fits = [](int v) {
+    return v >= std::numeric_limits<int16_t>::min() && v <= std::numeric_limits<int16_t>::max();
+  };
+  if (!fits(x) || !fits(y) || !fits(z)) return false;
+  *key = static_cast<Key>(static_cast<uint16_t>(x)) |
+         (static_cast<Key>(static_cast<uint16_t>(y)) << 16) |
+         (static_cast<Key>(static_cast<uint16_t>(z)) << 32);
+  return true;
+}
+
+VoxelEntry VoxelStream::EntryOf(Key key, uint8_t q) {
+  VoxelEntry e;
+  e.x = static_cast<int16_t>(static_cast<uint16_t>(key & 0xffff));
+  e.y = static_cast<int16_t>(static_cast<uint16_t>((key >> 16) & 0xffff));
+  e.z = static_cast<int16_t>(static_cast<uint16_t>((key >> 32) & 0xffff));
+  e.q = q;
+  return e;
+}
+
+bool VoxelStream::SameLattice(const double origin[3], double resolution) const {
+  const double tol = 1e-9;
+  bool same = std::abs(resolution - resolution_m_) < tol;
+  for (int a = 0; a < 3; ++a) same = same && std::abs(origin[a] - origin_m_[a]) < tol;
+  return same;
+}
+
+void VoxelStream::Set(Key key, uint8_t q) {
+  const auto it = occupied_.find(key);
+  const uint8_t prior = it == occupied_.end() ? 0 : it->second;
+  if (prior == q) return;
+  changed_.emplace(key, prior);  // keeps the value of the last TakeChanges() if already there
+  if (q == 0) {
+    occupied_.erase(it);
+  } else {
+    occupied_[key] = q;
+  }
+}
+
+bool VoxelStream::Apply(const map3d_chunk_t& chunk, std::string* error) {
+  const int edge = chunk.block_edge;
+  if (chunk.num_chunks <= 0 || chunk.chunk_index < 0 || chunk.chunk_index >= chunk.num_chunks ||
+      edge <= 0 || edge > 64 || chunk.num_blocks < 0 ||
+      chunk.block_index.size() != static_cast<size_t>(chunk.num_blocks) ||
+      !(chunk.resolution_m > 0.0) || !std::isfinite(chunk.resolution_m) ||
+      !std::isfinite(chunk.origin_m[0]) || !std::isfinite(chunk.origin_m[1]) ||
+      !std::isfinite(chunk.origin_m[2])) {
+    staging_id_ = -1;
+    *error = "chunk " + std::to_string(chunk.chunk_index) + "/" + std::to_string(chunk.num_chunks) +
+             " with block edge " + std::to_string(edge) + " is malformed";
+    return false;
+  }
+  if (chunk.chunk_index == 0) {
+    staging_.clear();
+    staging_id_ = chunk.snapshot_id;
+    staging_next_chunk_ = 0;
+  }
+  if (chunk.snapshot_id != staging_id_ || chunk.chunk_index != staging_next_chunk_) {
+    staging_id_ = -1;  // a chunk was lost: wait for the next snapshot
+    *error = "snapshot " + std::to_string(chunk.snapshot_id) + " chunk " +
+             std::to_string(chunk.chunk_index) + " out of sequence";
+    return false;
+  }
+  const size_t block_cells = static_cast<size_t>(edge) * edge * edge;
+  const size_t cells = static_cast<size_t>(chunk.num_blocks) * block_cells;
+  std::vector<float> values(cells);
+  bool decoded = false;
+  if (chunk.encoding == map3d_chunk_t::ENCODING_FLOAT32) {
+    decoded = chunk.data.size() == cells * sizeof(float);
+    if (decoded && cells > 0) std::memcpy(values.data(), chunk.data.data(), cells * sizeof(float));
+  } else if (chunk.encoding == map3d_chunk_t::ENCODING_ZLIB_FLOAT32) {
+    uLongf size = static_cast<uLongf>(cells * sizeof(float));
+    decoded = uncompress(reinterpret_cast<Bytef*>(values.data()), &size, chunk.data.data(),
+                         static_cast<uLong>(chunk.data.size())) == Z_OK &&
+              size == cells * sizeof(float);
+  } else if (chunk.encoding == map3d_chunk_t::ENCODING_U16_ZLIB) {
+    std::vector<uint16_t> packed(cells);
+    uLongf size = static_cast<uLongf>(cells * sizeof(uint16_t));
+    decoded = uncompress(reinterpret_cast<Bytef*>(packed.data()), &size, chunk.data.data(),
+                         static_cast<uLong>(chunk.data.size())) == Z_OK &&
+              size == cells * sizeof(uint16_t);
+    for (size_t i = 0; decoded && i < cells; ++i) values[i] = static_cast<float>(packed[i]) / 65535;
+  }
+  if (!decoded) {
+    staging_id_ = -1;
+    *error = "chunk data (encoding " + std::to_string(chunk.encoding) +
+             ") does not decode to its " + std::to_string(chunk.num_blocks) + " blocks";
+    return false;
+  }
+  // dims bound the map when all are positive (a dense map); a growing map sends zeros.
+  const bool bounded = chunk.dims[0] > 0 && chunk.dims[1] > 0 && chunk.dims[2] > 0;
+  for (int b = 0; b < chunk.num_blocks; ++b) {
+    const auto& bi = chunk.block_index[static_cast<size_t>(b)];
+    for (size_t i = 0; i < block_cells; ++i) {
+      const uint8_t q =
+          QuantizeProbability(values[static_cast<size_t>(b) * block_cells + i], threshold_);
+      if (q == 0) continue;
+      const int ii = static_cast<int>(i);
+      const int x = bi[0] * edge + ii % edge, y = bi[1] * edge + (ii / edge) % edge,
+                z = bi[2] * edge + ii / (edge * edge);
+      if (bounded && (x < 0 || y < 0 || z < 0 || x >= chunk.dims[0] || y >= chunk.dims[1] ||
+                      z >= chunk.dims[2])) {
+        continue;
+      }
+      Key key;
+      if (MakeKey(x, y, z, &key)) {
+        staging_[key] = q;
+      } else {
+        ++cells_out_of_range_;
+      }
+    }
+  }
+  ++staging_next_chunk_;
+  if (staging_next_chunk_ < chunk.num_chunks) return true;
+
+  staging_id_ = -1;
+  if (current() && chunk.map_seq < seq_ && SameLattice(chunk.origin_m, chunk.resolution_m)) {
+    return true;  // deltas already took the copy past this snapshot
+  }
+  if (!has_snapshot_ || !SameLattice(chunk.origin_m, chunk.resolution_m)) {
+    // A new lattice: the receivers start over from the whole set.
+    occupied_.swap(staging_);
+    changed_.clear();
+    reset_pending_ = true;
+    for (int a = 0; a < 3; ++a) origin_m_[a] = chunk.origin_m[a];
+    resolution_m_ = chunk.resolution_m;
+  } else {
+    std::vector<Key> gone;
+    for (const auto& [key, q] : occupied_) {
+      if (staging_.count(key) == 0) gone.push_back(key);
+    }
+    for (const Key key : gone) Set(key, 0);
+    for (const auto& [key, q] : staging_) Set(key, q);
+  }
+  staging_.clear();
+  seq_ = chunk.map_seq;
+  utime_ = chunk.utime;
+  has_snapshot_ = true;
+  stale_ = false;
+  return true;
+}
+
+bool VoxelStream::Apply(const map3d_delta_t& delta, std::string* error) {
+  if (!has_snapshot_) {
+    *error = "delta before any snapshot";
+    return false;
+  }
+  if (!SameLattice(delta.origin_m, delta.resolution_m)) {
+    *error = "delta lattice differs from the snapshot's";
+    return false;
+  }
+  if (delta.seq <= seq_) return true;  // already reflected by a newer snapshot
+  if (stale_ || delta.prev_seq != seq_) {
+    stale_ = true;
+    *error = "delta " + std::to_string(delta.prev_seq) + " -> " + std::to_string(delta.seq) +
+             " does not follow " + std::to_string(seq_) + ": stale until the next snapshot";
+    return false;
+  }
+  if (delta.num_cells < 0 || delta.cells.size() != static_cast<size_t>(delta.num_cells) ||
+      delta.probabilities.size() != static_cast<size_t>(delta.num_cells)) {
+    *error = "delta cell count mismatch";
+    return false;
+  }
+  for (size_t i = 0; i < delta.cells.size(); ++i) {
+    const auto& c = delta.cells[i];
+    Key key;
+    const uint8_t q = QuantizeProbability(delta.probabilities[i], threshold_);
+    if (MakeKey(c[0], c[1], c[2], &key)) {
+      Set(key, q);
+    } else if (q != 0) {
+      ++cells_out_of_range_;
+    }
+  }
+  seq_ = delta.seq;
+  utime_ = delta.utime;
+  return true;
+}
+
+namespace {
+bool ByZyx(const VoxelEntry& a, const VoxelEntry& b) {
+  if (a.z != b.z) return a.z < b.z;
+  if (a.y != b.y) return a.y < b.y;
+  return a.x < b.x;
+}
+}  // namespace
+
+VoxelChanges VoxelStream::TakeChanges() {
+  VoxelChanges out;
+  if (reset_pending_) {
+    out.reset = true;
+    out.entries = Occupied();
+  } else {
+    for (const auto& [key, prior] : changed_) {
+      const auto it = occupied_.find(key);
+      const uint8_t now = it == occupied_.end() ? 0 : it->second;
+      if (now != prior) out.entries.push_back(EntryOf(key, now));
+    }
+    std::sort(out.entries.begin(), out.entries.end(), ByZyx);
+  }
+  changed_.clear();
+  reset_pending_ = false;
+  return out;
+}
+
+std::vector<VoxelEntry> VoxelStream::Occupied() const {
+  std::vector<VoxelEntry> out;
+  out.reserve(occupied_.size());
+  for (const auto& [key, q] : occupied_) out.push_back(EntryOf(key, q));
+  std::sort(out.begin(), out.end(), ByZyx);
+  return out;
+}
+
+}  // namespace kestrel
