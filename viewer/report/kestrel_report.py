@@ -1,0 +1,375 @@
+#!/usr/bin/python3
+"""kestrel_report.py: the paper's figures from the CSV files of kestrel-report-export (issue 9).
+
+Draws, with Debian's python3-matplotlib (Agg backend, no display):
+  fig1_map3d.png          the 3D occupancy grid (cells with P above the threshold, coloured by
+                          height) beside the ground truth when the run was simulated (Figs. 1, 5);
+  fig2_map2d_<k>_t<T>s.png   the 2D projected maps at each kept time with the flown trajectory
+                          and the candidate poses as arrows (Figs. 2, 6);
+  fig3_entropy.png/.svg   map entropy and known fraction against time, runs overlaid (Figs. 3, 7).
+Each PNG has a sidecar <name>.json with its pixel size and, per panel, the transform from world
+(or data) coordinates to image pixels, so a test can check that pixels show what the data holds.
+
+Usage: kestrel_report.py --data DIR --out DIR [--run DATA_DIR:LABEL]... [--label LABEL]
+                         [--elev 35] [--azim -60] [--zmin 0.0] [--color height|probability]
+"""
+
+import argparse
+import csv
+import json
+import math
+import os
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.ticker  # noqa: E402
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from mpl_toolkits.mplot3d import proj3d  # noqa: E402
+
+DPI = 100
+FIG1_SIZE_PX = (1600, 800)
+FIG2_PANEL_PX = (600, 640)
+FIG3_SIZE_PX = (1200, 500)
+
+
+class ReportError(Exception):
+    """Bad or missing input data, reported as one line."""
+
+
+def read_table(path, required=True):
+    """A CSV file with a header as a dict of column name -> list of strings."""
+    if not os.path.exists(path):
+        if required:
+            raise ReportError(f"missing {path} (run kestrel-report-export first)")
+        return None
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    if not rows:
+        raise ReportError(f"{path} is empty (no header)")
+    header = rows[0]
+    columns = {name: [] for name in header}
+    for row in rows[1:]:
+        if len(row) != len(header):
+            raise ReportError(f"{path}: a row has {len(row)} fields, the header {len(header)}")
+        for name, value in zip(header, row):
+            columns[name].append(value)
+    return columns
+
+
+def floats(table, name):
+    return np.array([float(v) for v in table[name]], dtype=float)
+
+
+def read_meta(data_dir):
+    table = read_table(os.path.join(data_dir, "meta.csv"))
+    return dict(zip(table["key"], table["value"]))
+
+
+def read_cells(path):
+    """Cell centres (N x 3) and an optional value column from occupied.csv / truth.csv."""
+    table = read_table(path)
+    xyz = np.column_stack([floats(table, "x_m"), floats(table, "y_m"), floats(table, "z_m")])
+    xyz = xyz.reshape(-1, 3)
+    p = floats(table, "p") if "p" in table else None
+    return xyz, p
+
+
+def affine_of(ax):
+    """The 3x3 matrix from data (or 3D-projected) coordinates to display pixels (origin bottom)."""
+    return ax.transData.get_affine().get_matrix().tolist()
+
+
+def save(fig, out_dir, name, sidecar, svg=False):
+    width, height = fig.canvas.get_width_height()
+    sidecar = dict(sidecar, width_px=width, height_px=height, png=name + ".png")
+    fig.savefig(os.path.join(out_dir, name + ".png"), dpi=DPI)
+    if svg:
+        fig.savefig(os.path.join(out_dir, name + ".svg"))
+    with open(os.path.join(out_dir, name + ".json"), "w") as f:
+        json.dump(sidecar, f, indent=1)
+    plt.close(fig)
+    print(f"kestrel-report: wrote {name}.png" + (f" and {name}.svg" if svg else ""))
+
+
+# ------------------------------------------------------------------------------------------
+# Fig. 1: the 3D map beside the truth.
+
+
+def lattice_box(meta):
+    lo = np.array([float(meta["origin_x_m"]), float(meta["origin_y_m"]), float(meta["origin_z_m"])])
+    dims = np.array([int(meta["dims_x"]), int(meta["dims_y"]), int(meta["dims_z"])])
+    return lo, lo + dims * float(meta["resolution_m"])
+
+
+def draw_cells(ax, xyz, values, lo, hi, resolution, args, title, cmap, vmin, vmax):
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_zlim(lo[2], hi[2])
+    ax.set_box_aspect(tuple(hi - lo), zoom=1.0)
+    ax.zaxis.set_major_locator(matplotlib.ticker.MaxNLocator(3))
+    ax.view_init(elev=args.elev, azim=args.azim)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_zlabel("z (m)")
+    ax.set_title(title)
+    ax.figure.canvas.draw()  # fixes the projection before the marker size is chosen
+    # A square marker about as large as one cell seen from this viewpoint (points^2).
+    centre = 0.5 * (lo + hi)
+    matrix = ax.get_proj()
+    px = []
+    for axis in range(3):
+        a = centre.copy()
+        b = centre.copy()
+        b[axis] += resolution
+        pa = ax.transData.transform(proj3d.proj_transform(*a, matrix)[:2])
+        pb = ax.transData.transform(proj3d.proj_transform(*b, matrix)[:2])
+        px.append(np.hypot(*(pb - pa)))
+    side_pt = max(1.0, 1.15 * max(px)) * 72.0 / DPI
+    if len(xyz):
+        # Far cells first, so near cells cover them (painter's order along the view direction).
+        view = np.array(
+            [
+                math.cos(math.radians(args.elev)) * math.cos(math.radians(args.azim)),
+                math.cos(math.radians(args.elev)) * math.sin(math.radians(args.azim)),
+                math.sin(math.radians(args.elev)),
+            ]
+        )
+        order = np.argsort(xyz @ view)
+        ax.scatter(
+            xyz[order, 0], xyz[order, 1], xyz[order, 2], c=values[order], cmap=cmap, vmin=vmin,
+            vmax=vmax, marker="s", s=side_pt**2, linewidths=0, depthshade=False, alpha=1.0,
+        )
+    ax.figure.canvas.draw()
+    bbox = ax.get_window_extent()
+    return {
+        "kind": "3d",
+        "title": title,
+        "cells": int(len(xyz)),
+        "proj": ax.get_proj().tolist(),
+        "affine": affine_of(ax),
+        "bbox_px": [bbox.x0, bbox.y0, bbox.x1, bbox.y1],
+    }
+
+
+def figure_map3d(data_dir, out_dir, meta, args):
+    lo, hi = lattice_box(meta)
+    resolution = float(meta["resolution_m"])
+    occupied, p = read_cells(os.path.join(data_dir, "occupied.csv"))
+    truth, _ = read_cells(os.path.join(data_dir, "truth.csv"))
+    keep = occupied[:, 2] > args.zmin
+    occupied, p = occupied[keep], p[keep]
+    truth = truth[truth[:, 2] > args.zmin]
+    have_truth = meta.get("world", "") != "" and len(truth) > 0
+    zlo, zhi = max(lo[2], args.zmin), hi[2]
+    fig = plt.figure(figsize=(FIG1_SIZE_PX[0] / DPI, FIG1_SIZE_PX[1] / DPI), dpi=DPI)
+    fig.subplots_adjust(left=0.0, right=0.93, bottom=0.02, top=0.93, wspace=0.02)
+    panels = []
+    threshold = float(meta["occupied_threshold"])
+    if args.color == "probability":
+        values, cmap, vmin, vmax, label = p, "inferno_r", threshold, 1.0, "P(occupied)"
+    else:
+        values, cmap, vmin, vmax, label = occupied[:, 2], "viridis", zlo, zhi, "height z (m)"
+    ax = fig.add_subplot(1, 2 if have_truth else 1, 1, projection="3d")
+    panels.append(
+        dict(
+            draw_cells(ax, occupied, values, lo, hi, resolution, args,
+                       f"map: {len(occupied)} cells with P > {threshold:g}", cmap, vmin, vmax),
+            name="map",
+        )
+    )
+    if have_truth:
+        ax2 = fig.add_subplot(1, 2, 2, projection="3d")
+        panels.append(
+            dict(
+                draw_cells(ax2, truth, truth[:, 2], lo, hi, resolution, args,
+                           f"ground truth: {os.path.basename(meta['world'])}", "viridis", zlo, zhi),
+                name="truth",
+            )
+        )
+    mappable = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(vmin, vmax))
+    colorbar_axes = fig.add_axes([0.95, 0.25, 0.012, 0.5])
+    fig.colorbar(mappable, cax=colorbar_axes, label=label)
+    # Colour bar placement moves the axes: recompute the transforms.
+    fig.canvas.draw()
+    for panel, axis in zip(panels, [a for a in fig.axes if a.name == "3d"]):
+        panel["proj"] = axis.get_proj().tolist()
+        panel["affine"] = affine_of(axis)
+        b = axis.get_window_extent()
+        panel["bbox_px"] = [b.x0, b.y0, b.x1, b.y1]
+    save(fig, out_dir, "fig1_map3d", {"panels": panels, "zmin_m": args.zmin,
+                                      "elev_deg": args.elev, "azim_deg": args.azim})
+
+
+# ------------------------------------------------------------------------------------------
+# Fig. 2: 2D maps, trajectory and candidates at chosen times.
+
+MAP2D_TITLES = {"collision": "collision map C", "combined": "combined map B",
+                "entropy": "entropy map E"}
+
+
+def figure_map2d(data_dir, out_dir):
+    index = read_table(os.path.join(data_dir, "map2d_index.csv"))
+    if not index["k"]:
+        print("kestrel-report: no MAP2D_* messages in the log: no 2D map figures")
+        return
+    trajectory = read_table(os.path.join(data_dir, "trajectory.csv"))
+    tt = floats(trajectory, "time_s")
+    tx, ty = floats(trajectory, "x_m"), floats(trajectory, "y_m")
+    candidates = read_table(os.path.join(data_dir, "candidates.csv"))
+    c_plan = np.array([int(v) for v in candidates["plan"]], dtype=int)
+    rows = list(zip(*[index[name] for name in index]))
+    columns = list(index)
+    by_k = {}
+    for row in rows:
+        entry = dict(zip(columns, row))
+        by_k.setdefault(int(entry["k"]), []).append(entry)
+    for k in sorted(by_k):
+        entries = by_k[k]
+        request_s = float(entries[0]["request_time_s"])
+        n = len(entries)
+        fig, axes = plt.subplots(
+            1, n, figsize=(FIG2_PANEL_PX[0] * n / DPI, FIG2_PANEL_PX[1] / DPI), dpi=DPI,
+            squeeze=False,
+        )
+        panels = []
+        for ax, e in zip(axes[0], entries):
+            values = np.loadtxt(os.path.join(data_dir, e["file"]), delimiter=",", ndmin=2)
+            ox, oy, r = float(e["origin_x_m"]), float(e["origin_y_m"]), float(e["resolution_m"])
+            w, h = int(e["width"]), int(e["height"])
+            if values.shape != (h, w):
+                raise ReportError(f"{e['file']}: {values.shape} values, index says {h} x {w}")
+            extent = [ox, ox + w * r, oy, oy + h * r]
+            ax.imshow(values, origin="lower", extent=extent, cmap="gray_r", vmin=0.0, vmax=1.0,
+                      interpolation="nearest")
+            upto = tt <= request_s
+            ax.plot(tx[upto], ty[upto], "-", color="tab:red", lw=1.5, label="trajectory")
+            if upto.any():
+                ax.plot(tx[upto][-1:], ty[upto][-1:], "o", color="tab:red", ms=6)
+            plan = int(e["plan"])
+            shown = 0
+            if plan >= 0:
+                sel = c_plan == plan
+                cx = floats(candidates, "x_m")[sel]
+                cy = floats(candidates, "y_m")[sel]
+                yaw = floats(candidates, "yaw_rad")[sel]
+                chosen = floats(candidates, "chosen")[sel] > 0
+                shown = int(sel.sum())
+                arrow = 0.35
+                ax.quiver(cx[~chosen], cy[~chosen], arrow * np.cos(yaw[~chosen]),
+                          arrow * np.sin(yaw[~chosen]), color="tab:blue", angles="xy",
+                          scale_units="xy", scale=1, width=0.004, label="candidates")
+                if chosen.any():
+                    ax.quiver(cx[chosen], cy[chosen], 2 * arrow * np.cos(yaw[chosen]),
+                              2 * arrow * np.sin(yaw[chosen]), color="tab:orange", angles="xy",
+                              scale_units="xy", scale=1, width=0.008, label="chosen")
+            ax.set_xlim(extent[0], extent[1])
+            ax.set_ylim(extent[2], extent[3])
+            ax.set_aspect("equal")
+            ax.set_xlabel("x (m)")
+            ax.set_ylabel("y (m)")
+            ax.set_title(f"{MAP2D_TITLES.get(e['name'], e['name'])}, t = {request_s:g} s\n"
+                         f"(h = {float(e['height_m']):.2f} m, {shown} candidates)")
+            ax.legend(loc="lower right", fontsize=7)
+            panels.append({"kind": "2d", "name": e["name"], "file": e["file"],
+                           "xlim": list(ax.get_xlim()), "ylim": list(ax.get_ylim())})
+        fig.tight_layout()
+        fig.canvas.draw()
+        for panel, ax in zip(panels, axes[0]):
+            panel["affine"] = affine_of(ax)
+            b = ax.get_window_extent()
+            panel["bbox_px"] = [b.x0, b.y0, b.x1, b.y1]
+        save(fig, out_dir, f"fig2_map2d_{k}_t{request_s:g}s",
+             {"panels": panels, "time_s": request_s})
+
+
+# ------------------------------------------------------------------------------------------
+# Fig. 3: entropy and known fraction against time, runs overlaid.
+
+
+def figure_entropy(runs, out_dir):
+    fig, (ax_h, ax_k) = plt.subplots(
+        1, 2, figsize=(FIG3_SIZE_PX[0] / DPI, FIG3_SIZE_PX[1] / DPI), dpi=DPI)
+    lines = []
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    any_known = False
+    for i, (data_dir, label) in enumerate(runs):
+        table = read_table(os.path.join(data_dir, "timeseries.csv"))
+        t = floats(table, "time_s")
+        h = floats(table, "entropy_nats")
+        if np.all(np.isnan(h)):
+            h = floats(table, "entropy_replica_nats")
+        known = floats(table, "known_fraction")
+        color = colors[i % len(colors)]
+        # The first run (the report's own) is drawn last, on top of the others.
+        order = len(runs) if i == 0 else i
+        ax_h.plot(t, h, "-", color=color, lw=2, label=label, zorder=2 + order)
+        ok = ~np.isnan(known)
+        if ok.any():
+            any_known = True
+            ax_k.plot(t[ok], known[ok], "-", color=color, lw=2, label=label, zorder=2 + order)
+        lines.append({"label": label, "color": color, "data": data_dir, "drawn_order": order})
+    ax_h.set_xlabel("time (s)")
+    ax_h.set_ylabel("map entropy H (nats)")
+    ax_h.set_title("map entropy")
+    ax_h.grid(True, alpha=0.3)
+    ax_h.legend()
+    ax_k.set_xlabel("time (s)")
+    ax_k.set_ylabel("known fraction of observable cells")
+    ax_k.set_ylim(0.0, 1.0)
+    ax_k.set_title("known fraction" if any_known else "known fraction (no world given)")
+    ax_k.grid(True, alpha=0.3)
+    if any_known:
+        ax_k.legend()
+    fig.tight_layout()
+    fig.canvas.draw()
+    panels = []
+    for name, ax in (("entropy", ax_h), ("known_fraction", ax_k)):
+        b = ax.get_window_extent()
+        panels.append({"kind": "2d", "name": name, "affine": affine_of(ax),
+                       "bbox_px": [b.x0, b.y0, b.x1, b.y1], "xlim": list(ax.get_xlim()),
+                       "ylim": list(ax.get_ylim())})
+    save(fig, out_dir, "fig3_entropy", {"panels": panels, "runs": lines}, svg=True)
+
+
+def main(argv):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--data", required=True, help="kestrel-report-export output of the run")
+    parser.add_argument("--out", required=True, help="directory for the figures")
+    parser.add_argument("--label", default="run", help="legend label of the run")
+    parser.add_argument("--run", action="append", default=[],
+                        help="DATA_DIR:LABEL of another run to overlay in fig. 3")
+    parser.add_argument("--elev", type=float, default=35.0, help="3D view elevation, deg")
+    parser.add_argument("--azim", type=float, default=-60.0, help="3D view azimuth, deg")
+    parser.add_argument("--zmin", type=float, default=0.0,
+                        help="draw 3D cells whose centre is above this height (hides the floor)")
+    parser.add_argument("--color", choices=["height", "probability"], default="height")
+    parser.add_argument("--only", choices=["map3d", "map2d", "entropy"], action="append",
+                        help="draw only these figures")
+    args = parser.parse_args(argv)
+    os.makedirs(args.out, exist_ok=True)
+    runs = [(args.data, args.label)]
+    for spec in args.run:
+        if ":" not in spec:
+            raise ReportError(f"--run {spec}: expected DATA_DIR:LABEL")
+        path, label = spec.rsplit(":", 1)
+        runs.append((path, label))
+    meta = read_meta(args.data)
+    only = set(args.only or ["map3d", "map2d", "entropy"])
+    if "map3d" in only:
+        figure_map3d(args.data, args.out, meta, args)
+    if "map2d" in only:
+        figure_map2d(args.data, args.out)
+    if "entropy" in only:
+        figure_entropy(runs, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main(sys.argv[1:]))
+    except ReportError as e:
+        print(f"kestrel-report: error: {e}", file=sys.stderr)
+        sys.exit(1)

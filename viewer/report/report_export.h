@@ -1,0 +1,76 @@
+#pragma once
+/// @file
+/// kestrel-report's data step (issue 9): reads a recorded run (an LCM log), rebuilds the mapper's
+/// 3D map from its MAP3D snapshots and MAP3D_DELTA messages (MapReplica), and writes plain CSV
+/// files that kestrel_report.py draws as the paper's figures (Figs. 1-3, 5-7):
+///
+///  - meta.csv         key,value: lattice, p_init, times, message counts, world;
+///  - timeseries.csv   one row per MAP_STATUS (or per map update when the log has none): map
+///                     entropy H (eq. (6), as the mapper reported it and recomputed from the
+///                     replica), known fraction and accuracy against the world's ground truth
+///                     (ALGORITHMS.md section 10, the logic of kestrel-map-score) and the known
+///                     fraction of the whole lattice;
+///  - trajectory.csv   the flown path (POSE_VICON, valid poses, one per trajectory period);
+///  - plans.csv, candidates.csv   every EXPLORATION_STATUS and its candidate poses;
+///  - map2d_index.csv, map2d_<k>_<name>.csv   the newest MAP2D_* grids at each requested time;
+///  - occupied.csv     cell centres of the final map with P > occupied_threshold, and their P;
+///  - truth.csv        cell centres of the world voxelised on the map lattice (with a world).
+///
+/// Times are seconds since the first MAP_STATUS (the demo's convention; the first map update when
+/// the log has no MAP_STATUS), from the messages' own utime (the simulator's clock in a simulated
+/// run), not the logger's receive time. The file names do not depend on the input.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace kestrel {
+
+/// What to export and from where.
+struct ReportExportConfig {
+  std::string log_path;    ///< LCM log of the run (lcm-logger or kestrel-mission --log)
+  std::string world_path;  ///< world YAML for ground truth ("" = none: no truth, no known fraction)
+  std::string out_dir;     ///< directory for the CSV files (created if missing)
+  /// Times (s since the first MAP_STATUS) at which to keep the 2D maps; empty = half way and end.
+  std::vector<double> map2d_times_s;
+  double occupied_threshold{0.5};   ///< cells with P above this go to occupied.csv, in (0, 1)
+  double trajectory_period_s{0.1};  ///< one trajectory row per this much time, s, >= 0
+  double sensor_range_m{4.0};       ///< observable-cell sweep range, m (kestrel-map-score default)
+  double vertical_fov_rad{45.0 * 3.14159265358979323846 / 180.0};  ///< sweep vertical FOV, rad
+  std::string map_channel{"MAP3D"};                                ///< map3d_chunk_t snapshots
+  std::string delta_channel{"MAP3D_DELTA"};                        ///< map3d_delta_t
+  std::string status_channel{"MAP_STATUS"};                        ///< map_status_t (entropy)
+  std::string pose_channel{"POSE_VICON"};                          ///< pose_t (trajectory)
+  std::string exploration_channel{"EXPLORATION_STATUS"};           ///< exploration_status_t
+  std::string map2d_prefix{"MAP2D_"};  ///< grid_map_t channels: + COLLISION, COMBINED, ENTROPY
+
+  /// @throws std::invalid_argument naming the field, its value and the accepted range.
+  void Validate() const;
+};
+
+/// What was exported (also written to meta.csv).
+struct ReportExportSummary {
+  int64_t events{0};            ///< log events read
+  int64_t malformed{0};         ///< events on Kestrel channels that failed the guarded decode
+  int64_t snapshots_chunks{0};  ///< MAP3D chunks applied
+  int64_t deltas_applied{0};    ///< MAP3D_DELTA messages applied
+  int64_t map_rejects{0};       ///< chunks or deltas the replica refused (lost messages)
+  int64_t status_messages{0};   ///< MAP_STATUS messages
+  int64_t poses{0};             ///< POSE_VICON messages
+  int64_t plans{0};             ///< EXPLORATION_STATUS messages
+  int64_t map2d_messages{0};    ///< MAP2D_* messages
+  size_t samples{0};            ///< timeseries.csv rows
+  size_t occupied_cells{0};     ///< occupied.csv rows
+  size_t truth_cells{0};        ///< truth.csv rows (0 without a world)
+  double duration_s{0};         ///< time of the last clock message since the time origin, s
+  bool truncated{false};        ///< the log ended inside an event (the events before it are used)
+  std::vector<std::string> warnings;  ///< missing channels, truncation, rejects (also on stderr)
+};
+
+/// Reads the log and writes the files listed in the file comment into config.out_dir.
+/// @throws std::invalid_argument on bad configuration; std::runtime_error when the log cannot be
+///   read, holds no complete MAP3D snapshot, or its map is unbounded (growing), or a file cannot
+///   be written.
+ReportExportSummary ExportReportData(const ReportExportConfig& config);
+
+}  // namespace kestrel
