@@ -371,9 +371,17 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
       durations.push_back(TrapezoidDuration((way3[i + 1] - way3[i]).norm(), config));
     }
     std::optional<PiecewisePolynomialTrajectory> traj;
+    // Stretching time lowers speed and acceleration as 1/T and 1/T^2 from rest, but not with a
+    // start velocity (the piece overshoots by about v0 T): past this bound on the total duration
+    // (and before sampling a huge trajectory) give up and start from rest instead.
+    double unscaled_total_s = 0.0;
+    for (double t : durations) unscaled_total_s += t;
+    const double max_total_s = 16.0 * unscaled_total_s + 60.0;
     for (int scaling = 0; scaling < 12; ++scaling) {
+      traj.reset();
       double total = 0.0;
       for (double t : durations) total += t;
+      if (total > max_total_s) break;  // not converging
       const double yaw_time = step_peak_rate * std::abs(dyaw) / config.max_yaw_rate_radps;
       if (total < yaw_time) {
         for (double& t : durations) t *= yaw_time / total * 1.0001;

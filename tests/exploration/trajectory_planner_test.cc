@@ -193,6 +193,54 @@ TEST(TrajectoryPlanner, SamplesKeepDiscInsideTraversableCellsOnMazes) {
               stopped);
 }
 
+// Replans in flight start with the vehicle's velocity. Stretching time cannot meet the limits
+// when the start velocity makes the first piece overshoot, so the planner must give up on it
+// and start from rest, with a bounded duration, never stretching time without end (which once
+// asked Sample() for 10^9 samples: std::bad_alloc).
+TEST(TrajectoryPlanner, StartVelocityNeverMakesTimeDiverge) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  TrajectoryConfig config;
+  int planned = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const int w = 9 + 2 * (trial % 4), h = 9 + 2 * ((trial / 4) % 3);
+    const std::vector<bool> t = Maze(w, h, rng);
+    GridMap2D c = GridMap2D::Filled({0.0, 0.0}, 0.9, 0.75, w, h, 0.0);
+    for (int i = 0; i < w * h; ++i)
+      c.values[static_cast<size_t>(i)] = t[static_cast<size_t>(i)] ? 0.0 : 0.9;
+    const Cell2 start{1, 1};
+    const DistanceField f = ComputeDistanceField(w, h, t, start, 0.9);
+    std::vector<int> reachable;
+    for (int i = 0; i < w * h; ++i) {
+      if (f.Reachable(i) && i != c.IndexOf(start)) reachable.push_back(i);
+    }
+    ASSERT_FALSE(reachable.empty());
+    const int goal = reachable[rng() % reachable.size()];
+    // Anywhere in the start cell, at up to 0.5 m/s in any direction (0.44 m/s once diverged).
+    const Eigen::Vector2d s2 = c.CenterOf(start) + 0.4 * Eigen::Vector2d(u(rng), u(rng));
+    const Eigen::Vector3d v0(0.5 * u(rng), 0.5 * u(rng), 0.0);
+    config.derivative_order = trial % 2 == 0 ? 4 : 3;
+    const TrajectoryPlan plan = PlanTrajectory(c, t, f, goal, {s2.x(), s2.y(), 0.75}, v0,
+                                               u(rng) * M_PI, u(rng) * M_PI, 0.75, 0.0, config);
+    if (!plan.trajectory) continue;  // e.g. no safe path from a start inside a wall's margin
+    ++planned;
+    // A start from rest needs no stretching beyond a few times the trapezoid times of its
+    // (possibly repaired) waypoints and the turn.
+    double path_m = 0.0;
+    for (size_t i = 0; i + 1 < plan.waypoints.size(); ++i) {
+      path_m += (plan.waypoints[i + 1] - plan.waypoints[i]).norm();
+    }
+    const double bound_s =
+        16.0 * (path_m / config.max_speed_mps + 2.0 * static_cast<double>(plan.waypoints.size())) +
+        60.0;
+    ASSERT_LT(plan.trajectory->end_time_s(), bound_s) << "trial " << trial;
+    for (const TrajectorySample& s : plan.trajectory->Sample(0.02)) {
+      ASSERT_LE(s.flat.velocity_mps.norm(), config.max_speed_mps * (1 + 1e-9)) << trial;
+    }
+  }
+  EXPECT_GT(planned, 300);
+}
+
 // The planned trajectory travels as a TRAJECTORY message unchanged (common/trajectory_message.h).
 TEST(TrajectoryPlanner, RoundTripsThroughTheMessage) {
   std::vector<bool> t(25, true);
