@@ -1,5 +1,6 @@
 #include "exploration/candidates.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "common/check.h"
@@ -13,6 +14,8 @@ void CandidateConfig::Validate() const {
                        "d_max_epsilon = " << d_max_epsilon << ", accepted [0, inf)");
   KESTREL_THROW_UNLESS(d_fixed_m > 0.0 && std::isfinite(d_fixed_m),
                        "d_fixed_m = " << d_fixed_m << ", accepted (0, inf)");
+  KESTREL_THROW_UNLESS(switch_margin >= 0.0 && std::isfinite(switch_margin),
+                       "switch_margin = " << switch_margin << ", accepted [0, inf)");
   KESTREL_THROW_UNLESS(end_gain_nats >= 0.0 && std::isfinite(end_gain_nats),
                        "end_gain_nats = " << end_gain_nats << ", accepted [0, inf)");
 }
@@ -34,14 +37,31 @@ double DMax(const CandidateConfig& config, double max_distance_m) {
 }
 
 std::vector<int> CandidateCells(const DistanceField& field, const CandidateConfig& config) {
+  // One candidate per lattice block: the lattice cell itself when reachable, else the block's
+  // reachable cell nearest to it (ties: lowest index), so a corridor one collision cell wide
+  // between lattice rows or columns still has candidates.
+  const int step = config.lattice_step;
   std::vector<int> cells;
-  for (int y = 0; y < field.height; y += config.lattice_step) {
-    for (int x = 0; x < field.width; x += config.lattice_step) {
-      const int i = x + field.width * y;
-      if (config.exclude_vehicle_cell && i == field.start) continue;
-      if (field.Reachable(i)) cells.push_back(i);
+  for (int y0 = 0; y0 < field.height; y0 += step) {
+    for (int x0 = 0; x0 < field.width; x0 += step) {
+      int best = -1;
+      int best_d2 = 0;
+      for (int y = y0; y < std::min(y0 + step, field.height); ++y) {
+        for (int x = x0; x < std::min(x0 + step, field.width); ++x) {
+          const int i = x + field.width * y;
+          if (config.exclude_vehicle_cell && i == field.start) continue;
+          if (!field.Reachable(i)) continue;
+          const int d2 = (x - x0) * (x - x0) + (y - y0) * (y - y0);
+          if (best < 0 || d2 < best_d2 || (d2 == best_d2 && i < best)) {
+            best = i;
+            best_d2 = d2;
+          }
+        }
+      }
+      if (best >= 0) cells.push_back(best);
     }
   }
+  std::sort(cells.begin(), cells.end());
   return cells;
 }
 

@@ -1,7 +1,8 @@
 #pragma once
 /// @file
 /// Candidate poses and the choice of the next one (ALGORITHMS.md section 8, eqs. (9) and (17)):
-/// reachable collision cells on a lattice (every `lattice_step` cells, anchored at cell (0, 0))
+/// one reachable collision cell per block of the lattice (every `lattice_step` cells, anchored at
+/// cell (0, 0): the lattice cell, or the block's reachable cell nearest to it)
 /// times n_yaw headings yaw_m = 2 pi m / n_yaw; objective I(X_c) * bump(d_cell); the end of
 /// exploration is decided on the best UNWEIGHTED gain max I(X_c).
 
@@ -30,6 +31,16 @@ struct CandidateConfig {
   /// Skip the vehicle's own collision cell, so that every plan moves the vehicle (a turn on the
   /// spot comes with the trajectory's yaw); the start-up scan has already looked around.
   bool exclude_vehicle_cell{true};
+  /// Drop candidates the vehicle has already reached (same collision cell and heading; Kestrel's
+  /// addition, not in the paper). A reached pose has looked at everything it can: what gain its
+  /// prediction still shows lies in cells its sensors cannot see from there (inside furniture,
+  /// under a table), and choosing it again makes the vehicle shuttle between such poses.
+  bool skip_reached_goals{true};
+  /// Hysteresis of replans on the way (Kestrel's addition): the goal being flown to is kept
+  /// unless another candidate's objective exceeds its own by this fraction. The bump (eq. 17)
+  /// favours candidates near the vehicle, so without it a replan halfway between two goals can
+  /// swap them again and again and the vehicle never reaches either (seen on lasr). >= 0.
+  double switch_margin{0.25};
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
@@ -56,8 +67,10 @@ struct Candidate {
 /// bump(0) = 1.
 [[nodiscard]] double DMax(const CandidateConfig& config, double max_distance_m);
 
-/// The reachable lattice cells of the collision map (positions only, gains and headings not
-/// filled), in increasing cell index; without field.start if config.exclude_vehicle_cell.
+/// One reachable cell per lattice block of the collision map: the block's corner (the lattice
+/// cell) when reachable, else its reachable cell nearest to the corner (ties: lowest index), so
+/// a one-cell corridor between lattice rows keeps candidates. Positions only (gains and headings
+/// not filled), in increasing cell index; never field.start if config.exclude_vehicle_cell.
 [[nodiscard]] std::vector<int> CandidateCells(const DistanceField& field,
                                               const CandidateConfig& config);
 

@@ -39,7 +39,8 @@ TEST(Candidates, DMaxPolicies) {
   EXPECT_EQ(Bump(0.0, DMax(c, 0.0)), 1.0);
 }
 
-// Candidates are the reachable cells of the lattice every `lattice_step` cells.
+// Candidates: one per lattice block of `lattice_step` cells, the lattice cell when reachable,
+// else the block's reachable cell nearest to it.
 TEST(Candidates, LatticeOfReachableCells) {
   // 5 x 3, column x = 2 blocked except (2, 2): cells right of it reachable through (2, 2) only.
   std::vector<bool> t(15, true);
@@ -48,10 +49,26 @@ TEST(Candidates, LatticeOfReachableCells) {
   const DistanceField f = ComputeDistanceField(5, 3, t, {0, 0}, 1.0);
   CandidateConfig c;
   const std::vector<int> cells = CandidateCells(f, c);
-  // Lattice: x in {0, 2, 4}, y in {0, 2}; (2,0) blocked, (4,2) blocked.
-  EXPECT_EQ(cells, (std::vector<int>{4, 10, 12}));  // the vehicle's cell 0 is skipped
+  // Blocks anchored at x in {0, 2, 4}, y in {0, 2}. (0,0) is the vehicle's: (1,0) and (0,1) are
+  // nearest, the lower index wins; (2,0) blocked: (3,0); (4,2) blocked and alone in its block.
+  EXPECT_EQ(cells, (std::vector<int>{1, 3, 4, 10, 12}));
   c.exclude_vehicle_cell = false;
-  EXPECT_EQ(CandidateCells(f, c), (std::vector<int>{0, 4, 10, 12}));
+  EXPECT_EQ(CandidateCells(f, c), (std::vector<int>{0, 3, 4, 10, 12}));
+  c.lattice_step = 1;  // every reachable cell
+  EXPECT_EQ(CandidateCells(f, c).size(), 12u);
+}
+
+// A corridor one cell wide on an odd row (between lattice rows) has a candidate in every block
+// it crosses, and nothing outside it is a candidate.
+TEST(Candidates, CorridorBetweenLatticeRows) {
+  const int w = 9, h = 4;
+  std::vector<bool> t(static_cast<size_t>(w * h), false);
+  for (int x = 0; x < w; ++x) t[static_cast<size_t>(x + w * 1)] = true;  // row y = 1
+  const DistanceField f = ComputeDistanceField(w, h, t, {0, 1}, 1.0);
+  const std::vector<int> cells = CandidateCells(f, CandidateConfig{});
+  // Blocks at x0 = 0, 2, 4, 6, 8 (y0 = 0): cells (x0, 1); the vehicle's (0, 1) is excluded and
+  // (1, 1) replaces it.
+  EXPECT_EQ(cells, (std::vector<int>{1 + w, 2 + w, 4 + w, 6 + w, 8 + w}));
 }
 
 // eq. (9): argmax I * bump; the end test uses the best UNWEIGHTED gain.
