@@ -52,6 +52,7 @@ ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
     e.Read("startup_yaw_rate_radps", &c.startup_yaw_rate_radps, Range::Positive());
     e.Read("height_tolerance_m", &c.height_tolerance_m, Range::Positive());
     e.Read("replan_period_s", &c.replan_period_s, Range::Positive());
+    e.Read("replan_min_remaining_s", &c.replan_min_remaining_s, Range::NonNegative());
     e.Read("safety_check_period_s", &c.safety_check_period_s, Range::Positive());
     e.Read("retry_period_s", &c.retry_period_s, Range::Positive());
     e.Read("max_failed_plans", &c.max_failed_plans, Range::Closed(1, 1000));
@@ -147,6 +148,14 @@ PlannerInput ExplorerNode::Input() const {
   in.yaw_rad = YawOf(pose_.q);
   in.time_s = now_s();
   in.startup_center_m = home_xy_;
+  in.reached_goals = reached_goals_;
+  // The goal being flown to (its trajectory has not ended): hysteresis for period replans.
+  if (state_ == exploration_status_t::STATE_EXPLORING && trajectory_.has_value() &&
+      now_s() < trajectory_->end_time_s() && last_plan_ &&
+      last_plan_->status == PlanStatus::kGoal && last_plan_->chosen >= 0) {
+    const Candidate& goal = last_plan_->candidates[static_cast<size_t>(last_plan_->chosen)];
+    in.current_goal = Eigen::Vector3d(goal.position_m.x(), goal.position_m.y(), goal.yaw_rad);
+  }
   return in;
 }
 
@@ -303,8 +312,13 @@ void ExplorerNode::Step() {
     case exploration_status_t::STATE_EXPLORING: {
       if (t < next_attempt_s_) break;
       if (!trajectory_.has_value() || t >= trajectory_->end_time_s()) {
+        if (last_plan_ && last_plan_->status == PlanStatus::kGoal && last_plan_->chosen >= 0) {
+          const Candidate& goal = last_plan_->candidates[static_cast<size_t>(last_plan_->chosen)];
+          reached_goals_.emplace_back(goal.position_m.x(), goal.position_m.y(), goal.yaw_rad);
+        }
         Plan("trajectory ended");
-      } else if (t - last_plan_s_ >= config_.replan_period_s) {
+      } else if (t - last_plan_s_ >= config_.replan_period_s &&
+                 trajectory_->end_time_s() - t > config_.replan_min_remaining_s) {
         Plan("replan period");
       } else if (t - last_safety_check_s_ >= config_.safety_check_period_s &&
                  replica_.seq() != safety_checked_map_seq_) {

@@ -59,7 +59,11 @@ struct ExplorerConfig {
 
   double startup_yaw_rate_radps{0.8};  ///< peak yaw rate of the start-up full circle, rad/s
   double height_tolerance_m{0.25};     ///< hovering within this of h counts as "at height", m
-  double replan_period_s{10.0};        ///< replan at least this often while flying, s
+  double replan_period_s{10.0};        ///< replan at least this often while flying, s...
+  /// ...unless the trajectory ends within this, s: a replan near the goal (often while the
+  /// vehicle turns to the goal's heading in the goal's cell, which is no candidate) would pick
+  /// another goal before this one is reached, again and again.
+  double replan_min_remaining_s{3.0};
   double safety_check_period_s{0.5};   ///< how often the remaining path is re-checked, s
   double retry_period_s{1.0};          ///< wait after a failed plan, s
   int max_failed_plans{5};             ///< consecutive failures before returning home
@@ -136,6 +140,8 @@ class ExplorerNode {
   double last_heartbeat_s_{-1e300};
   double total_planning_s_{0.0};
   std::optional<PlanResult> last_plan_;
+  // Goals (x, y, yaw) whose trajectory ran to its end (PlannerInput::reached_goals).
+  std::vector<Eigen::Vector3d> reached_goals_;
 };
 
 }  // namespace kestrel

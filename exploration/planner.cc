@@ -119,6 +119,74 @@ EntropyPlanner::EntropyPlanner(const PlannerConfig& config) : config_(config), g
                        "EntropyPlanner: mode frontier, accepted combined or two_map");
 }
 
+bool EntropyPlanner::Reached(const PlannerInput& input, const GridMap2D& c, int cell,
+                             double yaw_rad) const {
+  if (!config_.candidates.skip_reached_goals) return false;
+  const double half_step = M_PI / config_.candidates.n_yaw;
+  for (const Eigen::Vector3d& g : input.reached_goals) {
+    const std::optional<Cell2> gc = c.CellOf(g.head<2>());
+    if (!gc || c.IndexOf(*gc) != cell) continue;
+    const double d = std::remainder(g.z() - yaw_rad, 2.0 * M_PI);
+    if (std::abs(d) < half_step) return true;
+  }
+  return false;
+}
+
+Choice EntropyPlanner::ScoreCandidates(const PlannerInput& input, const GridMap2D& gain_map,
+                                       bool two_map_end_test, PlanResult* result) {
+  const GridMap2D& c = result->collision.collision;
+  const int n_yaw = config_.candidates.n_yaw;
+  result->candidates.clear();
+  result->end_test_gain_nats = 0.0;
+  for (int cell : CandidateCells(result->field, config_.candidates)) {
+    const Eigen::Vector2d p = c.CenterOf(c.CellAt(cell));
+    std::vector<double> excess;
+    const std::vector<double> gains =
+        gains_.HeadingGains(gain_map, p, n_yaw, 0.0, &result->gain_stats,
+                            config_.projection.p_min_entropy, two_map_end_test ? &excess : nullptr);
+    for (int m = 0; m < n_yaw; ++m) {
+      Candidate cand;
+      cand.cell = cell;
+      cand.position_m = p;
+      cand.yaw_rad = 2.0 * M_PI * m / n_yaw;
+      if (Reached(input, c, cell, cand.yaw_rad)) continue;
+      cand.gain_nats = gains[static_cast<size_t>(m)];
+      result->candidates.push_back(cand);
+      if (two_map_end_test) {
+        result->end_test_gain_nats =
+            std::max(result->end_test_gain_nats, excess[static_cast<size_t>(m)]);
+      }
+    }
+  }
+  Choice choice = ChooseCandidate(result->field, config_.candidates, &result->candidates);
+  if (input.current_goal && choice.index >= 0) {
+    // Hysteresis (CandidateConfig::switch_margin): keep flying to the current goal unless the
+    // best objective beats it by the margin.
+    const double best = result->candidates[static_cast<size_t>(choice.index)].objective();
+    const std::optional<Cell2> gc = c.CellOf(input.current_goal->head<2>());
+    const double half_step = M_PI / n_yaw;
+    for (size_t i = 0; gc && i < result->candidates.size(); ++i) {
+      const Candidate& cand = result->candidates[i];
+      if (cand.cell != c.IndexOf(*gc) ||
+          std::abs(std::remainder(cand.yaw_rad - input.current_goal->z(), 2.0 * M_PI)) >=
+              half_step) {
+        continue;
+      }
+      if (cand.objective() > 0.0 &&
+          best <= (1.0 + config_.candidates.switch_margin) * cand.objective()) {
+        choice.index = static_cast<int>(i);
+      }
+      break;
+    }
+  }
+  if (two_map_end_test) {
+    // The end test on the gain beyond E's P_min_E floor (planner.h).
+    choice.exploration_done = result->candidates.empty() ||
+                              result->end_test_gain_nats < config_.candidates.end_gain_nats;
+  }
+  return choice;
+}
+
 PlanResult EntropyPlanner::Plan(const PlannerInput& input) {
   const Clock::time_point t0 = Clock::now();
   PlanResult result;
@@ -131,36 +199,10 @@ PlanResult EntropyPlanner::Plan(const PlannerInput& input) {
   }
   // Candidates: reachable lattice cells x headings; gains on B (combined) or E (two-map).
   const Clock::time_point t1 = Clock::now();
-  const GridMap2D& gain_map =
-      config_.mode == ExplorationMode::kTwoMap ? *result.entropy : result.collision.combined;
-  const GridMap2D& c = result.collision.collision;
-  const int n_yaw = config_.candidates.n_yaw;
   const bool two_map = config_.mode == ExplorationMode::kTwoMap;
-  for (int cell : CandidateCells(result.field, config_.candidates)) {
-    const Eigen::Vector2d p = c.CenterOf(c.CellAt(cell));
-    std::vector<double> excess;
-    const std::vector<double> gains =
-        gains_.HeadingGains(gain_map, p, n_yaw, 0.0, &result.gain_stats,
-                            config_.projection.p_min_entropy, two_map ? &excess : nullptr);
-    for (int m = 0; m < n_yaw; ++m) {
-      Candidate cand;
-      cand.cell = cell;
-      cand.position_m = p;
-      cand.yaw_rad = 2.0 * M_PI * m / n_yaw;
-      cand.gain_nats = gains[static_cast<size_t>(m)];
-      result.candidates.push_back(cand);
-      if (two_map) {
-        result.end_test_gain_nats =
-            std::max(result.end_test_gain_nats, excess[static_cast<size_t>(m)]);
-      }
-    }
-  }
-  Choice choice = ChooseCandidate(result.field, config_.candidates, &result.candidates);
-  if (two_map) {
-    // The end test on the gain beyond E's P_min_E floor (planner.h).
-    choice.exploration_done =
-        result.candidates.empty() || result.end_test_gain_nats < config_.candidates.end_gain_nats;
-  } else {
+  Choice choice = ScoreCandidates(
+      input, two_map ? *result.entropy : result.collision.combined, two_map, &result);
+  if (!two_map) {
     result.end_test_gain_nats = choice.best_unweighted_gain_nats;
   }
   result.timings.gain_s = SecondsSince(t1);
@@ -224,10 +266,22 @@ PlanResult FrontierPlanner::Plan(const PlannerInput& input) {
     return p >= 0.5 * p_init && p <= 0.5 && !traversable[static_cast<size_t>(c.IndexOf(x, y))];
   };
   int best = -1;
+  // Frontier cells already reached are skipped (candidates.skip_reached_goals): a frontier that
+  // stays one after the vehicle has been there borders cells its sensors cannot see, and
+  // Yamauchi's planner would shuttle between two such cells for ever.
+  std::vector<bool> reached(static_cast<size_t>(c.size()), false);
+  if (config_.candidates.skip_reached_goals) {
+    for (const Eigen::Vector3d& g : input.reached_goals) {
+      if (const std::optional<Cell2> gc = c.CellOf(g.head<2>())) {
+        reached[static_cast<size_t>(c.IndexOf(*gc))] = true;
+      }
+    }
+  }
   for (int i = 0; i < c.size(); ++i) {
     if (!result.field.Reachable(i) || !traversable[static_cast<size_t>(i)]) continue;
     const double d = result.field.distance_m[static_cast<size_t>(i)];
     if (i == vehicle_cell || d < config_.frontier.min_distance_m) continue;
+    if (reached[static_cast<size_t>(i)]) continue;
     const Cell2 cell = c.CellAt(i);
     Eigen::Vector2d towards = Eigen::Vector2d::Zero();
     int count = 0;

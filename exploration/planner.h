@@ -61,6 +61,13 @@ struct PlannerInput {
   double time_s{0.0};                                     ///< start time of the trajectory, s
   /// If set, the start-up rule of section 8 around this (x, y) (the take-off point), m, W.
   std::optional<Eigen::Vector2d> startup_center_m;
+  /// Goal poses (x m, y m, yaw rad; W) the vehicle has reached; with
+  /// candidates.skip_reached_goals, a candidate in the same collision cell with the same heading
+  /// (within half a heading step) is not scored.
+  std::vector<Eigen::Vector3d> reached_goals;
+  /// The goal (x m, y m, yaw rad; W) being flown to, if any: kept unless another candidate's
+  /// objective exceeds its own by candidates.switch_margin.
+  std::optional<Eigen::Vector3d> current_goal;
 };
 
 /// Wall-clock time of each stage of one replan, s.
@@ -123,11 +130,20 @@ class EntropyPlanner final : public ExplorationPlanner {
   [[nodiscard]] ExplorationMode mode() const override { return config_.mode; }
 
  private:
+  // Scores the candidates' gains on gain_map into result->candidates (without reached goals)
+  // and chooses; with two_map_end_test, the end test on the excess over E's P_min_E floor.
+  Choice ScoreCandidates(const PlannerInput& input, const GridMap2D& gain_map,
+                         bool two_map_end_test, PlanResult* result);
+  // True if (cell, yaw) is a reached goal and candidates.skip_reached_goals is on.
+  [[nodiscard]] bool Reached(const PlannerInput& input, const GridMap2D& c, int cell,
+                             double yaw_rad) const;
+
   PlannerConfig config_;
   GainEvaluator gains_;
 };
 
-/// Yamauchi-style baseline: the nearest (by d_cell) reachable traversable collision cell with an
+/// Yamauchi-style baseline: the nearest (by d_cell) reachable traversable collision cell, not
+/// already reached (PlannerInput::reached_goals, with candidates.skip_reached_goals), with an
 /// unknown 8-neighbour in C (not traversable and P_init/2 <= P(C) <= 0.5: not yet known free,
 /// not known occupied, after ALGORITHMS.md section 10), facing the mean direction of its unknown
 /// neighbours; done when no such cell is reachable. Its gain (on B, for the status) is computed

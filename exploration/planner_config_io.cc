@@ -88,6 +88,8 @@ PlannerConfig LoadPlannerConfig(const ConfigNode& node) {
     n.Read("d_fixed_m", &q.d_fixed_m, Range::Positive());
     n.Read("end_gain_nats", &q.end_gain_nats, Range::NonNegative());
     n.Read("exclude_vehicle_cell", &q.exclude_vehicle_cell);
+    n.Read("skip_reached_goals", &q.skip_reached_goals);
+    n.Read("switch_margin", &q.switch_margin, Range::NonNegative());
   }
   bool radius_set = false;
   if (node.Has("trajectory")) {

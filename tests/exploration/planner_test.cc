@@ -165,14 +165,49 @@ TEST(Planner, FrontierChoosesNearestFrontier) {
   ExpectTrajectoryInside(r, in, config);
 }
 
+// A goal the vehicle has reached is never chosen again (candidates.skip_reached_goals): the
+// entropy planner drops that cell and heading, the frontier planner that cell; with the option
+// off, the same input gives the same choice again.
+TEST(Planner, ReachedGoalsAreNotChosenAgain) {
+  const RoomMap map(2.2);
+  PlannerConfig config;
+  for (const ExplorationMode mode : {ExplorationMode::kCombined, ExplorationMode::kFrontier}) {
+    config.mode = mode;
+    std::unique_ptr<ExplorationPlanner> planner = MakePlanner(config);
+    PlannerInput in = InputAt(map, {-1.0, -1.0});
+    const PlanResult first = planner->Plan(in);
+    ASSERT_EQ(first.status, PlanStatus::kGoal) << ModeName(mode) << ": " << first.reason;
+    const Candidate& goal = first.candidates[static_cast<size_t>(first.chosen)];
+    in.reached_goals.emplace_back(goal.position_m.x(), goal.position_m.y(), goal.yaw_rad);
+    const PlanResult second = planner->Plan(in);
+    ASSERT_EQ(second.status, PlanStatus::kGoal) << ModeName(mode) << ": " << second.reason;
+    const Candidate& next = second.candidates[static_cast<size_t>(second.chosen)];
+    if (mode == ExplorationMode::kFrontier) {
+      EXPECT_NE(next.cell, goal.cell);
+    } else {
+      EXPECT_FALSE(next.cell == goal.cell && next.yaw_rad == goal.yaw_rad);
+      for (const Candidate& c : second.candidates) {
+        EXPECT_FALSE(c.cell == goal.cell && c.yaw_rad == goal.yaw_rad) << "scored again";
+      }
+      EXPECT_EQ(second.candidates.size() + 1, first.candidates.size());
+    }
+    config.candidates.skip_reached_goals = false;
+    const PlanResult again = MakePlanner(config)->Plan(in);
+    EXPECT_EQ(again.candidates[static_cast<size_t>(again.chosen)].cell, goal.cell);
+    config.candidates.skip_reached_goals = true;
+  }
+}
+
 // Section 8: after the start-up turn the top and bottom of the band near the start are unseen;
 // without the start-up rule nothing around the vehicle is traversable, with it the first plan
 // leaves the start cell.
 TEST(Planner, StartupRuleLetsFirstPlanLeaveStartCell) {
-  const RoomMap map(2.6, 1.2);
+  // The vehicle in collision cell (2, 2) = [-1.2, -0.3]^2; the unseen ring (1.7 m around the
+  // origin) reaches into every cell it could step to, so without the rule none is traversable.
+  const RoomMap map(2.6, 1.7);
   PlannerConfig config;
   EntropyPlanner planner(config);
-  PlannerInput in = InputAt(map, {-1.35, -1.35});
+  PlannerInput in = InputAt(map, {-0.75, -0.75});
   const PlanResult without = planner.Plan(in);
   EXPECT_NE(without.status, PlanStatus::kGoal);
   in.startup_center_m = in.position_m.head<2>();
