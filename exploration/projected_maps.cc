@@ -127,9 +127,10 @@ CollisionProjection ProjectCollisionMaps(const OccupancyGridView& map,
                                      static_cast<size_t>(map.dims.y()) * static_cast<size_t>(k))];
             const double p = static_cast<double>(v);
             double p_collision = p;
-            if (startup && v == p_init_f) {
-              // ALGORITHMS.md section 8: unseen band cells near the start count as free in C
-              // (and in B's maximum); B's minimum keeps what the map says.
+            if (startup && v <= p_init_f) {
+              // ALGORITHMS.md section 8: band cells near the start with no evidence of
+              // occupancy (at or below P_init: unseen, or grazed by free rays) count as free in
+              // C (and in B's maximum); B's minimum keeps what the map says.
               const double xc = map.origin_m.x() + (i + 0.5) * alpha;
               const double dx = xc - startup->center_m.x();
               const double dy = yc - startup->center_m.y();

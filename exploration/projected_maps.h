@@ -73,9 +73,12 @@ struct ProjectionConfig {
 /// k * alpha >= vehicle diameter (eq. (11) and ALGORITHMS.md section 8).
 [[nodiscard]] int CollisionFactor(const ProjectionConfig& config, double resolution_m);
 
-/// The start-up zone of ALGORITHMS.md section 8: 3D band cells whose value is still exactly
-/// P_init and whose centre lies within radius_m (horizontally) of center_m count as free in C
-/// (the explorer's view only; the 3D map is not changed).
+/// The start-up zone of ALGORITHMS.md section 8: 3D band cells with no evidence of occupancy
+/// (P <= P_init) whose centre lies within radius_m (horizontally) of center_m count as free in
+/// C (the explorer's view only; the 3D map is not changed). ALGORITHMS.md frees only cells still
+/// exactly at P_init; Kestrel also frees those a few free rays grazed (P_init > P > C_thresh),
+/// which would otherwise block the start more than unseen cells do: in office, a vehicle that
+/// left the start cell found it closed behind it and ended exploration in a dead end.
 struct StartupFreeZone {
   Eigen::Vector2d center_m{Eigen::Vector2d::Zero()};  ///< start position (x, y), m, W
   double radius_m{0.0};                               ///< m

@@ -265,16 +265,19 @@ TEST(ProjectedMaps, EntropyMatchesOracleOnRandomGrids) {
   }
 }
 
-// Section 8: band cells still exactly at P_init within the radius count as free in C; cells
-// outside the radius or not exactly at P_init do not; B's minimum is unchanged.
+// Section 8: band cells at or below P_init within the radius count as free in C; cells outside
+// the radius or above P_init (some evidence of occupancy) do not; B's minimum is unchanged.
 TEST(ProjectedMaps, StartupZoneFreesUnseenBandCellsNearStart) {
   HandGrid g({9, 3, 8}, {0, 0, 0}, 0.1, 0.1f);  // all unknown
   const ProjectionConfig c = SmallConfig();
-  g.at(1, 1, 4) = 0.10001f;  // seen, near: stays
+  g.at(1, 1, 4) = 0.10001f;  // seen, a little occupied, near: stays
   const StartupFreeZone zone{{0.45, 0.15}, 0.5};
   const CollisionProjection p = ProjectCollisionMaps(g.view(), c, zone);
   // Cell (0,0) covers x [0, 0.3): every band cell within 0.5 m but (1,1,4).
   EXPECT_FLOAT_EQ(p.collision.at(0, 0), 0.10001f);
+  g.at(1, 1, 4) = 0.08f;  // grazed by free rays, above C_thresh: freed near the start
+  EXPECT_EQ(ProjectCollisionMaps(g.view(), c, zone).collision.at(0, 0), 0.0);
+  EXPECT_FLOAT_EQ(ProjectCollisionMaps(g.view(), c).collision.at(0, 0), 0.1f);  // no zone
   g.at(1, 1, 4) = 0.1f;
   const CollisionProjection q = ProjectCollisionMaps(g.view(), c, zone);
   EXPECT_EQ(q.collision.at(0, 0), 0.0);
