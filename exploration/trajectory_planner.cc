@@ -11,6 +11,9 @@
 namespace kestrel {
 namespace {
 
+// A collision cell above this is known occupied (ALGORITHMS.md section 10's P > 0.5).
+constexpr double kKnownOccupied = 0.5;
+
 double Factorial(int n) {
   double f = 1.0;
   for (int i = 2; i <= n; ++i) f *= i;
@@ -336,11 +339,32 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
   }
   const double r = config.vehicle_radius_m;
   const Eigen::Vector2d start_xy = start_position_m.head<2>();
-  const std::vector<bool> allowed = AllowedCells(collision, traversable, start_xy, r);
+  // The cells under the start disc are allowed while leaving them; known-occupied ones only on
+  // the pieces up to the start cell's centre (file comment).
+  const std::vector<bool> allowed_leaving = AllowedCells(collision, traversable, start_xy, r);
+  std::vector<bool> allowed = allowed_leaving;
+  bool start_touches_occupied = false;
+  for (size_t i = 0; i < allowed.size(); ++i) {
+    if (allowed[i] && !traversable[i] && collision.values[i] > kKnownOccupied) {
+      allowed[i] = false;
+      start_touches_occupied = true;
+    }
+  }
   std::vector<Eigen::Vector2d> points{start_xy};
   for (int cell : plan.cell_path) points.push_back(collision.CenterOf(collision.CellAt(cell)));
   plan.unpruned_waypoints = static_cast<int>(points.size());
-  std::vector<Eigen::Vector2d> way2 = PruneWaypoints(collision, allowed, points, r);
+  // Leaving an occupied cell's margin: no pruning across the start cell's centre.
+  std::vector<Eigen::Vector2d> way2;
+  if (start_touches_occupied && points.size() > 2) {
+    way2 = {points[0]};
+    const std::vector<Eigen::Vector2d> rest(points.begin() + 1, points.end());
+    for (const Eigen::Vector2d& p : PruneWaypoints(collision, allowed, rest, r)) way2.push_back(p);
+  } else {
+    way2 = PruneWaypoints(collision, allowed, points, r);
+  }
+  // Pieces checked against allowed_leaving: those before the start cell's centre.
+  std::vector<bool> leaving(way2.size() > 1 ? way2.size() - 1 : 0, false);
+  if (start_touches_occupied && !leaving.empty()) leaving[0] = true;
 
   const int k = config.derivative_order;
   const std::vector<double> step = Smoothstep(k);
@@ -438,10 +462,13 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
     std::vector<bool> bad(durations.size(), false);
     bool any_bad = false;
     for (const TrajectorySample& s : traj->Sample(config.sample_period_s)) {
-      if (DiscClear(collision, allowed, s.flat.position_m.head<2>(), r)) continue;
       double t = s.time_s - start_time_s;
       size_t seg = 0;
       while (seg + 1 < durations.size() && t > durations[seg]) t -= durations[seg++];
+      if (DiscClear(collision, leaving[seg] ? allowed_leaving : allowed,
+                    s.flat.position_m.head<2>(), r)) {
+        continue;
+      }
       bad[seg] = true;
       any_bad = true;
     }
@@ -455,16 +482,20 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
       // Repair: the midpoint of a line-of-sight-checked straight segment is a safe waypoint.
       std::vector<Eigen::Vector2d> repaired{way2.front()};
       std::vector<bool> repaired_stop{stop_at.front()};
+      std::vector<bool> repaired_leaving;
       for (size_t i = 0; i + 1 < way2.size(); ++i) {
         if (bad[i]) {
           repaired.push_back(0.5 * (way2[i] + way2[i + 1]));
           repaired_stop.push_back(false);
+          repaired_leaving.push_back(leaving[i]);  // both halves keep the piece's rule
         }
         repaired.push_back(way2[i + 1]);
         repaired_stop.push_back(stop_at[i + 1]);
+        repaired_leaving.push_back(leaving[i]);
       }
       way2 = repaired;
       stop_at = repaired_stop;
+      leaving = repaired_leaving;
       ++plan.repair_rounds;
       continue;
     }

@@ -241,6 +241,46 @@ TEST(TrajectoryPlanner, StartVelocityNeverMakesTimeDiverge) {
   EXPECT_GT(planned, 300);
 }
 
+// A vehicle whose disc grazes a door frame (a known-occupied cell beside its own) first moves
+// back to the middle of its cell: no sample comes nearer the frame than the start did, and past
+// the start cell's centre every disc stays inside traversable cells. (Allowing the frame cell
+// for the whole trajectory let paths cut the corner: office's door collisions.)
+TEST(TrajectoryPlanner, NeverCutsThroughAnOccupiedCellItStartsNextTo) {
+  const int w = 5, h = 5;
+  GridMap2D c = GridMap2D::Filled({0.0, 0.0}, 0.9, 0.75, w, h, 0.0);
+  std::vector<bool> t(static_cast<size_t>(w * h), true);
+  for (int x : {0, 1, 3, 4}) {  // the wall on row 2 with a door at (2, 2)
+    c.at(x, 2) = 0.95;
+    t[static_cast<size_t>(c.IndexOf(x, 2))] = false;
+  }
+  const Cell2 start{2, 2};
+  const DistanceField f = ComputeDistanceField(w, h, t, start, 0.9);
+  TrajectoryConfig config;
+  const Eigen::Vector2d frame_lo(0.9, 1.8), frame_hi(1.8, 2.7);  // cell (1, 2)
+  const auto distance_to_frame = [&](const Eigen::Vector2d& p) {
+    const Eigen::Vector2d q = p.cwiseMax(frame_lo).cwiseMin(frame_hi);
+    return (p - q).norm();
+  };
+  for (const int goal : {c.IndexOf(0, 4), c.IndexOf(0, 0), c.IndexOf(1, 3)}) {
+    const Eigen::Vector2d s2 = c.CenterOf(start) + Eigen::Vector2d(-0.15, 0.2);  // 0.3 m away
+    const TrajectoryPlan plan = PlanTrajectory(c, t, f, goal, {s2.x(), s2.y(), 0.75},
+                                               Eigen::Vector3d::Zero(), 0.0, 0.0, 0.75, 0.0, config);
+    ASSERT_TRUE(plan.trajectory.has_value()) << plan.error;
+    ASSERT_GE(plan.waypoints.size(), 3u);
+    const Eigen::Vector2d centre = c.CenterOf(start);
+    EXPECT_NEAR((plan.waypoints[1].head<2>() - centre).norm(), 0.0, 1e-12);  // kept as a waypoint
+    const double start_distance = distance_to_frame(s2);
+    const double first_piece_s = plan.trajectory->segments()[0].duration_s;
+    for (const TrajectorySample& smp : plan.trajectory->Sample(0.01)) {
+      const Eigen::Vector2d p = smp.flat.position_m.head<2>();
+      EXPECT_GE(distance_to_frame(p), start_distance - 0.01) << "goal " << goal << " t " << smp.time_s;
+      if (smp.time_s > first_piece_s) {
+        ASSERT_TRUE(DiscInsideBrute(c, t, p, config.vehicle_radius_m)) << "t " << smp.time_s;
+      }
+    }
+  }
+}
+
 // The planned trajectory travels as a TRAJECTORY message unchanged (common/trajectory_message.h).
 TEST(TrajectoryPlanner, RoundTripsThroughTheMessage) {
   std::vector<bool> t(25, true);
