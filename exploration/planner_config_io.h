@@ -19,6 +19,8 @@ class ConfigNode;
 [[nodiscard]] PlannerConfig LoadPlannerConfig(const ConfigNode& node);
 
 /// LoadPlannerConfig(ConfigNode::LoadFile(path)). @throws ConfigError.
+/// (A file of planner keys only: config/exploration/explorer.yaml also has the explorer node's
+/// sections, so it loads with LoadExplorerConfig, exploration/explorer_node.h.)
 [[nodiscard]] PlannerConfig LoadPlannerConfigFile(const std::string& path);
 
 }  // namespace kestrel

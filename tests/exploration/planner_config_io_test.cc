@@ -6,13 +6,25 @@
 #include <string>
 
 #include "common/config.h"
+#include "exploration/explorer_node.h"
 
 namespace kestrel {
 namespace {
 
 // The reference file loads and equals the built-in defaults (it documents them).
 TEST(PlannerConfigIo, ReferenceFileEqualsDefaults) {
-  const PlannerConfig c = LoadPlannerConfigFile(KESTREL_CONFIG_DIR "/exploration/explorer.yaml");
+  // The file also holds the explorer node's section, so it loads as the explorer loads it.
+  const ExplorerConfig e =
+      LoadExplorerConfig(ConfigNode::LoadFile(KESTREL_CONFIG_DIR "/exploration/explorer.yaml"));
+  const ExplorerConfig ed;
+  EXPECT_EQ(e.replan_period_s, ed.replan_period_s);
+  EXPECT_EQ(e.replan_min_remaining_s, ed.replan_min_remaining_s);
+  EXPECT_EQ(e.safety_check_period_s, ed.safety_check_period_s);
+  EXPECT_EQ(e.startup_yaw_rate_radps, ed.startup_yaw_rate_radps);
+  EXPECT_EQ(e.max_failed_plans, ed.max_failed_plans);
+  EXPECT_EQ(e.map_channel, ed.map_channel);
+  EXPECT_EQ(e.pose_channel, ed.pose_channel);
+  const PlannerConfig& c = e.planner;
   const PlannerConfig d;
   EXPECT_EQ(c.mode, d.mode);
   EXPECT_EQ(c.projection.height_m, d.projection.height_m);
@@ -26,6 +38,8 @@ TEST(PlannerConfigIo, ReferenceFileEqualsDefaults) {
   }
   EXPECT_EQ(c.candidates.n_yaw, d.candidates.n_yaw);
   EXPECT_EQ(c.candidates.d_max_policy, d.candidates.d_max_policy);
+  EXPECT_EQ(c.candidates.skip_reached_goals, d.candidates.skip_reached_goals);
+  EXPECT_EQ(c.candidates.switch_margin, d.candidates.switch_margin);
   EXPECT_EQ(c.trajectory.vehicle_radius_m, d.trajectory.vehicle_radius_m);
   EXPECT_NEAR(c.startup_vertical_fov_rad, d.startup_vertical_fov_rad, 1e-12);
 }
