@@ -68,12 +68,21 @@ ControllerConfig LoadControllerConfig(const ConfigNode& node, const VehicleConfi
     c.Read("k_i_per_s2", &g.k_i_per_s2, Range::NonNegative());
     c.Read("c1_per_s", &g.c1_per_s, Range::NonNegative());
     c.Read("position_integral_limit_m", &g.position_integral_limit_m, Range::NonNegative());
+    std::string attitude_error = ToString(g.attitude_error);
+    c.Read("attitude_error", &attitude_error, {"large_angle", "cdc2010"});
+    const bool known = ParseAttitudeErrorForm(attitude_error, &g.attitude_error);
+    KESTREL_DEMAND(known);  // Read checked the choices
     c.Read("k_R_Nm_per_rad", &g.k_R_Nm_per_rad, Range::Positive());
     c.Read("k_W_Nms_per_rad", &g.k_W_Nms_per_rad, Range::Positive());
     c.Read("k_I_Nm_per_rad_s", &g.k_I_Nm_per_rad_s, Range::NonNegative());
     c.Read("c2_per_s", &g.c2_per_s, Range::NonNegative());
     c.Read("attitude_integral_limit_rad_s", &g.attitude_integral_limit_rad_s, Range::NonNegative());
     c.Read("thrust_lag_compensation_s", &g.thrust_lag_compensation_s, Range::Closed(0.0, 0.5));
+    c.Read("min_force_z_fraction", &g.min_force_z_fraction, Range{0.0, 1.0, true, false});
+    c.Read("max_tilt_rad", &g.max_tilt_rad, Range::Open(0.0, 1.5));
+    c.Read("max_desired_rate_radps", &g.max_desired_rate_radps, Range::Positive());
+    c.Read("max_desired_angular_acceleration_radps2", &g.max_desired_angular_acceleration_radps2,
+           Range::Positive());
   }
   if (node.Has("estimator")) {
     const ConfigNode e = node.Child("estimator");
@@ -95,6 +104,8 @@ ControllerConfig LoadControllerConfig(const ConfigNode& node, const VehicleConfi
     s.Read("takeoff_speed_mps", &c.takeoff_speed_mps, Range{0.0, 5.0, false, true});
     s.Read("land_speed_mps", &c.land_speed_mps, Range{0.0, 5.0, false, true});
     s.Read("landed_height_m", &c.landed_height_m, Range::Positive());
+    s.Read("blind_land_depth_m", &c.blind_land_depth_m, Range{0.0, 10.0, false, true});
+    s.Read("blind_landed_gap_m", &c.blind_landed_gap_m, Range::Positive());
     s.Read("geofence_min_m", &c.geofence_min_m);
     s.Read("geofence_max_m", &c.geofence_max_m);
     s.Read("geofence_margin_m", &c.geofence_margin_m, Range::NonNegative());

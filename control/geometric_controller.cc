@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Geometry>
+
 #include "common/check.h"
 #include "common/se3.h"
 
@@ -48,6 +50,51 @@ void DeriveUnitVector(const Eigen::Vector3d& q, const Eigen::Vector3d& q_dot,
             q * (3.0 * q_qdot * q_qdot / (n3 * n * n));
 }
 
+const char* ToString(AttitudeErrorForm form) {
+  switch (form) {
+    case AttitudeErrorForm::kCdc2010:
+      return "cdc2010";
+    case AttitudeErrorForm::kLargeAngle:
+      return "large_angle";
+  }
+  return "unknown";
+}
+
+bool ParseAttitudeErrorForm(const std::string& text, AttitudeErrorForm* form) {
+  KESTREL_DEMAND(form != nullptr);
+  if (text == "cdc2010") {
+    *form = AttitudeErrorForm::kCdc2010;
+  } else if (text == "large_angle") {
+    *form = AttitudeErrorForm::kLargeAngle;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+double ComputeAttitudeErrorFunction(const Eigen::Matrix3d& R, const Eigen::Matrix3d& R_d,
+                                    AttitudeErrorForm form) {
+  const double trace = (R_d.transpose() * R).trace();
+  if (form == AttitudeErrorForm::kCdc2010) return 0.5 * (3.0 - trace);  // 1/2 tr(I - R_d^T R)
+  // 2 (2 - sqrt(1 + tr(R_d^T R))); 1 + tr >= 0 up to rounding.
+  return 2.0 * (2.0 - std::sqrt(std::max(0.0, 1.0 + trace)));
+}
+
+Eigen::Vector3d ComputeAttitudeError(const Eigen::Matrix3d& R, const Eigen::Matrix3d& R_d,
+                                     AttitudeErrorForm form) {
+  const Eigen::Matrix3d RdtR = R_d.transpose() * R;
+  // vee(R_d^T R - R^T R_d) = 2 sin(theta) a.
+  const Eigen::Vector3d vee2(RdtR(2, 1) - RdtR(1, 2), RdtR(0, 2) - RdtR(2, 0),
+                             RdtR(1, 0) - RdtR(0, 1));
+  if (form == AttitudeErrorForm::kCdc2010) return 0.5 * vee2;  // CDC 2010: sin(theta) a
+  // Large-angle form (AttitudeErrorForm::kLargeAngle): vee(.) / sqrt(1 + tr) = 2 sin(theta/2) a.
+  const double one_plus_trace = 1.0 + RdtR.trace();  // 4 cos^2(theta/2)
+  if (one_plus_trace >= 1e-6) return vee2 / std::sqrt(one_plus_trace);
+  // Within 0.06 deg of 180: 2 sign(w) v from the quaternion of R_d^T R (same value, no 0/0).
+  const Eigen::Quaterniond q(RdtR);
+  return (q.w() >= 0.0 ? 2.0 : -2.0) * q.vec();
+}
+
 GeometricControllerConfig GeometricControllerConfig::FromVehicle(const VehicleConfig& vehicle) {
   GeometricControllerConfig config;
   config.mass_kg = vehicle.mass_kg;
@@ -58,6 +105,10 @@ GeometricControllerConfig GeometricControllerConfig::FromVehicle(const VehicleCo
 }
 
 void GeometricControllerConfig::Validate() const {
+  KESTREL_THROW_UNLESS(attitude_error == AttitudeErrorForm::kCdc2010 ||
+                           attitude_error == AttitudeErrorForm::kLargeAngle,
+                       "controller.attitude_error = " << static_cast<int>(attitude_error)
+                                                      << ", accepted cdc2010 | large_angle");
   KESTREL_THROW_UNLESS(CheckFinitePositive(mass_kg),
                        "controller.mass_kg = " << mass_kg << ", accepted (0, inf)");
   KESTREL_THROW_UNLESS(
@@ -97,6 +148,18 @@ void GeometricControllerConfig::Validate() const {
   KESTREL_THROW_UNLESS(std::isfinite(max_thrust_N) && max_thrust_N > min_thrust_N,
                        "controller.max_thrust_N = " << max_thrust_N << ", accepted (min_thrust_N = "
                                                     << min_thrust_N << ", inf)");
+  KESTREL_THROW_UNLESS(
+      std::isfinite(min_force_z_fraction) && min_force_z_fraction >= 0.0 &&
+          min_force_z_fraction < 1.0,
+      "controller.min_force_z_fraction = " << min_force_z_fraction << ", accepted [0, 1)");
+  KESTREL_THROW_UNLESS(std::isfinite(max_tilt_rad) && max_tilt_rad > 0.0 && max_tilt_rad < 1.5,
+                       "controller.max_tilt_rad = " << max_tilt_rad << ", accepted (0, 1.5)");
+  KESTREL_THROW_UNLESS(
+      max_desired_rate_radps > 0.0,
+      "controller.max_desired_rate_radps = " << max_desired_rate_radps << ", accepted (0, inf]");
+  KESTREL_THROW_UNLESS(max_desired_angular_acceleration_radps2 > 0.0,
+                       "controller.max_desired_angular_acceleration_radps2 = "
+                           << max_desired_angular_acceleration_radps2 << ", accepted (0, inf]");
   KESTREL_THROW_UNLESS(
       CheckFinitePositive(min_force_norm_N),
       "controller.min_force_norm_N = " << min_force_norm_N << ", accepted (0, inf)");
@@ -142,8 +205,19 @@ bool GeometricController::Compute(const VehicleState& state, const FlatOutput& d
   const Eigen::Vector3d e_i_rate = e_i_active.cwiseProduct(config_.c1_per_s * e_x + e_v);
 
   // A = -k_x e_x - k_v e_v - k_i e_i + m g e3 + m a_d (ALGORITHMS.md section 9, z up).
-  const Eigen::Vector3d A =
+  Eigen::Vector3d A =
       -k_x * e_x - k_v * e_v - k_i * e_i + m * g * e3 + m * desired.acceleration_mps2;
+  // A_z >= min_force_z_fraction m g: R_d never upside down (see the config field); while the
+  // bound holds A_z, its derivatives are zero (a choice of ours, not the paper's).
+  const double A_z_min = config_.min_force_z_fraction * m * g;
+  const bool A_z_bounded = A.z() < A_z_min;
+  if (A_z_bounded) A.z() = A_z_min;
+  // Tilt of b3d at most max_tilt_rad: |A_xy| <= A_z tan(max_tilt), A_xy keeping its direction u
+  // (A_xy = A_z tan(max_tilt) u while limited; derivatives by the chain rule below).
+  const double tan_tilt = std::tan(config_.max_tilt_rad);
+  const Eigen::Vector3d A_xy_raw(A.x(), A.y(), 0.0);
+  const bool tilt_limited = A.z() > 0.0 && A_xy_raw.norm() > A.z() * tan_tilt;
+  if (tilt_limited) A.head<2>() = A.z() * tan_tilt * A_xy_raw.head<2>().normalized();
   const double A_norm = A.norm();
   if (!(A_norm >= config_.min_force_norm_N)) return false;
 
@@ -158,7 +232,16 @@ bool GeometricController::Compute(const VehicleState& state, const FlatOutput& d
   const double f_est = std::clamp(f, config_.min_thrust_N, config_.max_thrust_N);
   const Eigen::Vector3d e_a = f_est * b3 / m - g * e3 - desired.acceleration_mps2;
   // Adot = -k_x e_v - k_v e_a - k_i (c1 e_x + e_v) + m jerk_d.
-  const Eigen::Vector3d A_dot = -k_x * e_v - k_v * e_a - k_i * e_i_rate + m * desired.jerk_mps3;
+  Eigen::Vector3d A_dot = -k_x * e_v - k_v * e_a - k_i * e_i_rate + m * desired.jerk_mps3;
+  if (A_z_bounded) A_dot.z() = 0.0;
+  const Eigen::Vector3d A_dot_xy_raw(A_dot.x(), A_dot.y(), 0.0);
+  if (tilt_limited) {
+    // d/dt (A_z tan u) with u = A_xy/|A_xy|: tan (Adot_z u + A_z udot).
+    const double n = A_xy_raw.norm();
+    const Eigen::Vector3d u = A_xy_raw / n;
+    const Eigen::Vector3d u_dot = A_dot_xy_raw / n - u * (u.dot(A_dot_xy_raw) / n);
+    A_dot.head<2>() = (tan_tilt * (A_dot.z() * u + A.z() * u_dot)).head<2>();
+  }
   // fdot = Adot . R e3 + A . R hat(W) e3; the estimated jerk follows from differentiating f R e3.
   const double f_dot = A_dot.dot(b3) + A.dot(b3_dot);
   // Estimated jerk d/dt (f_est R e3 / m); a clamped f_est does not change with f.
@@ -166,8 +249,15 @@ bool GeometricController::Compute(const VehicleState& state, const FlatOutput& d
   const Eigen::Vector3d e_j = (f_est_dot * b3 + f_est * b3_dot) / m - desired.jerk_mps3;
   // Addot = -k_x e_a - k_v e_j - k_i (c1 e_v + e_a) + m snap_d (integral rate masked at the clamp).
   const Eigen::Vector3d integral_accel = e_i_active.cwiseProduct(config_.c1_per_s * e_v + e_a);
-  const Eigen::Vector3d A_ddot =
-      -k_x * e_a - k_v * e_j - k_i * integral_accel + m * desired.snap_mps4;
+  Eigen::Vector3d A_ddot = -k_x * e_a - k_v * e_j - k_i * integral_accel + m * desired.snap_mps4;
+  if (A_z_bounded) A_ddot.z() = 0.0;
+  if (tilt_limited) {
+    const Eigen::Vector3d A_ddot_xy_raw(A_ddot.x(), A_ddot.y(), 0.0);
+    Eigen::Vector3d u, u_dot, u_ddot;
+    DeriveUnitVector(A_xy_raw, A_dot_xy_raw, A_ddot_xy_raw, &u, &u_dot, &u_ddot);
+    A_ddot.head<2>() =
+        (tan_tilt * (A_ddot.z() * u + 2.0 * A_dot.z() * u_dot + A.z() * u_ddot)).head<2>();
+  }
 
   // b3d = A/|A| and its derivatives.
   Eigen::Vector3d b3d, b3d_dot, b3d_ddot;
@@ -208,13 +298,21 @@ bool GeometricController::Compute(const VehicleState& state, const FlatOutput& d
   R_d_dot << b1c_dot, b2d_dot, b3d_dot;
   R_d_ddot << b1c_ddot, b2d_ddot, b3d_ddot;
   // R_d_dot = R_d hat(W_d); R_d_ddot = R_d (hat(W_d)^2 + hat(Wdot_d)).
-  const Eigen::Vector3d W_d = Vee(R_d.transpose() * R_d_dot);
+  Eigen::Vector3d W_d = Vee(R_d.transpose() * R_d_dot);
   const Eigen::Matrix3d W_d_hat = Hat(W_d);
-  const Eigen::Vector3d Wdot_d = Vee(R_d.transpose() * R_d_ddot - W_d_hat * W_d_hat);
+  Eigen::Vector3d Wdot_d = Vee(R_d.transpose() * R_d_ddot - W_d_hat * W_d_hat);
+  // Norm bounds on the feed-forward rates (see the config fields; direction kept).
+  if (W_d.norm() > config_.max_desired_rate_radps) {
+    W_d *= config_.max_desired_rate_radps / W_d.norm();
+  }
+  if (Wdot_d.norm() > config_.max_desired_angular_acceleration_radps2) {
+    Wdot_d *= config_.max_desired_angular_acceleration_radps2 / Wdot_d.norm();
+  }
 
-  // Attitude errors (eqs. (10)-(11)): e_R = 1/2 vee(R_d^T R - R^T R_d), e_W = W - R^T R_d W_d.
+  // Attitude errors (eqs. (10)-(11)): e_R of the configured form (CDC 2010's 1/2 vee(R_d^T R -
+  // R^T R_d) or the large-angle one, see AttitudeErrorForm), e_W = W - R^T R_d W_d.
   const Eigen::Matrix3d RtRd = R.transpose() * R_d;
-  const Eigen::Vector3d e_R = 0.5 * Vee(R_d.transpose() * R - RtRd);
+  const Eigen::Vector3d e_R = ComputeAttitudeError(R, R_d, config_.attitude_error);
   const Eigen::Vector3d e_W = W - RtRd * W_d;
 
   // Attitude integral of c2 e_R + e_W, clamped.

@@ -56,6 +56,13 @@ void SafetyConfig::Validate() const {
                        "safety.landed_height_m = " << landed_height_m << ", accepted (0, inf)");
   KESTREL_THROW_UNLESS(CheckPositive(landed_speed_mps),
                        "safety.landed_speed_mps = " << landed_speed_mps << ", accepted (0, inf)");
+  KESTREL_THROW_UNLESS(
+      CheckPositive(blind_land_depth_m) && blind_land_depth_m <= 10.0,
+      "safety.blind_land_depth_m = " << blind_land_depth_m << ", accepted (0, 10]");
+  KESTREL_THROW_UNLESS(CheckPositive(blind_landed_gap_m) && blind_landed_gap_m < blind_land_depth_m,
+                       "safety.blind_landed_gap_m = " << blind_landed_gap_m
+                                                      << ", accepted (0, blind_land_depth_m = "
+                                                      << blind_land_depth_m << ")");
   KESTREL_THROW_UNLESS(std::isfinite(default_ground_z_m),
                        "safety.default_ground_z_m = " << default_ground_z_m << ", accepted finite");
   KESTREL_THROW_UNLESS(geofence_min_m.allFinite() && geofence_max_m.allFinite() &&
@@ -216,6 +223,7 @@ SafetyDecision SafetySupervisor::Update(double time_s, const VehicleState* state
   const double t_mode = std::max(0.0, time_s - mode_start_time_s_);
   FlatOutput setpoint = mode_start_setpoint_;
   decision_.reset_integrals = false;
+  bool blind_land = false;
   switch (decision_.mode) {
     case FlightMode::kIdle:
     case FlightMode::kEstop:
@@ -248,20 +256,43 @@ SafetyDecision SafetySupervisor::Update(double time_s, const VehicleState* state
       }
       break;
     case FlightMode::kLand: {
-      const double floor_z = ground_z_m_ - 0.2;  // aim slightly below the ground
+      // Blind (no fresh pose): the estimated height drifts, so descend deeper and detect the
+      // touchdown by the vehicle no longer following the set point down (see SafetyConfig).
+      blind_land = !PoseFresh(time_s, last_pose_time_s, config_.pose_timeout_s);
+      const double floor_z =  // aim below the ground
+          ground_z_m_ - (blind_land ? config_.blind_land_depth_m : 0.2);
       const double z = mode_start_setpoint_.position_m.z() - config_.land_speed_mps * t_mode;
       setpoint.position_m.z() = std::max(z, floor_z);
       if (z > floor_z) setpoint.velocity_mps.z() = -config_.land_speed_mps;
-      if (state_ok && state->position_m.z() <= ground_z_m_ + config_.landed_height_m &&
-          state->velocity_mps.norm() < config_.landed_speed_mps) {
+      const bool slow = state_ok && state->velocity_mps.norm() < config_.landed_speed_mps;
+      // Blind: the vehicle stopped following the set point down (the IMU saw the touchdown), or
+      // the set point reached its deepest point (the IMU need not see a soft touchdown: resting
+      // on the floor with about its weight in thrust it reads what it read while descending at
+      // constant speed, so the estimate keeps descending with the set point; stopping the set
+      // point there would lift the vehicle off).
+      const bool landed =
+          blind_land ? (slow && setpoint.position_m.z() <
+                                    state->position_m.z() - config_.blind_landed_gap_m) ||
+                           z <= floor_z
+                     : slow && state->position_m.z() <= ground_z_m_ + config_.landed_height_m;
+      if (landed) {
         decision_.setpoint = Clamp(setpoint);
-        Enter(FlightMode::kIdle, time_s, "landed");
+        Enter(FlightMode::kIdle, time_s,
+              blind_land ? "landed (no poses: the vehicle stopped following the set point down)"
+                         : "landed");
         decision_.reset_integrals = true;
+        blind_land = false;
       }
       break;
     }
   }
   decision_.setpoint = Clamp(setpoint);
+  // A blind landing set point may go below the geofence floor (the real floor stops the vehicle).
+  if (blind_land) {
+    decision_.setpoint.position_m.z() =
+        std::min(decision_.setpoint.position_m.z(), setpoint.position_m.z());
+    decision_.setpoint.velocity_mps.z() = setpoint.velocity_mps.z();
+  }
   decision_.motors_enabled = flying();
   return decision_;
 }

@@ -4,7 +4,8 @@
 /// Modes: IDLE (motors off) -> TAKEOFF -> HOLD <-> TRACK -> LAND -> IDLE; ESTOP from anywhere,
 /// latched until an IDLE command. Failsafes, checked on every Update() in this order:
 ///  1. a non-finite state estimate while flying: ESTOP (nothing can be controlled);
-///  2. the last valid pose older than land_timeout_s: LAND (on the IMU-propagated state);
+///  2. the last valid pose older than land_timeout_s: LAND (on the IMU-propagated state; the
+///     touchdown test then does not trust the estimated height, see blind_land_depth_m);
 ///  3. the last valid pose older than pose_timeout_s: HOLD (a "failsafe hold"); when poses return
 ///     within land_timeout_s the mode held before (TRACK) resumes (DESIGN.md: "motion-capture
 ///     loss ... shorter than the land time-out the controller flies on its IMU-propagated state and
@@ -43,6 +44,16 @@ struct SafetyConfig {
   double land_speed_mps{0.4};            ///< descent rate of the landing set point, m/s
   double landed_height_m{0.08};  ///< within this above the ground height: landed (-> IDLE), m
   double landed_speed_mps{0.3};  ///< and slower than this, m/s
+  /// Landing without fresh poses ("blind", on the IMU-propagated estimate, whose height drifts:
+  /// 0.4 m in 5 s in the simulator) cannot trust the height test above: it disarmed 0.2 m above
+  /// the floor (tests/system/flight_modes_test.cc). Blind, the set point descends at
+  /// land_speed_mps to this far below the ground height (below the geofence floor if need be:
+  /// the floor stops the vehicle), m, and touchdown is declared when the set point gets there
+  /// (so estimate drifts up to this depth end on the floor) or earlier when the set point is
+  /// blind_landed_gap_m below the estimate while the estimate is slower than landed_speed_mps
+  /// (the IMU saw the touchdown; in the air the vehicle follows the set point down).
+  double blind_land_depth_m{1.0};
+  double blind_landed_gap_m{0.3};  ///< see blind_land_depth_m, m (< blind_land_depth_m)
   /// Ground height when no take-off point is known (e.g. a failsafe before take-off), m.
   double default_ground_z_m{0.0};
   Eigen::Vector3d geofence_min_m{-4.0, -6.0, -0.2};  ///< geofence lower corner, W, m

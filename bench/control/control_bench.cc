@@ -3,6 +3,9 @@
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <vector>
+
+#include <Eigen/Geometry>
 
 #include "control/flight_controller.h"
 #include "control/geometric_controller.h"
@@ -26,8 +29,16 @@ FlatOutput HelixPoint(double t) {
   return d;
 }
 
+// Arg: 0 = the large-angle attitude error (default), 1 = CDC 2010's.
+AttitudeErrorForm FormOf(const benchmark::State& state) {
+  return state.range(0) == 0 ? AttitudeErrorForm::kLargeAngle : AttitudeErrorForm::kCdc2010;
+}
+
 void BM_GeometricControllerCompute(benchmark::State& state) {
-  GeometricController controller{GeometricControllerConfig{}};
+  GeometricControllerConfig config;
+  config.attitude_error = FormOf(state);
+  state.SetLabel(ToString(config.attitude_error));
+  GeometricController controller{config};
   VehicleState s;
   s.position_m = {0.01, -0.02, 1.61};
   s.velocity_mps = {0.41, 1.2, 0.05};
@@ -42,7 +53,28 @@ void BM_GeometricControllerCompute(benchmark::State& state) {
     t += 0.0025;
   }
 }
-BENCHMARK(BM_GeometricControllerCompute)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_GeometricControllerCompute)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+// The attitude error vector alone, over attitudes from 0 to 180 deg (the large-angle form takes
+// its quaternion branch within 0.06 deg of 180).
+void BM_ComputeAttitudeError(benchmark::State& state) {
+  const AttitudeErrorForm form = FormOf(state);
+  state.SetLabel(ToString(form));
+  std::vector<Eigen::Matrix3d> attitudes;
+  for (int k = 0; k <= 180; ++k) {
+    attitudes.push_back(Eigen::AngleAxisd(k * 3.14159265358979323846 / 180.0,
+                                          Eigen::Vector3d(1, 0.3, 0.2).normalized())
+                            .toRotationMatrix());
+  }
+  const Eigen::Matrix3d R_d = Eigen::AngleAxisd(0.3, Eigen::Vector3d(0, 0, 1)).toRotationMatrix();
+  size_t i = 0;
+  for (auto _ : state) {
+    const Eigen::Vector3d e_R = ComputeAttitudeError(R_d * attitudes[i], R_d, form);
+    benchmark::DoNotOptimize(e_R);
+    i = i + 1 == attitudes.size() ? 0 : i + 1;
+  }
+}
+BENCHMARK(BM_ComputeAttitudeError)->Arg(0)->Arg(1)->Unit(benchmark::kNanosecond);
 
 void BM_MixerMix(benchmark::State& state) {
   const Mixer mixer{VehicleConfig{}};

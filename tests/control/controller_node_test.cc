@@ -203,7 +203,8 @@ TEST(LoadControllerConfig, ReadsKeysAndNamesErrors) {
   const VehicleConfig vehicle;
   const ControllerConfig config = LoadControllerConfig(
       ConfigNode::FromString("rate_hz: 250\nchannels:\n  pose: POSE_SIM\ncontroller:\n"
-                             "  k_x_per_s2: 12.0\nsafety:\n  land_timeout_s: 3.0\n"
+                             "  k_x_per_s2: 12.0\n  attitude_error: cdc2010\n  max_tilt_rad: 0.8\n"
+                             "safety:\n  land_timeout_s: 3.0\n  blind_land_depth_m: 0.7\n"
                              "  geofence_max_m: [5, 5, 3]\n",
                              "controller.yaml"),
       vehicle);
@@ -211,10 +212,19 @@ TEST(LoadControllerConfig, ReadsKeysAndNamesErrors) {
   EXPECT_EQ(config.pose_channel, "POSE_SIM");
   EXPECT_EQ(config.imu_channel, "IMU");
   EXPECT_EQ(config.flight.controller.k_x_per_s2, 12.0);
+  EXPECT_EQ(config.flight.controller.attitude_error, AttitudeErrorForm::kCdc2010);
+  EXPECT_EQ(config.flight.controller.max_tilt_rad, 0.8);
   EXPECT_EQ(config.flight.safety.land_timeout_s, 3.0);
+  EXPECT_EQ(config.flight.safety.blind_land_depth_m, 0.7);
+  // The default attitude error is the large-angle one.
+  EXPECT_EQ(LoadControllerConfig(ConfigNode::FromString("rate_hz: 250\n", "c.yaml"), vehicle)
+                .flight.controller.attitude_error,
+            AttitudeErrorForm::kLargeAngle);
   EXPECT_EQ(config.flight.safety.geofence_max_m, Eigen::Vector3d(5, 5, 3));
-  for (const char* bad : {"rate_hz: 5\n", "controller:\n  k_R_Nm_per_rad: -1\n",
-                          "safety:\n  pose_timeout_s: 5\n", "typo_key: 1\n"}) {
+  for (const char* bad :
+       {"rate_hz: 5\n", "controller:\n  k_R_Nm_per_rad: -1\n",
+        "controller:\n  attitude_error: lee\n", "safety:\n  blind_land_depth_m: 0.2\n",
+        "safety:\n  pose_timeout_s: 5\n", "typo_key: 1\n"}) {
     try {
       (void)LoadControllerConfig(ConfigNode::FromString(bad, "controller.yaml"), vehicle);
       ADD_FAILURE() << "accepted: " << bad;

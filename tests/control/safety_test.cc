@@ -150,6 +150,52 @@ TEST_F(SafetyTest, LongPoseLossLands) {
   EXPECT_EQ(d.mode, FlightMode::kLand);
 }
 
+// A landing without poses (blind): the estimate follows the set point down (as an IMU that does
+// not register a soft touchdown lets it), so the height test must not end the landing at the
+// ground height; the set point goes on below the geofence floor to blind_land_depth_m under the
+// ground and the landing ends there, not before.
+TEST_F(SafetyTest, BlindLandingDescendsToItsDepthBeforeDisarming) {
+  TakeOffToHold();  // hover 1 m above the ground at z = 0; poses stop at t = 3
+  SafetyDecision d;
+  double lowest_setpoint_z = kInf;
+  double t = 3.01;
+  for (; t < 20.0; t += 0.01) {
+    d = Step(t, 3.0);
+    if (d.mode == FlightMode::kIdle) break;
+    if (d.mode == FlightMode::kLand)
+      lowest_setpoint_z = std::min(lowest_setpoint_z, d.setpoint.position_m.z());
+  }
+  ASSERT_EQ(d.mode, FlightMode::kIdle) << d.reason;
+  EXPECT_FALSE(d.motors_enabled);
+  // LAND at 5 s, 1 m + blind_land_depth_m = 2 m at 0.4 m/s: 5 s later.
+  EXPECT_NEAR(t, 3.0 + config_.land_timeout_s + 2.0 / config_.land_speed_mps, 0.03);
+  EXPECT_NEAR(lowest_setpoint_z, -config_.blind_land_depth_m, 0.005);
+  EXPECT_LT(lowest_setpoint_z, config_.geofence_min_m.z());
+}
+
+// Blind, a vehicle that stops following the set point down (its IMU saw the touchdown) is
+// declared landed once the set point is blind_landed_gap_m below it.
+TEST_F(SafetyTest, BlindLandingEndsWhenTheVehicleStopsFollowing) {
+  TakeOffToHold();
+  SafetyDecision d;
+  double t = 3.01;
+  for (; t < 5.02; t += 0.01) d = Step(t, 3.0);
+  ASSERT_EQ(d.mode, FlightMode::kLand);
+  // The vehicle stops at 0.5 m (e.g. on a table the estimate did not know).
+  for (; t < 20.0; t += 0.01) {
+    d = supervisor_.Update(t, &state_, 3.0);
+    if (state_.position_m.z() > 0.5) {
+      state_.position_m = d.setpoint.position_m;
+      state_.velocity_mps = d.setpoint.velocity_mps;
+    } else {
+      state_.velocity_mps.setZero();
+    }
+    if (d.mode == FlightMode::kIdle) break;
+  }
+  ASSERT_EQ(d.mode, FlightMode::kIdle) << d.reason;
+  EXPECT_NEAR(d.setpoint.position_m.z(), 0.5 - config_.blind_landed_gap_m, 0.01);
+}
+
 TEST_F(SafetyTest, StaleTrajectoryHolds) {
   TakeOffToHold();
   ASSERT_TRUE(supervisor_.AcceptTrajectory(Line({0, 0, 1}, {1, 0, 1}, 3.0, 1.0), 3.0, nullptr));
