@@ -101,23 +101,28 @@ CellIndex GrowingGrid::BlockOriginOf(uint64_t key) {
   return CellIndex{unpart(key), unpart(key >> 21), unpart(key >> 42)};
 }
 
-GrowingGrid::Block* GrowingGrid::CreateBlock(uint64_t key) {
+GrowingGrid::Block* GrowingGrid::CreateBlock(uint64_t key, uint32_t* index) {
+  KESTREL_DEMAND(blocks_.size() < size_t{0xFFFFFFFFu});
   auto block = std::make_unique<Block>();
   std::fill(std::begin(block->values), std::end(block->values), initial_value_);
   Block* raw = block.get();
-  blocks_.emplace(key, std::move(block));
+  *index = static_cast<uint32_t>(blocks_.size());
+  index_of_.emplace(key, *index);
+  blocks_.push_back(std::move(block));
+  keys_.push_back(key);
   return raw;
 }
 
 GrowingGrid::Block* GrowingGrid::FindOrCreateBlock(const CellIndex& block_origin) {
   const uint64_t key = BlockKeyOf(block_origin);
-  const auto it = blocks_.find(key);
-  return it != blocks_.end() ? it->second.get() : CreateBlock(key);
+  const auto it = index_of_.find(key);
+  uint32_t index;
+  return it != index_of_.end() ? blocks_[it->second].get() : CreateBlock(key, &index);
 }
 
 float GrowingGrid::Get(const CellIndex& c) const {
-  const auto it = blocks_.find(BlockKeyOf(c));
-  return it == blocks_.end() ? initial_value_ : it->second->values[OffsetInBlock(c)];
+  const auto it = index_of_.find(BlockKeyOf(c));
+  return it == index_of_.end() ? initial_value_ : blocks_[it->second]->values[OffsetInBlock(c)];
 }
 
 void GrowingGrid::Set(const CellIndex& c, float value) {
@@ -126,19 +131,28 @@ void GrowingGrid::Set(const CellIndex& c, float value) {
 
 size_t GrowingGrid::memory_bytes() const {
   // Block payload plus an estimate of one hash node (key, pointer, next) and one bucket each.
-  return blocks_.size() * (sizeof(Block) + 4 * sizeof(void*)) +
-         blocks_.bucket_count() * sizeof(void*);
+  return blocks_.size() * (sizeof(Block) + 6 * sizeof(void*)) +
+         index_of_.bucket_count() * sizeof(void*);
 }
 
-GrowingGrid::Block* GrowingGrid::Accessor::Lookup(uint64_t key, bool create) {
+GrowingGrid::Block* GrowingGrid::Accessor::Lookup(uint64_t key, bool create, uint32_t* index) {
   const size_t slot = SlotOf(key);
-  if (cache_keys_[slot] == key) return cache_blocks_[slot];
-  const auto it = grid_->blocks_.find(key);
-  Block* block =
-      it != grid_->blocks_.end() ? it->second.get() : (create ? grid_->CreateBlock(key) : nullptr);
+  if (cache_keys_[slot] == key) {
+    *index = cache_indices_[slot];
+    return cache_blocks_[slot];
+  }
+  const auto it = grid_->index_of_.find(key);
+  Block* block = nullptr;
+  if (it != grid_->index_of_.end()) {
+    *index = it->second;
+    block = grid_->blocks_[it->second].get();
+  } else if (create) {
+    block = grid_->CreateBlock(key, index);
+  }
   if (block != nullptr) {
     cache_keys_[slot] = key;
     cache_blocks_[slot] = block;
+    cache_indices_[slot] = *index;
   }
   return block;
 }
@@ -146,7 +160,7 @@ GrowingGrid::Block* GrowingGrid::Accessor::Lookup(uint64_t key, bool create) {
 float* GrowingGrid::Accessor::FindOrCreate(const CellIndex& c) {
   const uint64_t key = BlockKeyOf(c);
   if (key != last_key_) {
-    last_block_ = Lookup(key, /*create=*/true);
+    last_block_ = Lookup(key, /*create=*/true, &last_index_);
     last_key_ = key;
   }
   return &last_block_->values[OffsetInBlock(c)];
@@ -155,9 +169,11 @@ float* GrowingGrid::Accessor::FindOrCreate(const CellIndex& c) {
 const float* GrowingGrid::Accessor::Find(const CellIndex& c) {
   const uint64_t key = BlockKeyOf(c);
   if (key != last_key_) {
-    Block* block = Lookup(key, /*create=*/false);
+    uint32_t index;
+    Block* block = Lookup(key, /*create=*/false, &index);
     if (block == nullptr) return nullptr;
     last_block_ = block;
+    last_index_ = index;
     last_key_ = key;
   }
   return &last_block_->values[OffsetInBlock(c)];

@@ -16,6 +16,7 @@
 #include <memory>
 #include <optional>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace kestrel {
@@ -82,6 +83,11 @@ class GridGeometry {
   [[nodiscard]] const CellIndex& upper() const { return upper_; }
   /// Whether the grid has fixed limits.
   [[nodiscard]] bool bounded() const { return bounded_; }
+  /// Whether `other` is the same lattice with the same bounds (same cell of every point).
+  [[nodiscard]] bool SameLattice(const GridGeometry& other) const {
+    return origin_m_ == other.origin_m_ && resolution_m_ == other.resolution_m_ &&
+           lower_ == other.lower_ && upper_ == other.upper_ && bounded_ == other.bounded_;
+  }
 
   /// Lower boundary of cell `index` along `axis`: origin + index * alpha, m. Every comparison of a
   /// point with a cell boundary in Kestrel uses exactly this expression.
@@ -182,6 +188,8 @@ class GrowingGrid {
     [[nodiscard]] float* FindOrCreate(const CellIndex& c);
     /// Pointer to the value of `c`, or nullptr if its block was never touched.
     [[nodiscard]] const float* Find(const CellIndex& c);
+    /// Creation index (GrowingGrid::block) of the block of the last cell found or created.
+    [[nodiscard]] uint32_t last_block_index() const { return last_index_; }
 
    private:
     static constexpr int kCacheBits = 8;
@@ -189,14 +197,17 @@ class GrowingGrid {
     [[nodiscard]] static size_t SlotOf(uint64_t key) {
       return static_cast<size_t>((key * 0x9E3779B97F4A7C15ull) >> (64 - kCacheBits));
     }
-    // The block of `key` from the caches or the hash map (nullptr if absent and !create).
-    Block* Lookup(uint64_t key, bool create);
+    // The block of `key` from the caches or the hash map (nullptr if absent and !create); its
+    // creation index goes to *index.
+    Block* Lookup(uint64_t key, bool create, uint32_t* index);
 
     GrowingGrid* grid_;
     uint64_t last_key_{~uint64_t{0}};
     Block* last_block_{nullptr};
+    uint32_t last_index_{0};
     uint64_t cache_keys_[1 << kCacheBits];
     Block* cache_blocks_[1 << kCacheBits]{};
+    uint32_t cache_indices_[1 << kCacheBits]{};
   };
 
   /// An empty grid aligned to `origin_m` with edge `resolution_m`.
@@ -217,17 +228,22 @@ class GrowingGrid {
   void Set(const CellIndex& c, float value);
   /// Number of allocated blocks.
   [[nodiscard]] size_t block_count() const { return blocks_.size(); }
+  /// The block created `index`-th (0 .. block_count()-1; creation order is deterministic for the
+  /// same sequence of touches). Blocks are never freed or moved.
+  [[nodiscard]] const Block& block(size_t index) const { return *blocks_[index]; }
+  /// First cell of the block created `index`-th.
+  [[nodiscard]] CellIndex block_origin(size_t index) const { return BlockOriginOf(keys_[index]); }
   /// Approximate bytes used: blocks plus hash-table nodes.
   [[nodiscard]] size_t memory_bytes() const;
   /// Calls f(block_origin_cell, const Block&) for every allocated block, in ascending key order
   /// (deterministic, for saving and hashing).
   template <class F>
   void ForEachBlock(F&& f) const {
-    std::vector<uint64_t> keys;
-    keys.reserve(blocks_.size());
-    for (const auto& kv : blocks_) keys.push_back(kv.first);
-    std::sort(keys.begin(), keys.end());
-    for (uint64_t key : keys) f(BlockOriginOf(key), *blocks_.at(key));
+    std::vector<std::pair<uint64_t, uint32_t>> order;
+    order.reserve(blocks_.size());
+    for (const auto& kv : index_of_) order.push_back(kv);
+    std::sort(order.begin(), order.end());
+    for (const auto& [key, index] : order) f(BlockOriginOf(key), *blocks_[index]);
   }
   /// The block holding `block_origin` (a multiple of kBlockEdge per axis), created if needed.
   Block* FindOrCreateBlock(const CellIndex& block_origin);
@@ -248,11 +264,14 @@ class GrowingGrid {
   [[nodiscard]] static CellIndex BlockOriginOf(uint64_t key);
 
  private:
-  Block* CreateBlock(uint64_t key);
+  // Creates the block of `key` (not present yet); its creation index goes to *index.
+  Block* CreateBlock(uint64_t key, uint32_t* index);
 
   GridGeometry geometry_;
   float initial_value_;
-  std::unordered_map<uint64_t, std::unique_ptr<Block>> blocks_;
+  std::unordered_map<uint64_t, uint32_t> index_of_;  // block key -> creation index
+  std::vector<std::unique_ptr<Block>> blocks_;       // by creation index
+  std::vector<uint64_t> keys_;                       // by creation index
 };
 
 }  // namespace kestrel

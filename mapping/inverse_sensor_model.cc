@@ -18,8 +18,13 @@ int ExactUpdate::ForwardLikelihoods(const SensorModel& model, const Reading& rea
     const double reach_m = model.GaussianReach(reading.z_m);
     int end = n;
     while (end > 0 && distance_m[end - 1] > reach_m) --end;  // same cut as Apply
-    for (int k = 0; k < end; ++k)
-      likelihood[k] = model.ReturnLikelihood(reading.z_m, distance_m[k]);
+    int k = 0;
+    // The leading cells outside the Gaussian window: a_k is the spurious term alone.
+    for (; k < end && model.SpuriousOnly(reading.z_m, distance_m[k]); ++k) {
+      likelihood[k] = model.spurious_density();
+    }
+    const ReturnLikelihoodEvaluator a_k = model.ReturnEvaluator();  // same values as Apply's
+    for (; k < end; ++k) likelihood[k] = a_k(reading.z_m, distance_m[k]);
     return end;
   }
   for (int k = 0; k < n; ++k) likelihood[k] = model.NoReturnProbability(distance_m[k]);

@@ -8,7 +8,8 @@
 ///   S_k     = sum_{i<=k} pi_i a_i          prefix sums, S_0 = 0
 ///   1/eta   = S_nr + pi_(nr+1) a_(nr+1)    = p(z), eq. (4)
 ///   P'_k    = eta (P_k S_(k-1) + pi_k a_k)  posterior, eqs. (2)-(3)
-/// One forward pass accumulates pi and S in double; a second writes P'_k.
+/// One forward pass accumulates pi and S in double; a second writes P'_k, computed as
+/// eta P_k C_k with C_k = S_(k-1) + Pbar_(k-1) a_k (the same value; see ExactUpdate::Apply).
 ///
 /// Which cells are written (ALGORITHMS.md sections 3 and 4):
 ///  - a return z updates every cell of the ray, except that cells with d_k > z + c*sigma are left
@@ -19,6 +20,7 @@
 ///    facing open space never grows phantom obstacles near the sensor.
 /// Posteriors are returned unclamped; the map clamps them to [P_min, 1 - P_min].
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -32,20 +34,17 @@ class InverseSensorModelScratch {
  public:
   /// Scratch for rays of up to `capacity` cells.
   explicit InverseSensorModelScratch(int capacity)
-      : s_before_(static_cast<size_t>(capacity)),
-        first_term_(static_cast<size_t>(capacity)),
-        prior_(static_cast<size_t>(capacity)) {}
+      : c_term_(static_cast<size_t>(capacity)), prior_(static_cast<size_t>(capacity)) {}
   /// Largest n_r this scratch holds.
-  [[nodiscard]] int capacity() const { return static_cast<int>(s_before_.size()); }
+  [[nodiscard]] int capacity() const { return static_cast<int>(c_term_.size()); }
   /// Cells visited by ComputeExactPosteriors since construction (both passes): the work counter
   /// the linear-cost test reads.
   [[nodiscard]] uint64_t cell_visits() const { return cell_visits_; }
 
  private:
   friend struct ExactUpdate;
-  std::vector<double> s_before_;    // S_(k-1)
-  std::vector<double> first_term_;  // pi_k a_k
-  std::vector<double> prior_;       // P_k as read in the forward pass
+  std::vector<double> c_term_;  // C_k = S_(k-1) + Pbar_(k-1) a_k (ExactUpdate::Apply)
+  std::vector<double> prior_;   // P_k as read in the forward pass
   uint64_t cell_visits_{0};
 };
 
@@ -109,65 +108,95 @@ ExactUpdateResult ExactUpdate::Apply(const SensorModel& model, const Reading& re
                                      const double* distance_m, int n, PriorAt&& prior_at,
                                      Write&& write, InverseSensorModelScratch* scratch,
                                      const double* likelihood) {
+  // Eqs. (2)-(3) rewritten: P_k S_(k-1) + pi_k a_k = P_k (S_(k-1) + Pbar_(k-1) a_k) = P_k C_k,
+  // so P'_k = eta P_k C_k with C_k = S_(k-1) + Pbar_(k-1) a_k (a sum of non-negative terms, no
+  // cancellation). Over a leading run of cells whose a_k is the same constant A (for a return:
+  // cells nearer than z_min or more than c sigma before z, where a_k = p_rand u), S_(k-1) =
+  // A (1 - Pbar_(k-1)), hence C_k = A exactly and P'_k = (eta A) P_k: those cells need neither
+  // a_k nor a stored C_k, which is most of a ray (ALGORITHMS.md section 11, "the Gaussian only
+  // where it is not negligible").
   CheckInput(reading, n, scratch);
   ExactUpdateResult result;
-  double* const s_before = scratch->s_before_.data();
-  double* const first_term = scratch->first_term_.data();
-  double* const prior = scratch->prior_.data();
-  double s = 0.0;         // S_k
-  double pbar_run = 1.0;  // prod_{j<=k} Pbar_j
+  double* const c_term = scratch->c_term_.data();  // C_k
+  double* const prior = scratch->prior_.data();    // P_k as read in the forward pass
+  double s = 0.0;                                  // S_k
+  double pbar_run = 1.0;                           // prod_{j<=k} Pbar_j = Pbar_k
   int end = n;
+  int run_end = 0;     // cells [0, run_end) form the leading run with a_k = run_a
+  double run_a = 0.0;  // A of the leading run
+  double tail_a;       // a_(nr+1), the empty ray's likelihood
   if (reading.kind == ReadingKind::kReturn) {
     const double z = reading.z_m;
-    const double reach_m = model.GaussianReach(z);
     // Shortcut: cells with d_k > z + c sigma are left out (ALGORITHMS.md section 4).
+    const double reach_m = model.GaussianReach(z);
     while (end > 0 && distance_m[end - 1] > reach_m) --end;
-    for (int k = 0; k < end; ++k) {
-      const double p = prior_at(k);
+    run_a = model.spurious_density();
+    double pi_sum = 0.0;  // sum_{i<=k} pi_i over the run
+    while (run_end < end && model.SpuriousOnly(z, distance_m[run_end])) {
+      const double p = prior_at(run_end);
       KESTREL_ASSERT(p >= 0.0 && p <= 1.0);
-      prior[k] = p;
-      const double pi = p * pbar_run;  // pi_k
-      const double a =
-          likelihood != nullptr ? likelihood[k] : model.ReturnLikelihood(z, distance_m[k]);
-      const double term = pi * a;  // pi_k a_k
-      s_before[k] = s;             // S_(k-1)
-      first_term[k] = term;
-      s += term;  // S_k
+      prior[run_end] = p;
+      pi_sum += p * pbar_run;  // pi_k
       pbar_run *= 1.0 - p;
+      ++run_end;
     }
-    result.inv_eta = s + pbar_run * model.spurious_density();  // eq. (4), completed tail
+    s = run_a * pi_sum;  // S_k over the run: sum pi_i A
+    // The Gaussian window: a_k per cell (precomputed, or evaluated with the model's constants
+    // held in registers).
+    const auto window = [&](auto&& a_of) {
+      for (int k = run_end; k < end; ++k) {
+        const double p = prior_at(k);
+        KESTREL_ASSERT(p >= 0.0 && p <= 1.0);
+        prior[k] = p;
+        const double pbar_a = pbar_run * a_of(k);  // Pbar_(k-1) a_k
+        c_term[k] = s + pbar_a;                    // C_k
+        s += p * pbar_a;                           // S_k = S_(k-1) + pi_k a_k
+        pbar_run *= 1.0 - p;
+      }
+    };
+    if (likelihood != nullptr) {
+      window([likelihood](int k) { return likelihood[k]; });
+    } else {
+      const ReturnLikelihoodEvaluator a_k = model.ReturnEvaluator();
+      window([&a_k, z, distance_m](int k) { return a_k(z, distance_m[k]); });
+    }
+    tail_a = model.spurious_density();  // eq. (4), completed tail: p_rand u prod Pbar
   } else {
     for (int k = 0; k < end; ++k) {
       const double p = prior_at(k);
       KESTREL_ASSERT(p >= 0.0 && p <= 1.0);
       prior[k] = p;
-      const double pi = p * pbar_run;  // pi_k
       const double a =
           likelihood != nullptr ? likelihood[k] : model.NoReturnProbability(distance_m[k]);
-      const double term = pi * a;  // pi_k a_k
-      s_before[k] = s;             // S_(k-1)
-      first_term[k] = term;
-      s += term;  // S_k
+      const double pbar_a = pbar_run * a;  // Pbar_(k-1) a_k
+      c_term[k] = s + pbar_a;              // C_k
+      s += p * pbar_a;                     // S_k
       pbar_run *= 1.0 - p;
     }
-    result.inv_eta = s + pbar_run * model.empty_no_return_probability();  // eq. (4)
+    tail_a = model.empty_no_return_probability();
     // Only cells with d_k >= z_min are written (ALGORITHMS.md section 3).
     const double z_min = model.config().z_min_m;
     while (result.first < end && distance_m[result.first] < z_min) ++result.first;
   }
+  result.inv_eta = s + pbar_run * tail_a;  // eq. (4)
   KESTREL_DEMAND(result.inv_eta > 0.0);
   const double eta = 1.0 / result.inv_eta;
-  for (int k = result.first; k < end; ++k) {
-    write(k, eta * (prior[k] * s_before[k] + first_term[k]));  // eqs. (2)-(3)
+  const double run_ratio = eta * run_a;  // P'_k / P_k over the leading run
+  for (int k = result.first; k < run_end; ++k) write(k, run_ratio * prior[k]);
+  for (int k = std::max(result.first, run_end); k < end; ++k) {
+    write(k, eta * (c_term[k] * prior[k]));  // eqs. (2)-(3): eta P_k C_k
   }
   result.count = end - result.first;
   scratch->cell_visits_ += static_cast<uint64_t>(end) + static_cast<uint64_t>(result.count);
   return result;
 }
 
-/// Clamps p to [p_min, 1 - p_min] (ALGORITHMS.md section 1).
+/// Clamps p to [p_min, 1 - p_min] (ALGORITHMS.md section 1). Precondition: p not NaN (then the
+/// min/max form compiles to two instructions).
 [[nodiscard]] inline double ClampProbability(double p, double p_min) {
-  return p < p_min ? p_min : (p > 1.0 - p_min ? 1.0 - p_min : p);
+  const double upper = 1.0 - p_min;
+  const double below_upper = upper < p ? upper : p;
+  return below_upper < p_min ? p_min : below_upper;
 }
 
 }  // namespace kestrel

@@ -110,6 +110,7 @@ MapperConfig LoadMapperConfig(const ConfigNode& node) {
   node.Read("checkpoint_period_s", &c.checkpoint_period_s, Range::Positive());
   node.Read("max_queue", &c.max_queue, Range::Closed(1, 100000));
   node.Read("max_backlog_s", &c.max_backlog_s, Range::Positive());
+  node.Read("traversal_thread", &c.traversal_thread);
   try {
     c.Validate();
   } catch (const std::invalid_argument& e) {

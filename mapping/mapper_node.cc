@@ -48,6 +48,7 @@ MapperNode::MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& c
   } else {
     CreateEmptyMap();
   }
+  std::visit([this](auto& m) { m->SetTraversalThread(config_.traversal_thread); }, map_);
   auto on_error = [this](const std::string& channel, const std::string& reason) {
     skipped_.Count("malformed", channel + ": " + reason);
   };

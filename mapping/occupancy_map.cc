@@ -1,5 +1,6 @@
 #include "mapping/occupancy_map.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -18,11 +19,131 @@ OccupancyMap<Grid>::OccupancyMap(Grid grid, std::unique_ptr<OccupancyUpdater> up
       ray_(max_range_m, grid_.geometry().resolution_m()) {
   KESTREL_THROW_UNLESS(updater_ != nullptr, "OccupancyMap: updater must not be null");
   cell_pointers_.resize(ray_.cells.size());
-  initial_entropy_ = BinaryEntropy(updater_->ProbabilityOf(updater_->initial_value()));
+  changed_.resize(ray_.cells.size());
   if constexpr (std::is_same_v<Grid, GrowingGrid>) {
     accessor_ = std::make_unique<GrowingGrid::Accessor>(&grid_);
+    cell_block_.resize(ray_.cells.size());
+  } else {
+    const CellIndex& d = grid_.dims();
+    entropy_blocks_ = {(d.x + 7) / 8, (d.y + 7) / 8, (d.z + 7) / 8};
+    // floor(n / v) = (n m) >> s for all n < 2^31 with l = ceil(log2 v), s = 31 + l,
+    // m = ceil(2^s / v) (Granlund & Montgomery 1994): m < 2^32, so n m < 2^63.
+    const auto divider = [](int32_t v) {
+      Divider out;
+      int l = 0;
+      while ((int64_t{1} << l) < v) ++l;
+      out.shift = 31 + l;
+      out.multiplier =
+          ((uint64_t{1} << out.shift) + static_cast<uint64_t>(v) - 1) / static_cast<uint64_t>(v);
+      return out;
+    };
+    divide_nx_ = divider(d.x);
+    divide_ny_ = divider(d.y);
   }
-  entropy_nats_ = RecomputeEntropy();
+  ResetEntropy();
+}
+
+template <class Grid>
+float* OccupancyMap<Grid>::DenseValues() {
+  if constexpr (std::is_same_v<Grid, GrowingGrid>) {
+    return nullptr;
+  } else {
+    return grid_.mutable_values().data();
+  }
+}
+
+template <class Grid>
+void OccupancyMap<Grid>::SyncBlocks() {
+  size_t count;
+  if constexpr (std::is_same_v<Grid, GrowingGrid>) {
+    count = grid_.block_count();
+  } else {
+    count = static_cast<size_t>(entropy_blocks_.x) * static_cast<size_t>(entropy_blocks_.y) *
+            static_cast<size_t>(entropy_blocks_.z);
+  }
+  const size_t old = block_entropy_.size();
+  if (count == old) return;
+  block_entropy_.resize(count, 0.0);
+  block_dirty_.resize(count, 0);
+  dirty_blocks_.reserve(count);
+  for (size_t b = old; b < count; ++b) MarkDirty(static_cast<uint32_t>(b));
+}
+
+template <class Grid>
+void OccupancyMap<Grid>::ResetEntropy() {
+  SyncBlocks();
+  for (size_t b = 0; b < block_entropy_.size(); ++b) MarkDirty(static_cast<uint32_t>(b));
+}
+
+template <class Grid>
+uint32_t OccupancyMap<Grid>::EntropyBlockOf(const RayCells& ray, int k) const {
+  if constexpr (std::is_same_v<Grid, GrowingGrid>) {
+    (void)ray;
+    return cell_block_[static_cast<size_t>(k)];
+  } else {
+    CellIndex c;
+    if (ray.has_cells) {
+      c = ray.cells[static_cast<size_t>(k)];
+    } else {  // CastLinearOnly: x + nx (y + ny z) back to (x, y, z)
+      const uint32_t linear = static_cast<uint32_t>(ray.linear_index[static_cast<size_t>(k)]);
+      const uint32_t yz = divide_nx_.Divide(linear);
+      const uint32_t z = divide_ny_.Divide(yz);
+      c.x = static_cast<int32_t>(linear - yz * static_cast<uint32_t>(grid_.dims().x));
+      c.y = static_cast<int32_t>(yz - z * static_cast<uint32_t>(grid_.dims().y));
+      c.z = static_cast<int32_t>(z);
+    }
+    return static_cast<uint32_t>((c.x >> 3) +
+                                 entropy_blocks_.x * ((c.y >> 3) + entropy_blocks_.y * (c.z >> 3)));
+  }
+}
+
+template <class Grid>
+double OccupancyMap<Grid>::BlockEntropy(uint32_t b) const {
+  // Neighbouring cells often hold the same value (the clamp, the prior): reuse its H.
+  float last_v = updater_->initial_value();
+  double last_h = BinaryEntropy(updater_->ProbabilityOf(last_v));
+  const auto cached_entropy = [&](float v) {
+    if (v != last_v) {
+      last_v = v;
+      last_h = BinaryEntropy(updater_->ProbabilityOf(v));
+    }
+    return last_h;
+  };
+  double h = 0.0;
+  if constexpr (std::is_same_v<Grid, GrowingGrid>) {
+    for (float v : grid_.block(b).values) h += cached_entropy(v);
+  } else {
+    const CellIndex& d = grid_.dims();
+    const int bx = static_cast<int>(b % static_cast<uint32_t>(entropy_blocks_.x));
+    const int rest = static_cast<int>(b / static_cast<uint32_t>(entropy_blocks_.x));
+    const int by = rest % entropy_blocks_.y;
+    const int bz = rest / entropy_blocks_.y;
+    const int x1 = std::min(d.x, 8 * bx + 8), y1 = std::min(d.y, 8 * by + 8);
+    const int z1 = std::min(d.z, 8 * bz + 8);
+    for (int z = 8 * bz; z < z1; ++z) {
+      for (int y = 8 * by; y < y1; ++y) {
+        for (int x = 8 * bx; x < x1; ++x) {
+          h += cached_entropy(grid_.Get(CellIndex{x, y, z}));
+        }
+      }
+    }
+  }
+  return h;
+}
+
+template <class Grid>
+double OccupancyMap<Grid>::entropy_nats() const {
+  if (!dirty_blocks_.empty()) {
+    for (uint32_t b : dirty_blocks_) {
+      block_entropy_[b] = BlockEntropy(b);
+      block_dirty_[b] = 0;
+    }
+    dirty_blocks_.clear();
+    double h = 0.0;
+    for (double e : block_entropy_) h += e;  // block order: independent of query times
+    entropy_nats_ = h;
+  }
+  return entropy_nats_;
 }
 
 template <class Grid>
@@ -54,7 +175,7 @@ ScanStats OccupancyMap<Grid>::ApplyReading(const Eigen::Vector3d& origin_W,
                        "OccupancyMap: sensor z_max_m = " << model.config().z_max_m
                                                          << " exceeds the map's max_range_m = "
                                                          << ray_.max_length_m);
-  caster_.Cast(origin_W, direction_W, updater_->CastLength(model, reading), &ray_);
+  caster_.CastWithLinearIndex(origin_W, direction_W, updater_->CastLength(model, reading), &ray_);
   ApplyCastRay(reading, ray_, model, &stats);
   return stats;
 }
@@ -67,16 +188,28 @@ void OccupancyMap<Grid>::ApplyCastRay(const Reading& reading, const RayCells& ra
     return;
   }
   const int n = ray.size;
-  size_t blocks_before = 0;
-  if constexpr (std::is_same_v<Grid, GrowingGrid>) blocks_before = grid_.block_count();
-  for (int k = 0; k < n; ++k) cell_pointers_[k] = CellPointer(ray.cells[k]);
   if constexpr (std::is_same_v<Grid, GrowingGrid>) {
+    const size_t blocks_before = grid_.block_count();
+    for (int k = 0; k < n; ++k) {
+      cell_pointers_[k] = accessor_->FindOrCreate(ray.cells[k]);
+      cell_block_[k] = accessor_->last_block_index();
+    }
     // Newly allocated cells join the summed entropy at P_init (file comment).
-    entropy_nats_ += static_cast<double>(grid_.block_count() - blocks_before) *
-                     GrowingGrid::kBlockCells * initial_entropy_;
+    if (grid_.block_count() != blocks_before) SyncBlocks();
   }
-  entropy_nats_ +=
-      updater_->UpdateRay(model, reading, ray, cell_pointers_.data(), &stats->cells_updated);
+  int changed;
+  if (!std::is_same_v<Grid, GrowingGrid> && ray.has_linear_index) {
+    // DenseGrid: the caster's linear indices address the cells directly.
+    changed = updater_->UpdateRayLinear(model, reading, ray, DenseValues(), &stats->cells_updated,
+                                        changed_.data());
+  } else {
+    if constexpr (!std::is_same_v<Grid, GrowingGrid>) {
+      for (int k = 0; k < n; ++k) cell_pointers_[k] = CellPointer(ray.cells[k]);
+    }
+    changed = updater_->UpdateRay(model, reading, ray, cell_pointers_.data(), &stats->cells_updated,
+                                  changed_.data());
+  }
+  for (int i = 0; i < changed; ++i) MarkDirty(EntropyBlockOf(ray, changed_[i]));
   ++stats->rays_applied;
   if (reading.kind == ReadingKind::kNoReturn) ++stats->rays_no_return;
 }
@@ -86,7 +219,9 @@ void OccupancyMap<Grid>::SetTraversalThread(bool enabled) {
   if (!enabled) {
     pipeline_.reset();
   } else if (pipeline_ == nullptr) {
-    pipeline_ = std::make_unique<TraversalPipeline>(grid_.geometry(), ray_.max_length_m);
+    // The updates need a ray's CellIndex only through its linear index (ApplyCastRay).
+    pipeline_ = std::make_unique<TraversalPipeline>(grid_.geometry(), ray_.max_length_m,
+                                                    /*cells_needed=*/false);
   }
 }
 
@@ -109,7 +244,8 @@ ScanStats OccupancyMap<Grid>::ApplyRays(int count, const Source& source, const S
     };
     // std::function over reference wrappers: no allocation.
     const TraversalPipeline::Prepare prepare_fn(std::cref(prepare));
-    pipeline_->Run(count, TraversalPipeline::Source(std::cref(source)), &prepare_fn,
+    pipeline_->Run(count, TraversalPipeline::Source(std::cref(source)),
+                   getenv("KP_NOPREP") ? nullptr : &prepare_fn,
                    TraversalPipeline::Sink(std::cref(sink)));
     return stats;
   }
@@ -117,7 +253,7 @@ ScanStats OccupancyMap<Grid>::ApplyRays(int count, const Source& source, const S
   for (int i = 0; i < count; ++i) {
     source(i, &spec);
     if (spec.reading.kind != ReadingKind::kInvalid) {
-      caster_.Cast(spec.origin_W, spec.direction_W, spec.length_m, &ray_);
+      caster_.CastWithLinearIndex(spec.origin_W, spec.direction_W, spec.length_m, &ray_);
     }
     ApplyCastRay(spec.reading, ray_, model, &stats);
   }

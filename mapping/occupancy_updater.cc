@@ -1,10 +1,21 @@
 #include "mapping/occupancy_updater.h"
 
 #include <algorithm>
+#include <cstdint>
+#include <cstring>
 
 #include "common/check.h"
 
 namespace kestrel {
+namespace {
+// The bit pattern of a float (a changed cell is a changed bit pattern, as Hash sees it).
+uint32_t BitsOf(float v) {
+  uint32_t bits;
+  std::memcpy(&bits, &v, sizeof(bits));
+  return bits;
+}
+float Logit(double p) { return static_cast<float>(std::log(p / (1.0 - p))); }
+}  // namespace
 
 ExactBayesUpdater::ExactBayesUpdater(const OccupancyLimits& limits, int capacity,
                                      double resolution_m)
@@ -21,29 +32,45 @@ double ExactBayesUpdater::CastLength(const SensorModel& model, const Reading& re
   return std::min(z_max, model.GaussianReach(reading.z_m) + diagonal_m_ * (1.0 + 1e-9));
 }
 
-double ExactBayesUpdater::UpdateRay(const SensorModel& model, const Reading& reading,
-                                    const RayCells& ray, float* const* cells,
-                                    uint64_t* cells_written) {
+int ExactBayesUpdater::UpdateRay(const SensorModel& model, const Reading& reading,
+                                 const RayCells& ray, float* const* cells, uint64_t* cells_written,
+                                 int* changed) {
+  return Update(
+      model, reading, ray, [cells](int k) -> float& { return *cells[k]; }, cells_written, changed);
+}
+
+int ExactBayesUpdater::UpdateRayLinear(const SensorModel& model, const Reading& reading,
+                                       const RayCells& ray, float* base, uint64_t* cells_written,
+                                       int* changed) {
+  KESTREL_DEMAND(ray.has_linear_index);
+  const int32_t* const linear = ray.linear_index.data();
+  return Update(
+      model, reading, ray, [base, linear](int k) -> float& { return base[linear[k]]; },
+      cells_written, changed);
+}
+
+template <class CellAt>
+int ExactBayesUpdater::Update(const SensorModel& model, const Reading& reading, const RayCells& ray,
+                              const CellAt& cell_at, uint64_t* cells_written, int* changed) {
   KESTREL_DEMAND(ray.size <= scratch_.capacity());
-  double delta_entropy = 0.0;
   const double p_min = limits_.p_min;
+  int m = 0;
   const ExactUpdateResult r = ExactUpdate::Apply(
       model, reading, ray.distance_m.data(), ray.size,
-      [cells](int k) { return static_cast<double>(*cells[k]); },
+      [&cell_at](int k) { return static_cast<double>(cell_at(k)); },
       [&](int k, double posterior) {
-        // ALGORITHMS.md section 1: clamp to [P_min, 1 - P_min] after each update.
+        // ALGORITHMS.md section 1: clamp to [P_min, 1 - P_min] after each update. Branch-free:
+        // a cell held at its value (typically a free cell at the clamp) is rewritten unchanged
+        // and not reported.
         const float stored = static_cast<float>(ClampProbability(posterior, p_min));
-        const float prior = *cells[k];
-        // Section 5: add the change of every written cell (of the values actually stored). A
-        // cell that stays at its value (typically a free cell held at the clamp) changes nothing.
-        if (stored != prior) {
-          delta_entropy += BinaryEntropy(stored) - BinaryEntropy(prior);
-          *cells[k] = stored;
-        }
+        float& cell = cell_at(k);
+        changed[m] = k;
+        m += BitsOf(stored) != BitsOf(cell) ? 1 : 0;  // no NaN here: compare the bits
+        cell = stored;
       },
       &scratch_, ray.has_likelihood ? ray.likelihood.data() : nullptr);
   *cells_written += static_cast<uint64_t>(r.count);
-  return delta_entropy;
+  return m;
 }
 
 void ExactBayesUpdater::PrecomputeRay(const SensorModel& model, const Reading& reading,
@@ -68,10 +95,6 @@ void LogOddsConfig::Validate() const {
                                                             "max < 1");
 }
 
-namespace {
-float Logit(double p) { return static_cast<float>(std::log(p / (1.0 - p))); }
-}  // namespace
-
 LogOddsUpdater::LogOddsUpdater(const LogOddsConfig& config) : config_(config) {
   config_.Validate();
   hit_ = Logit(config_.p_hit);
@@ -85,24 +108,41 @@ double LogOddsUpdater::CastLength(const SensorModel& model, const Reading& readi
   return reading.kind == ReadingKind::kReturn ? reading.z_m : model.config().z_max_m;
 }
 
-double LogOddsUpdater::UpdateRay(const SensorModel& /*model*/, const Reading& reading,
-                                 const RayCells& ray, float* const* cells,
-                                 uint64_t* cells_written) {
+int LogOddsUpdater::UpdateRay(const SensorModel& /*model*/, const Reading& reading,
+                              const RayCells& ray, float* const* cells, uint64_t* cells_written,
+                              int* changed) {
+  return Update(
+      reading, ray, [cells](int k) -> float& { return *cells[k]; }, cells_written, changed);
+}
+
+int LogOddsUpdater::UpdateRayLinear(const SensorModel& /*model*/, const Reading& reading,
+                                    const RayCells& ray, float* base, uint64_t* cells_written,
+                                    int* changed) {
+  KESTREL_DEMAND(ray.has_linear_index);
+  const int32_t* const linear = ray.linear_index.data();
+  return Update(
+      reading, ray, [base, linear](int k) -> float& { return base[linear[k]]; }, cells_written,
+      changed);
+}
+
+template <class CellAt>
+int LogOddsUpdater::Update(const Reading& reading, const RayCells& ray, const CellAt& cell_at,
+                           uint64_t* cells_written, int* changed) {
   const int n = ray.size;
-  double delta_entropy = 0.0;
+  int m = 0;
   for (int k = 0; k < n; ++k) {
-    const float prior = *cells[k];
+    float& cell = cell_at(k);
+    const float prior = cell;
     // The end point's cell is the last one cast for a return: a hit (OctoMap updateNode(hit)).
     // A ray that ended at the map limits never reached its end point: all misses.
     const bool hit = reading.kind == ReadingKind::kReturn && k == n - 1 && !ray.left_bounds;
     const float stored = std::clamp(prior + (hit ? hit_ : miss_), min_, max_);
-    if (stored != prior) {
-      delta_entropy += BinaryEntropy(ProbabilityOf(stored)) - BinaryEntropy(ProbabilityOf(prior));
-      *cells[k] = stored;
-    }
+    changed[m] = k;
+    m += stored != prior ? 1 : 0;
+    cell = stored;
   }
   *cells_written += static_cast<uint64_t>(n);
-  return delta_entropy;
+  return m;
 }
 
 }  // namespace kestrel

@@ -7,8 +7,8 @@
 ///  - LogOddsUpdater: OctoMap's update (hit 0.7 / miss 0.4, clamping 0.12 / 0.97); cells store
 ///    log-odds as float. The cell holding a return's end point is a hit, every other cell the ray
 ///    crosses up to it a miss; "no return" clears the whole ray to z_max (OctoMap's maxrange).
-/// Each UpdateRay returns the change of the summed cell entropy (nats, ALGORITHMS.md section 5)
-/// so that the map keeps H(map) incrementally.
+/// Each UpdateRay reports which cells it changed, so that the map can keep H(map) (ALGORITHMS.md
+/// section 5) up to date per block of cells.
 
 #include <cmath>
 #include <memory>
@@ -50,9 +50,14 @@ class OccupancyUpdater {
   virtual void PrecomputeRay(const SensorModel& /*model*/, const Reading& /*reading*/,
                              RayCells* /*ray*/) const {}
   /// Updates the stored values *cells[k] of the ray's cells (k < ray.size) for `reading`;
-  /// returns the entropy change (nats) and adds the cells written to *cells_written.
-  virtual double UpdateRay(const SensorModel& model, const Reading& reading, const RayCells& ray,
-                           float* const* cells, uint64_t* cells_written) = 0;
+  /// writes the indices k of the cells whose stored value changed, ascending, to changed[0 .. m)
+  /// (room for ray.size entries) and returns m; adds the cells written to *cells_written.
+  virtual int UpdateRay(const SensorModel& model, const Reading& reading, const RayCells& ray,
+                        float* const* cells, uint64_t* cells_written, int* changed) = 0;
+  /// Same as UpdateRay for cells stored at base[ray.linear_index[k]] (a DenseGrid's values;
+  /// precondition: ray.has_linear_index), without a pointer per cell.
+  virtual int UpdateRayLinear(const SensorModel& model, const Reading& reading, const RayCells& ray,
+                              float* base, uint64_t* cells_written, int* changed) = 0;
 };
 
 /// Kestrel's exact update (ALGORITHMS.md section 4), float storage, double accumulation.
@@ -70,12 +75,19 @@ class ExactBayesUpdater final : public OccupancyUpdater {
   /// Fills ray->likelihood with a_k (ExactUpdate::ForwardLikelihoods).
   void PrecomputeRay(const SensorModel& model, const Reading& reading,
                      RayCells* ray) const override;
-  double UpdateRay(const SensorModel& model, const Reading& reading, const RayCells& ray,
-                   float* const* cells, uint64_t* cells_written) override;
+  int UpdateRay(const SensorModel& model, const Reading& reading, const RayCells& ray,
+                float* const* cells, uint64_t* cells_written, int* changed) override;
+  int UpdateRayLinear(const SensorModel& model, const Reading& reading, const RayCells& ray,
+                      float* base, uint64_t* cells_written, int* changed) override;
   /// The clamp and prior.
   [[nodiscard]] const OccupancyLimits& limits() const { return limits_; }
 
  private:
+  // The update with cell k's value at cell_at(k) (a float&).
+  template <class CellAt>
+  int Update(const SensorModel& model, const Reading& reading, const RayCells& ray,
+             const CellAt& cell_at, uint64_t* cells_written, int* changed);
+
   OccupancyLimits limits_;
   double diagonal_m_;  // sqrt(3) alpha: the longest chord through one cell, m
   InverseSensorModelScratch scratch_;
@@ -106,12 +118,19 @@ class LogOddsUpdater final : public OccupancyUpdater {
   }
   /// A return: to z (the end-point cell is the last); "no return": z_max.
   [[nodiscard]] double CastLength(const SensorModel& model, const Reading& reading) const override;
-  double UpdateRay(const SensorModel& model, const Reading& reading, const RayCells& ray,
-                   float* const* cells, uint64_t* cells_written) override;
+  int UpdateRay(const SensorModel& model, const Reading& reading, const RayCells& ray,
+                float* const* cells, uint64_t* cells_written, int* changed) override;
+  int UpdateRayLinear(const SensorModel& model, const Reading& reading, const RayCells& ray,
+                      float* base, uint64_t* cells_written, int* changed) override;
   /// The parameters.
   [[nodiscard]] const LogOddsConfig& config() const { return config_; }
 
  private:
+  // The update with cell k's value at cell_at(k) (a float&).
+  template <class CellAt>
+  int Update(const Reading& reading, const RayCells& ray, const CellAt& cell_at,
+             uint64_t* cells_written, int* changed);
+
   LogOddsConfig config_;
   float hit_, miss_, min_, max_, initial_;
 };

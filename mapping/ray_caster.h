@@ -17,8 +17,13 @@
 ///    not list that cell; a ray lying in a grid plane belongs to the cell on the upper side.
 ///  - Direction components below 1e-300 in magnitude are treated as 0.
 ///  - Cells outside the grid's bounds end the ray; an origin outside the bounds gives no cells.
+///    The ray is clipped once to the parameter at which it leaves the bounds' box, computed with
+///    the same expression as the crossing of the last in-bounds cell's boundary, so that no step
+///    checks the bounds.
 
 #include <Eigen/Core>
+#include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "mapping/grid.h"
@@ -32,18 +37,32 @@ struct RayCells {
   /// @throws std::invalid_argument unless both are positive and finite.
   RayCells(double max_length_m, double resolution_m);
 
-  /// Upper bound on the cells a segment of length `length_m` crosses: sqrt(3)*L/alpha + 4.
+  /// Upper bound on the cells a segment of length `length_m` crosses, with margin for rounding:
+  /// ceil(sqrt(3) (1 + 1e-5) L/alpha) + 8 (ray_caster.cc, RayCaster::Cast).
   [[nodiscard]] static int CapacityFor(double length_m, double resolution_m);
 
   std::vector<CellIndex> cells;    ///< r_1 .. r_n, in order of increasing distance
   std::vector<double> distance_m;  ///< d_k, m, distance from o to the chord midpoint
+  /// When has_linear_index: the cell's index in a DenseGrid over the caster's (bounded) lattice,
+  /// x + nx (y + ny z) (DenseGrid::LinearIndexOf), kept by the caster with one addition per step.
+  /// 32 bits: lattices of 2^31 cells or more get no linear index.
+  std::vector<int32_t> linear_index;
   /// a_k per cell when has_likelihood: forward-model values computed off the map (on the
   /// traversal thread) by OccupancyUpdater::PrecomputeRay; Cast clears has_likelihood.
   std::vector<double> likelihood;
-  int size{0};                 ///< n_r, the number of valid entries
-  bool left_bounds{false};     ///< whether the ray ended at the grid bounds before its length
-  bool has_likelihood{false};  ///< whether likelihood[0 .. size) is filled
-  double max_length_m;         ///< longest ray this scratch holds, m
+  int size{0};                   ///< n_r, the number of valid entries
+  bool left_bounds{false};       ///< whether the ray ended at the grid bounds before its length
+  bool has_likelihood{false};    ///< whether likelihood[0 .. size) is filled
+  bool has_linear_index{false};  ///< whether linear_index[0 .. size) is filled (bounded lattice)
+  bool has_cells{true};          ///< whether cells[0 .. size) is filled (CastLinearOnly: not)
+  double max_length_m;           ///< longest ray this scratch holds, m
+  /// The in-bounds cell of the last origin cast with this scratch on the lattice
+  /// last_origin_lattice (rays of one scan share their origin, and GridGeometry::CellOf is the
+  /// costliest part of a ray's set-up). NaN until the first cast.
+  Eigen::Vector3d last_origin_W{
+      Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN())};
+  CellIndex last_origin_cell;        ///< cell of last_origin_W
+  GridGeometry last_origin_lattice;  ///< lattice of last_origin_cell
 };
 
 /// Casts rays through a lattice (fixed or unbounded). Reads no map: traversal can run apart from
@@ -60,11 +79,26 @@ class RayCaster {
   /// @throws std::invalid_argument when a precondition fails.
   int Cast(const Eigen::Vector3d& origin_W, const Eigen::Vector3d& direction_W, double length_m,
            RayCells* out) const;
+  /// Same, and for a bounded lattice (of fewer than 2^31 cells) also fills out->linear_index
+  /// (has_linear_index).
+  int CastWithLinearIndex(const Eigen::Vector3d& origin_W, const Eigen::Vector3d& direction_W,
+                          double length_m, RayCells* out) const;
+  /// Like CastWithLinearIndex, but when the linear index is filled the cells are not
+  /// (has_cells false): fewer bytes per cell when another thread consumes the ray. On a lattice
+  /// without linear indices it is Cast.
+  int CastLinearOnly(const Eigen::Vector3d& origin_W, const Eigen::Vector3d& direction_W,
+                     double length_m, RayCells* out) const;
 
   /// The lattice.
   [[nodiscard]] const GridGeometry& geometry() const { return geometry_; }
 
  private:
+  // Whether this lattice gets linear indices (bounded, fewer than 2^31 cells).
+  [[nodiscard]] bool LinearIndexable() const;
+  template <bool kLinear, bool kCells = true>
+  int CastImpl(const Eigen::Vector3d& o, const Eigen::Vector3d& u, double length_m,
+               RayCells* out) const;
+
   GridGeometry geometry_;
 };
 

@@ -86,6 +86,11 @@ SensorModel::SensorModel(const SensorModelConfig& config) : config_(config) {
   }
 }
 
+double ReturnLikelihoodEvaluator::Direct(double r, double d_m) const {
+  // Section 3: p_rand u + (1 - p_rand)(1 - p_miss) G_k(z), direct.
+  return spurious_density_ + model_->DirectGaussianTerm(r, d_m);
+}
+
 Reading SensorModel::Classify(double range_m) const {
   if (std::isnan(range_m) || range_m < config_.z_min_m) return {ReadingKind::kInvalid, 0.0};
   if (range_m >= config_.z_max_m) return {ReadingKind::kNoReturn, 0.0};

@@ -29,6 +29,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace kestrel {
@@ -67,6 +68,58 @@ struct Reading {
   double z_m{0.0};                          ///< the range for kReturn, m; unused otherwise
 };
 
+class SensorModel;
+
+/// ReturnLikelihood of one SensorModel as a small value (the constants and table pointers
+/// copied), so that a loop over a ray's cells keeps them in registers instead of reloading the
+/// model's fields after every store. Same arithmetic, same values bit for bit. Valid while its
+/// model lives.
+class ReturnLikelihoodEvaluator {
+ public:
+  /// a_k = p(z | r_k+), 1/m (SensorModel::ReturnLikelihood).
+  [[nodiscard]] double operator()(double z_m, double d_m) const {
+    if (!(d_m >= z_min_m_ && d_m < z_max_m_)) return spurious_density_;
+    const double r = std::abs(z_m - d_m);
+    if (r > cutoff_m_) return spurious_density_;  // Gaussian window
+    if (gaussian_table_ != nullptr) {
+      // Section 3: p_rand u + (1 - p_rand)(1 - p_miss) G_k(z), from tables (file comment).
+      return spurious_density_ +
+             gaussian_scale_ * Hermite(gaussian_table_, gaussian_last_, r * gaussian_index_per_m_) *
+                 Hermite(inv_mass_table_, mass_last_, (d_m - z_min_m_) * mass_index_per_m_);
+    }
+    return Direct(r, d_m);
+  }
+
+ private:
+  friend class SensorModel;
+  // Cubic Hermite interpolation at fractional index s >= 0 in a table of per-interval polynomial
+  // coefficients (c0, c1, c2, c3): p(t) = c0 + t (c1 + t (c2 + t c3)), t = s - i. `last` is the
+  // index of the last interval.
+  static double Hermite(const double* table, int64_t last, double s) {
+    // s >= 0: the signed conversion is one instruction (the unsigned one is a branchy sequence).
+    int64_t i = static_cast<int64_t>(s);
+    if (i > last) i = last;
+    const double t = s - static_cast<double>(i);
+    const double* c = table + 4 * i;
+    return c[0] + t * (c[1] + t * (c[2] + t * c[3]));
+  }
+  // Section 3 evaluated with exp and erfc (tables off).
+  double Direct(double r, double d_m) const;
+
+  const SensorModel* model_{nullptr};
+  double z_min_m_{0.0};
+  double z_max_m_{0.0};
+  double cutoff_m_{0.0};
+  double spurious_density_{0.0};
+  double gaussian_scale_{0.0};
+  const double* gaussian_table_{nullptr};  // null: direct evaluation
+  const double* inv_mass_table_{nullptr};
+  int64_t gaussian_last_{0};
+  int64_t mass_last_{0};
+  double gaussian_index_per_m_{0.0};
+  double mass_index_per_m_{0.0};
+};
+
 /// The forward model with its constants precomputed. Immutable, cheap to copy.
 class SensorModel {
  public:
@@ -90,21 +143,41 @@ class SensorModel {
   /// Largest distance d_k at which a return z may still see the Gaussian: z + c*sigma, m.
   [[nodiscard]] double GaussianReach(double z_m) const { return z_m + cutoff_m_; }
 
+  /// Whether a cell at distance d_m is certainly outside the Gaussian window of a return z_m on
+  /// the near side (d < z_min, or z - d > c sigma): then ReturnLikelihood(z_m, d_m) is exactly
+  /// spurious_density(). Cheap; used to find the leading cells of a ray that need no a_k.
+  [[nodiscard]] bool SpuriousOnly(double z_m, double d_m) const {
+    return d_m < config_.z_min_m || z_m - d_m > cutoff_m_;
+  }
+
   /// a_k = p(z | r_k+), 1/m, for a return z_m and first occupied cell at distance d_m (file
   /// comment; window included). Precondition: z_m in [z_min, z_max).
   [[nodiscard]] double ReturnLikelihood(double z_m, double d_m) const {
-    if (!(d_m >= config_.z_min_m && d_m < config_.z_max_m)) return spurious_density_;
-    const double r = std::abs(z_m - d_m);
-    if (r > cutoff_m_) return spurious_density_;  // Gaussian window
+    return ReturnEvaluator()(z_m, d_m);
+  }
+  /// ReturnLikelihood as a value for inner loops (ReturnLikelihoodEvaluator).
+  [[nodiscard]] ReturnLikelihoodEvaluator ReturnEvaluator() const {
+    ReturnLikelihoodEvaluator e;
+    e.model_ = this;
+    e.z_min_m_ = config_.z_min_m;
+    e.z_max_m_ = config_.z_max_m;
+    e.cutoff_m_ = cutoff_m_;
+    e.spurious_density_ = spurious_density_;
+    e.gaussian_scale_ = gaussian_scale_;
     if (!gaussian_table_.empty()) {
-      // Section 3: p_rand u + (1 - p_rand)(1 - p_miss) G_k(z), from tables (file comment).
-      return spurious_density_ +
-             gaussian_scale_ * Hermite(gaussian_table_, gaussian_last_, r * gaussian_index_per_m_) *
-                 Hermite(inv_mass_table_, mass_last_, (d_m - config_.z_min_m) * mass_index_per_m_);
+      e.gaussian_table_ = gaussian_table_.data();
+      e.inv_mass_table_ = inv_mass_table_.data();
     }
-    // Section 3: p_rand u + (1 - p_rand)(1 - p_miss) G_k(z), direct.
-    return spurious_density_ +
-           gaussian_scale_ * std::exp(-0.5 * r * r * inv_sigma2_) / TruncationMass(d_m);
+    e.gaussian_last_ = static_cast<int64_t>(gaussian_last_);
+    e.mass_last_ = static_cast<int64_t>(mass_last_);
+    e.gaussian_index_per_m_ = gaussian_index_per_m_;
+    e.mass_index_per_m_ = mass_index_per_m_;
+    return e;
+  }
+  /// Section 3's Gaussian term with exp and erfc, without the spurious term: (1 - p_rand)
+  /// (1 - p_miss) G(z) for |z - d| = r_m (used when the tables are off).
+  [[nodiscard]] double DirectGaussianTerm(double r_m, double d_m) const {
+    return gaussian_scale_ * std::exp(-0.5 * r_m * r_m * inv_sigma2_) / TruncationMass(d_m);
   }
 
   /// P(none | r_k+) for the first occupied cell at distance d_m.
@@ -117,16 +190,6 @@ class SensorModel {
   [[nodiscard]] double TruncationMass(double d_m) const;
 
  private:
-  // Cubic Hermite interpolation at fractional index s in a table of per-interval polynomial
-  // coefficients (c0, c1, c2, c3): p(t) = c0 + t (c1 + t (c2 + t c3)), t = s - i. `last` is the
-  // index of the last interval.
-  static double Hermite(const std::vector<double>& table, size_t last, double s) {
-    size_t i = static_cast<size_t>(s);
-    if (i > last) i = last;
-    const double t = s - static_cast<double>(i);
-    const double* c = &table[4 * i];
-    return c[0] + t * (c[1] + t * (c[2] + t * c[3]));
-  }
   // Appends the coefficients of the cubic Hermite interval between nodes (y0, slope m0) and
   // (y1, m1), slopes already multiplied by the step.
   static void AppendInterval(double y0, double m0, double y1, double m1,

@@ -55,6 +55,146 @@ TEST(OccupancyMap, IncrementalEntropyMatchesRecomputation) {
   EXPECT_GT(std::abs(log_odds->entropy_nats() - h0), 100.0);
 }
 
+// Section 5, lazy blocks: H(map) is a function of the cell values only, whatever the queries in
+// between. One map queried after every ray, one only at the end: bit-identical entropies, equal
+// to a from-scratch recomputation to rounding (1e-12 relative), for the dense and growing exact
+// maps and the log-odds baseline, and bit-identical to every block recomputed from scratch.
+TEST(OccupancyMap, LazyEntropyIsIndependentOfQueriesAndExact) {
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  const auto check = [&](auto make) {
+    auto queried = make();
+    auto quiet = make();
+    std::mt19937 rng(77);
+    for (int i = 0; i < 3000; ++i) {
+      const Eigen::Vector3d o(0.1, -0.2, 0.7);
+      const Eigen::Vector3d u = RandomUnit(rng, 0.3);
+      const double range = std::uniform_real_distribution<double>(0.4, 4.5)(rng);
+      queried->ApplyRay(o, u, range, xtion);
+      quiet->ApplyRay(o, u, range, xtion);
+      [[maybe_unused]] const double h = queried->entropy_nats();
+    }
+    EXPECT_EQ(queried->entropy_nats(), quiet->entropy_nats());
+    // Against the independent cell-by-cell sum: equal up to its summation rounding (~10^5 terms).
+    EXPECT_NEAR(quiet->entropy_nats(), quiet->RecomputeEntropy(),
+                1e-10 * quiet->RecomputeEntropy());
+    // Against every block recomputed from scratch (ResetEntropy): bit-identical, so no block the
+    // rays changed was left stale, however small its change.
+    const double lazy = queried->entropy_nats();
+    queried->ResetEntropy();
+    EXPECT_EQ(queried->entropy_nats(), lazy);
+    // One more ray: the change shows up as the recomputation sees it.
+    const double before = quiet->RecomputeEntropy();
+    quiet->ApplyRay(Eigen::Vector3d(0.1, -0.2, 0.7), Eigen::Vector3d::UnitY(), 1.3, xtion);
+    const double after = quiet->RecomputeEntropy();
+    EXPECT_GT(std::abs(after - before), 1e-3);
+    EXPECT_NEAR(quiet->entropy_nats(), after, 1e-10 * after);
+    const double lazy_after = quiet->entropy_nats();
+    quiet->ResetEntropy();
+    EXPECT_EQ(quiet->entropy_nats(), lazy_after);
+  };
+  check([] { return MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0); });
+  check([] { return MakeExactGrowingMap(MapLimits{}, kOccupancy, 4.0); });
+  check([] { return MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0); });
+}
+
+// The traversal thread evaluates a_k ahead only while it is ahead of the updates (load
+// balancing, mapping/traversal_pipeline.h): the update must give the same bits whether a_k was
+// precomputed (PrecomputeRay) or evaluated in the update, and whether cells are addressed by
+// pointer (UpdateRay) or by the caster's linear index (UpdateRayLinear).
+TEST(OccupancyMap, PrecomputedLikelihoodsAndLinearIndicesGiveIdenticalCells) {
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  const SensorModel hokuyo(SensorModelConfig::Hokuyo());
+  const GridGeometry g = GridGeometry::Fixed(MapLimits{});
+  const int capacity = RayCells::CapacityFor(4.0, g.resolution_m());
+  ExactBayesUpdater updater_a(kOccupancy, capacity, g.resolution_m());
+  ExactBayesUpdater updater_b(kOccupancy, capacity, g.resolution_m());
+  DenseGrid grid_a(MapLimits{}, updater_a.initial_value());
+  DenseGrid grid_b(MapLimits{}, updater_b.initial_value());
+  RayCells ray_a(4.0, g.resolution_m());
+  RayCells ray_b(4.0, g.resolution_m());
+  std::vector<float*> pointers(static_cast<size_t>(capacity));
+  std::vector<int> changed(static_cast<size_t>(capacity));
+  const RayCaster caster(g);
+  std::mt19937 rng(31);
+  uint64_t written_a = 0, written_b = 0;
+  int precomputed = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const SensorModel& model = i % 3 ? xtion : hokuyo;
+    const Eigen::Vector3d o(0.2 * (i % 5), -0.1 * (i % 7), 0.7);
+    const Eigen::Vector3d u = RandomUnit(rng, 0.3);
+    const double range = std::uniform_real_distribution<double>(0.5, 4.5)(rng);
+    const Reading reading = model.Classify(range);
+    const double length = updater_a.CastLength(model, reading);
+    caster.Cast(o, u, length, &ray_a);
+    caster.CastWithLinearIndex(o, u, length, &ray_b);
+    ASSERT_TRUE(ray_b.has_linear_index);
+    if (i % 2 == 0) {
+      updater_b.PrecomputeRay(model, reading, &ray_b);
+      ASSERT_TRUE(ray_b.has_likelihood);
+      ++precomputed;
+    }
+    for (int k = 0; k < ray_a.size; ++k) pointers[k] = grid_a.Find(ray_a.cells[k]);
+    updater_a.UpdateRay(model, reading, ray_a, pointers.data(), &written_a, changed.data());
+    updater_b.UpdateRayLinear(model, reading, ray_b, grid_b.mutable_values().data(), &written_b,
+                              changed.data());
+  }
+  EXPECT_GT(precomputed, 0);
+  EXPECT_EQ(written_a, written_b);
+  int differing = 0, moved = 0;
+  for (size_t c = 0; c < grid_a.size(); ++c) {
+    differing += grid_a.values()[c] != grid_b.values()[c];
+    moved += grid_a.values()[c] != updater_a.initial_value();
+  }
+  EXPECT_EQ(differing, 0);
+  EXPECT_GT(moved, 10000);
+}
+
+// UpdateRay reports exactly the cells whose stored value changed, ascending.
+TEST(OccupancyMap, UpdateRayReportsExactlyTheChangedCells) {
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  const GridGeometry g = GridGeometry::Fixed(MapLimits{});
+  const int capacity = RayCells::CapacityFor(4.0, g.resolution_m());
+  ExactBayesUpdater exact(kOccupancy, capacity, g.resolution_m());
+  LogOddsUpdater log_odds{LogOddsConfig{}};
+  for (OccupancyUpdater* updater :
+       {static_cast<OccupancyUpdater*>(&exact), static_cast<OccupancyUpdater*>(&log_odds)}) {
+    DenseGrid grid(MapLimits{}, updater->initial_value());
+    RayCells ray(4.0, g.resolution_m());
+    std::vector<float*> pointers(static_cast<size_t>(capacity));
+    std::vector<int> changed(static_cast<size_t>(capacity));
+    std::vector<float> before(static_cast<size_t>(capacity));
+    std::mt19937 rng(8);
+    uint64_t written = 0;
+    int total_changed = 0, total_unchanged = 0;
+    for (int i = 0; i < 3000; ++i) {
+      const Eigen::Vector3d u = RandomUnit(rng, 0.3);
+      const Reading reading = xtion.Classify(std::uniform_real_distribution<double>(0.5, 4.5)(rng));
+      const int n = RayCaster(g).Cast(Eigen::Vector3d(0.0, 0.1, 0.7), u,
+                                      updater->CastLength(xtion, reading), &ray);
+      for (int k = 0; k < n; ++k) {
+        pointers[k] = grid.Find(ray.cells[k]);
+        before[k] = *pointers[k];
+      }
+      const int m =
+          updater->UpdateRay(xtion, reading, ray, pointers.data(), &written, changed.data());
+      int j = 0;
+      for (int k = 0; k < n; ++k) {
+        if (*pointers[k] != before[k]) {
+          ASSERT_LT(j, m);
+          ASSERT_EQ(changed[j], k);
+          ++j;
+          ++total_changed;
+        } else {
+          ++total_unchanged;
+        }
+      }
+      ASSERT_EQ(j, m);
+    }
+    EXPECT_GT(total_changed, 1000) << updater->name();
+    EXPECT_GT(total_unchanged, 1000) << updater->name();
+  }
+}
+
 // Inside the fixed limits the growing grid gives identical numbers for rays that stay inside:
 // a large fixed map (rays of 4 m from near its middle never leave it) and a growing map on the
 // same lattice end bit-identical cell by cell.

@@ -75,20 +75,42 @@ std::vector<OracleCell> OracleRay(const GridGeometry& g, const Eigen::Vector3d& 
   return out;
 }
 
+// Checks Cast, CastWithLinearIndex and CastLinearOnly against the oracle: the cells in order
+// (when filled), d_k, whether the ray left the bounds before L (the last chord ends before L),
+// and for a bounded lattice the linear index x + nx (y + ny z) of every cell.
 void ExpectMatchesOracle(const GridGeometry& g, const Eigen::Vector3d& o, const Eigen::Vector3d& u,
                          double L, RayCells* scratch) {
   const RayCaster caster(g);
-  const int n = caster.Cast(o, u, L, scratch);
   const std::vector<OracleCell> expected =
       g.CellOf(o) ? OracleRay(g, o, u, L) : std::vector<OracleCell>{};
-  ASSERT_EQ(n, static_cast<int>(expected.size()))
-      << "o = " << o.transpose() << " u = " << u.transpose() << " L = " << L;
-  for (int k = 0; k < n; ++k) {
-    ASSERT_EQ(scratch->cells[k], expected[k].cell)
-        << "k = " << k << " o = " << o.transpose() << " u = " << u.transpose();
-    ASSERT_NEAR(scratch->distance_m[k], 0.5 * (expected[k].t_lo + expected[k].t_hi), 1e-12);
-    if (k > 0) {
-      ASSERT_GE(scratch->distance_m[k], scratch->distance_m[k - 1]);
+  for (const int mode : {0, 1, 2}) {
+    const bool linear = mode > 0;
+    const int n = mode == 0   ? caster.Cast(o, u, L, scratch)
+                  : mode == 1 ? caster.CastWithLinearIndex(o, u, L, scratch)
+                              : caster.CastLinearOnly(o, u, L, scratch);
+    ASSERT_EQ(n, static_cast<int>(expected.size()))
+        << "o = " << o.transpose() << " u = " << u.transpose() << " L = " << L;
+    ASSERT_EQ(scratch->has_linear_index, linear && g.bounded());
+    ASSERT_EQ(scratch->has_cells, !(mode == 2 && g.bounded()));
+    if (!expected.empty()) {
+      ASSERT_EQ(scratch->left_bounds, expected.back().t_hi < L)
+          << "o = " << o.transpose() << " u = " << u.transpose() << " L = " << L;
+    }
+    for (int k = 0; k < n; ++k) {
+      if (scratch->has_cells) {
+        ASSERT_EQ(scratch->cells[k], expected[k].cell)
+            << "k = " << k << " o = " << o.transpose() << " u = " << u.transpose();
+      }
+      ASSERT_NEAR(scratch->distance_m[k], 0.5 * (expected[k].t_lo + expected[k].t_hi), 1e-12);
+      if (k > 0) {
+        ASSERT_GE(scratch->distance_m[k], scratch->distance_m[k - 1]);
+      }
+      if (scratch->has_linear_index) {
+        const CellIndex& c = expected[k].cell;
+        ASSERT_EQ(scratch->linear_index[k],
+                  int64_t{c.x} +
+                      int64_t{g.upper().x} * (int64_t{c.y} + int64_t{g.upper().y} * int64_t{c.z}));
+      }
     }
   }
 }
@@ -211,6 +233,27 @@ TEST(RayCaster, AxisAlignedRayHasKnownDistances) {
   for (int k = 0; k < n; ++k) {
     EXPECT_EQ(scratch.cells[k], (CellIndex{k, 0, 0}));
     EXPECT_DOUBLE_EQ(scratch.distance_m[k], expected[k]);
+  }
+}
+
+// One scratch cast alternately on two lattices from the same origins (the scratch remembers the
+// last origin's cell, keyed on the lattice): every ray still matches its own lattice's oracle.
+TEST(RayCaster, ScratchReusedAcrossLatticesAndOrigins) {
+  const GridGeometry a = GridGeometry::Fixed(MapLimits{});
+  MapLimits coarse;
+  coarse.resolution_m = 0.1;
+  const GridGeometry b = GridGeometry::Fixed(coarse);
+  const GridGeometry c = GridGeometry::Unbounded(Eigen::Vector3d(0.01, 0.02, 0.03), 0.075);
+  RayCells scratch(4.0, 0.075);
+  std::mt19937 rng(3);
+  for (int n = 0; n < 600; ++n) {
+    const Eigen::Vector3d o = RandomOrigin(rng, a, Eigen::Vector3d(-2.0, -2.0, 0.0),
+                                           Eigen::Vector3d(2.0, 2.0, 1.4), n % 3);
+    const Eigen::Vector3d u = RandomUnit(rng);
+    for (const GridGeometry* g : {&a, &b, &c, &a}) {
+      ExpectMatchesOracle(*g, o, u, 4.0, &scratch);
+      if (HasFatalFailure()) return;
+    }
   }
 }
 
