@@ -344,8 +344,10 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
   const std::vector<bool> allowed_leaving = AllowedCells(collision, traversable, start_xy, r);
   std::vector<bool> allowed = allowed_leaving;
   bool start_touches_occupied = false;
+  const int start_cell = plan.cell_path.front();  // the vehicle's own cell stays allowed
   for (size_t i = 0; i < allowed.size(); ++i) {
-    if (allowed[i] && !traversable[i] && collision.values[i] > kKnownOccupied) {
+    if (allowed[i] && !traversable[i] && collision.values[i] > kKnownOccupied &&
+        static_cast<int>(i) != start_cell) {
       allowed[i] = false;
       start_touches_occupied = true;
     }

@@ -23,8 +23,9 @@
 ///     (derivatives 1..k-1 zero there), round after round: a piece between two rests stays on its
 ///     straight, line-of-sight-checked segment, so the repair ends (with a start velocity of 0).
 /// Allowed cells: traversable cells of C, plus the cells the square of half-width r around the
-/// start position overlaps (the vehicle is already there), except cells known occupied (P(C) >
-/// 0.5): those are allowed only on the pieces before the start cell's centre, which is then kept
+/// start position overlaps (the vehicle is already there), except cells other than the vehicle's
+/// own that are known occupied (P(C) > 0.5): those are allowed only on the pieces before the
+/// start cell's centre, which is then kept
 /// as a waypoint, so a vehicle whose disc grazes a door frame first moves back to the middle of
 /// its cell and never cuts the corner through the frame.
 
