@@ -28,6 +28,18 @@ struct CandidateConfig {
   double d_max_epsilon{0.05};                        ///< epsilon of both policies (>= 0)
   double d_fixed_m{5.0};                             ///< d_fixed of kExperiment, m (> 0)
   double end_gain_nats{1.0};  ///< exploration ends when max I(X_c) < this, nats (>= 0)
+  /// The end test on E (two-map mode; and combined mode's check, below): exploration ends when
+  /// the best gain beyond E's P_min_E floor is below this, nats (>= 0). In a cluttered world it
+  /// may never pass: 3D cells no sensor can see (inside walls and furniture) stay at P_init and
+  /// keep some gain in their columns (lasr: 10 to 30 nats, as much as a half-seen corner), so
+  /// the explorer's progress-stall test ends such flights (ExplorerConfig::end_stall_window_s).
+  double end_entropy_gain_nats{1.0};
+  /// Combined mode's end test (Kestrel's addition): B's min rule (eq. 16) calls a collision cell
+  /// known once one of its band cells is seen free, so B can run out of gain with whole rooms
+  /// unknown above and below the band (lasr: ended at 74% known). When true, a combined plan
+  /// whose B test says "done" scores the candidates on E, and flies on with E's gains while
+  /// they pass E's end test (end_entropy_gain_nats).
+  bool end_check_entropy_map{true};
   /// Skip the vehicle's own collision cell, so that every plan moves the vehicle (a turn on the
   /// spot comes with the trajectory's yaw); the start-up scan has already looked around.
   bool exclude_vehicle_cell{true};

@@ -24,6 +24,12 @@ void ExplorerConfig::Validate() const {
   KESTREL_THROW_UNLESS(height_tolerance_m > 0 && replan_period_s > 0 && safety_check_period_s > 0 &&
                            retry_period_s > 0,
                        "explorer periods and tolerances must be > 0");
+  KESTREL_THROW_UNLESS(end_stall_window_s >= 0 && end_stall_min_growth >= 0 &&
+                           end_stall_min_growth < 1,
+                       "explorer.end_stall_window_s = " << end_stall_window_s
+                                                        << " (accepted >= 0), end_stall_min_growth = "
+                                                        << end_stall_min_growth
+                                                        << " (accepted [0, 1))");
   KESTREL_THROW_UNLESS(max_failed_plans >= 1,
                        "explorer.max_failed_plans = " << max_failed_plans << " must be >= 1");
   KESTREL_THROW_UNLESS(max_status_candidates >= 1, "explorer.max_status_candidates = "
@@ -53,6 +59,8 @@ ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
     e.Read("height_tolerance_m", &c.height_tolerance_m, Range::Positive());
     e.Read("replan_period_s", &c.replan_period_s, Range::Positive());
     e.Read("replan_min_remaining_s", &c.replan_min_remaining_s, Range::NonNegative());
+    e.Read("end_stall_window_s", &c.end_stall_window_s, Range::NonNegative());
+    e.Read("end_stall_min_growth", &c.end_stall_min_growth, Range{0.0, 1.0, true, false});
     e.Read("safety_check_period_s", &c.safety_check_period_s, Range::Positive());
     e.Read("retry_period_s", &c.retry_period_s, Range::Positive());
     e.Read("max_failed_plans", &c.max_failed_plans, Range::Closed(1, 1000));
@@ -197,6 +205,12 @@ void ExplorerNode::StartTurn() {
 void ExplorerNode::Plan(const std::string& reason) {
   const auto t0 = std::chrono::steady_clock::now();
   PlanResult result = planner_->Plan(Input());
+  if (result.status == PlanStatus::kGoal && ProgressStalled()) {
+    result.status = PlanStatus::kExplorationDone;
+    result.reason = "progress stalled: known cells grew by less than " +
+                    std::to_string(100.0 * config_.end_stall_min_growth) + "% in " +
+                    std::to_string(config_.end_stall_window_s) + " s";
+  }
   total_planning_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   last_plan_s_ = now_s();
   ++plan_seq_;
@@ -220,6 +234,25 @@ void ExplorerNode::Plan(const std::string& reason) {
   const bool returning = state_ == exploration_status_t::STATE_RETURNING;
   last_plan_ = std::move(result);
   if (returning) PlanHome("exploration ended");
+}
+
+bool ExplorerNode::ProgressStalled() {
+  if (config_.end_stall_window_s <= 0.0) return false;
+  const double t = now_s();
+  int64_t known = 0;
+  const float lo = static_cast<float>(0.5 * config_.p_init);
+  for (float p : replica_.probabilities()) known += (p < lo || p > 0.5f) ? 1 : 0;
+  known_history_.emplace_back(t, known);
+  // The latest entry at least a window old; older ones are no longer needed.
+  size_t ref = known_history_.size();
+  for (size_t i = 0; i < known_history_.size(); ++i) {
+    if (t - known_history_[i].first >= config_.end_stall_window_s) ref = i;
+  }
+  if (ref == known_history_.size()) return false;
+  known_history_.erase(known_history_.begin(),
+                       known_history_.begin() + static_cast<std::ptrdiff_t>(ref));
+  const double then = static_cast<double>(known_history_.front().second);
+  return static_cast<double>(known) - then < config_.end_stall_min_growth * then;
 }
 
 void ExplorerNode::PlanHome(const std::string& reason) {

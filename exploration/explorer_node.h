@@ -64,6 +64,13 @@ struct ExplorerConfig {
   /// vehicle turns to the goal's heading in the goal's cell, which is no candidate) would pick
   /// another goal before this one is reached, again and again.
   double replan_min_remaining_s{3.0};
+  /// Progress stall (Kestrel's addition; 0 disables): exploration also ends when the number of
+  /// known 3D cells (P < P_init / 2 or P > 0.5, ALGORITHMS.md section 10's rule on the
+  /// explorer's own map) grew by less than end_stall_min_growth of itself over this window, s.
+  /// The gain-based tests alone may never end in a cluttered world: cells no sensor can see keep
+  /// a little predicted gain that the vehicle chases round the rooms.
+  double end_stall_window_s{120.0};
+  double end_stall_min_growth{0.005}; ///< see end_stall_window_s, fraction in [0, 1)
   double safety_check_period_s{0.5};   ///< how often the remaining path is re-checked, s
   double retry_period_s{1.0};          ///< wait after a failed plan, s
   int max_failed_plans{5};             ///< consecutive failures before returning home
@@ -142,6 +149,10 @@ class ExplorerNode {
   std::optional<PlanResult> last_plan_;
   // Goals (x, y, yaw) whose trajectory ran to its end (PlannerInput::reached_goals).
   std::vector<Eigen::Vector3d> reached_goals_;
+  // (time s, known cells) at each plan while exploring: the progress-stall test.
+  std::vector<std::pair<double, int64_t>> known_history_;
+  // True when the known cells grew by less than end_stall_min_growth over the stall window.
+  bool ProgressStalled();
 };
 
 }  // namespace kestrel

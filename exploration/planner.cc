@@ -182,7 +182,7 @@ Choice EntropyPlanner::ScoreCandidates(const PlannerInput& input, const GridMap2
   if (two_map_end_test) {
     // The end test on the gain beyond E's P_min_E floor (planner.h).
     choice.exploration_done = result->candidates.empty() ||
-                              result->end_test_gain_nats < config_.candidates.end_gain_nats;
+                              result->end_test_gain_nats < config_.candidates.end_entropy_gain_nats;
   }
   return choice;
 }
@@ -204,6 +204,28 @@ PlanResult EntropyPlanner::Plan(const PlannerInput& input) {
       input, two_map ? *result.entropy : result.collision.combined, two_map, &result);
   if (!two_map) {
     result.end_test_gain_nats = choice.best_unweighted_gain_nats;
+    if (choice.exploration_done && config_.candidates.end_check_entropy_map) {
+      // B says explored; E may disagree (CandidateConfig::end_check_entropy_map).
+      PlanResult on_e;
+      on_e.collision = result.collision;
+      on_e.field = result.field;
+      try {
+        on_e.entropy = ProjectEntropyMap(input.map, config_.projection);
+      } catch (const std::invalid_argument& e) {
+        result.reason = std::string("projection: ") + e.what();
+        result.timings.total_s = SecondsSince(t0);
+        return result;
+      }
+      const Choice e_choice = ScoreCandidates(input, *on_e.entropy, true, &on_e);
+      if (!e_choice.exploration_done) {
+        result.entropy = std::move(on_e.entropy);
+        result.candidates = std::move(on_e.candidates);
+        result.end_test_gain_nats = on_e.end_test_gain_nats;
+        result.gain_stats = on_e.gain_stats;
+        result.gains_from_entropy_map = true;
+        choice = e_choice;
+      }
+    }
   }
   result.timings.gain_s = SecondsSince(t1);
   result.best_unweighted_gain_nats = choice.best_unweighted_gain_nats;
@@ -313,6 +335,15 @@ PlanResult FrontierPlanner::Plan(const PlannerInput& input) {
     result.reason = "no reachable frontier";
     result.timings.total_s = SecondsSince(t0);
     return result;
+  }
+  // Keep flying to the current goal while it is still a reachable frontier (a replan on the way
+  // would otherwise switch to whichever frontier is nearest from here, back and forth).
+  if (input.current_goal) {
+    if (const std::optional<Cell2> gc = c.CellOf(input.current_goal->head<2>())) {
+      for (size_t i = 0; i < result.candidates.size(); ++i) {
+        if (result.candidates[i].cell == c.IndexOf(*gc)) best = static_cast<int>(i);
+      }
+    }
   }
   Candidate& goal = result.candidates[static_cast<size_t>(best)];
   goal.gain_nats =  // for comparison only

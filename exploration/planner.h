@@ -96,9 +96,13 @@ struct PlanResult {
   std::vector<Candidate> candidates;       ///< every candidate with gain, distance, bump
   int chosen{-1};                          ///< index into candidates, -1 if none
   double best_unweighted_gain_nats{0.0};   ///< max I(X_c): the end-of-exploration test
-  /// What the end test compares with end_gain_nats (EntropyPlanner): the best unweighted gain in
-  /// combined mode, the best gain beyond the P_min_E floor in two-map mode, nats.
+  /// What the end test compared (EntropyPlanner): the best unweighted gain on B in combined mode
+  /// (with end_gain_nats), the best gain beyond the P_min_E floor on E in two-map mode or after
+  /// combined's check on E (with end_entropy_gain_nats), nats.
   double end_test_gain_nats{0.0};
+  /// Combined mode: B's end test said "done" and E's did not, so the candidates were scored on
+  /// E (candidates.end_check_entropy_map).
+  bool gains_from_entropy_map{false};
   TrajectoryPlan trajectory;  ///< to the chosen candidate (status kGoal)
   GainStats gain_stats;       ///< rays evaluated, rays per candidate
   PlanTimings timings;        ///< per stage
@@ -121,7 +125,8 @@ class ExplorationPlanner {
 /// 1 - P_min_E, whose entropy a measurement can still reduce, so a pose's E-gain never falls to
 /// zero (about 1 nat per ray in open known space). In two-map mode the end test therefore uses,
 /// per candidate, its gain minus the gain of the same pose on the saturated E (every cell at
-/// P_min_E or 1 - P_min_E): exploration ends when the largest such excess is below end_gain_nats.
+/// P_min_E or 1 - P_min_E): exploration ends when the largest such excess is below
+/// end_entropy_gain_nats.
 class EntropyPlanner final : public ExplorationPlanner {
  public:
   /// @throws std::invalid_argument if config is invalid or its mode is kFrontier.
@@ -143,7 +148,8 @@ class EntropyPlanner final : public ExplorationPlanner {
 };
 
 /// Yamauchi-style baseline: the nearest (by d_cell) reachable traversable collision cell, not
-/// already reached (PlannerInput::reached_goals, with candidates.skip_reached_goals), with an
+/// already reached (PlannerInput::reached_goals, with candidates.skip_reached_goals; the current
+/// goal is kept while it is still a reachable frontier), with an
 /// unknown 8-neighbour in C (not traversable and P_init/2 <= P(C) <= 0.5: not yet known free,
 /// not known occupied, after ALGORITHMS.md section 10), facing the mean direction of its unknown
 /// neighbours; done when no such cell is reachable. Its gain (on B, for the status) is computed

@@ -87,6 +87,8 @@ PlannerConfig LoadPlannerConfig(const ConfigNode& node) {
     n.Read("d_max_epsilon", &q.d_max_epsilon, Range::NonNegative());
     n.Read("d_fixed_m", &q.d_fixed_m, Range::Positive());
     n.Read("end_gain_nats", &q.end_gain_nats, Range::NonNegative());
+    n.Read("end_entropy_gain_nats", &q.end_entropy_gain_nats, Range::NonNegative());
+    n.Read("end_check_entropy_map", &q.end_check_entropy_map);
     n.Read("exclude_vehicle_cell", &q.exclude_vehicle_cell);
     n.Read("skip_reached_goals", &q.skip_reached_goals);
     n.Read("switch_margin", &q.switch_margin, Range::NonNegative());

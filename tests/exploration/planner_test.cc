@@ -104,7 +104,7 @@ TEST(Planner, TwoMapPlans) {
   const PlanResult r = planner.Plan(in);
   ASSERT_EQ(r.status, PlanStatus::kGoal) << r.reason;
   ASSERT_TRUE(r.entropy.has_value());
-  EXPECT_GT(r.end_test_gain_nats, config.candidates.end_gain_nats);  // unknown space remains
+  EXPECT_GT(r.end_test_gain_nats, config.candidates.end_entropy_gain_nats);  // unknown remains
   EXPECT_LT(r.end_test_gain_nats, r.best_unweighted_gain_nats);
   const Candidate& best = r.candidates[static_cast<size_t>(r.chosen)];
   GainEvaluator eval(config.gain);
@@ -123,7 +123,9 @@ TEST(Planner, ExploredMapEndsExploration) {
     const PlanResult r = MakePlanner(config)->Plan(InputAt(map, {-1.0, -1.0}));
     EXPECT_EQ(r.status, PlanStatus::kExplorationDone) << ModeName(mode) << " " << r.reason;
     if (mode != ExplorationMode::kFrontier) {
-      EXPECT_LT(r.end_test_gain_nats, config.candidates.end_gain_nats);
+      EXPECT_LT(r.end_test_gain_nats, mode == ExplorationMode::kTwoMap
+                                          ? config.candidates.end_entropy_gain_nats
+                                          : config.candidates.end_gain_nats);
       EXPECT_FALSE(r.candidates.empty());
       std::printf("%s: best gain %.3f nats, end-test gain %.3f nats\n", ModeName(mode),
                   r.best_unweighted_gain_nats, r.end_test_gain_nats);
@@ -196,6 +198,26 @@ TEST(Planner, ReachedGoalsAreNotChosenAgain) {
     EXPECT_EQ(again.candidates[static_cast<size_t>(again.chosen)].cell, goal.cell);
     config.candidates.skip_reached_goals = true;
   }
+}
+
+// Combined mode's check on E (candidates.end_check_entropy_map): the band is seen free
+// everywhere, so B's min rule calls every collision cell known and B's test ends exploration,
+// but a disc 1 m around the origin is unseen below 0.4 m and above 1.1 m: E still sees it, and
+// the plan flies on with E's gains. With the check off, exploration ends.
+TEST(Planner, CombinedChecksEntropyMapBeforeEnding) {
+  const RoomMap map(100.0, 1.0);
+  PlannerConfig config;
+  PlannerInput in = InputAt(map, {-1.95, -1.95});
+  const PlanResult r = EntropyPlanner(config).Plan(in);
+  ASSERT_EQ(r.status, PlanStatus::kGoal) << r.reason;
+  EXPECT_TRUE(r.gains_from_entropy_map);
+  EXPECT_GE(r.end_test_gain_nats, config.candidates.end_entropy_gain_nats);
+  EXPECT_LT(r.best_unweighted_gain_nats, 1e9);
+  config.candidates.end_check_entropy_map = false;
+  const PlanResult b_only = EntropyPlanner(config).Plan(in);
+  EXPECT_EQ(b_only.status, PlanStatus::kExplorationDone) << b_only.reason;
+  EXPECT_LT(b_only.end_test_gain_nats, config.candidates.end_gain_nats);
+  EXPECT_FALSE(b_only.gains_from_entropy_map);
 }
 
 // Section 8: after the start-up turn the top and bottom of the band near the start are unseen;
