@@ -122,14 +122,30 @@ MissionResult RunMission(const MissionConfig& mc) {
     writer.file = log.get();
     lcm.subscribe(".*", &LogWriter::Handle, &writer);
   }
+  MissionResult r;
   GuardedSubscriptions watch(lcm);
+  bool first_plan_seen = false;
+  watch.Add<exploration_status_t>(
+      explorer_config.status_channel,
+      [&](const std::string&, const exploration_status_t& m) {
+        if (first_plan_seen || m.state == exploration_status_t::STATE_STARTUP ||
+            m.state == exploration_status_t::STATE_WAITING) {
+          return;
+        }
+        first_plan_seen = true;
+        r.first_plan_chose_goal = m.chosen_index >= 0;
+      },
+      nullptr);
   if (mc.verbose) {
     watch.Add<exploration_status_t>(
         explorer_config.status_channel,
         [&](const std::string&, const exploration_status_t& m) {
-          std::fprintf(stderr, "  plan %lld state %d: %s (best gain %.1f nats, %d candidates)\n",
+          std::fprintf(stderr,
+                       "  plan %lld state %d: %s (best gain %.1f nats, %d candidates, goal %.2f "
+                       "%.2f yaw %.2f)\n",
                        static_cast<long long>(m.seq), m.state, m.reason.c_str(),
-                       m.best_unweighted_gain_nats, m.num_candidates);
+                       m.best_unweighted_gain_nats, m.num_candidates, m.goal_position_m[0],
+                       m.goal_position_m[1], m.goal_yaw_rad);
         },
         nullptr);
   }
@@ -214,7 +230,6 @@ MissionResult RunMission(const MissionConfig& mc) {
   }
 
   // --- Lockstep.
-  MissionResult r;
   const int64_t t0 = clock.NowUtime();
   const int64_t control_period_us = SecondsToUtime(1.0 / controller_config.rate_hz);
   int64_t next_control = t0;
@@ -222,6 +237,13 @@ MissionResult RunMission(const MissionConfig& mc) {
   int64_t next_sample = t0;
   bool takeoff_sent = false;
   int64_t takeoff_utime = -1, land_utime = -1;
+  int reported_collisions = 0;
+  // The collision cell of the take-off point (section 7: edge alpha_C from the map's corner).
+  const double alpha_c =
+      CollisionFactor(explorer_config.planner.projection, mapper_config.limits.resolution_m) *
+      mapper_config.limits.resolution_m;
+  const Eigen::Vector2d start_cell =
+      ((world.start_X_WB.p.head<2>() - world.map_min_m.head<2>()) / alpha_c).array().floor();
   Eigen::Vector3d last_position = world.start_X_WB.p;
   auto drain = [&] {
     while (lcm.handleTimeout(0) > 0) {
@@ -263,6 +285,16 @@ MissionResult RunMission(const MissionConfig& mc) {
     }
     const Eigen::Vector3d p = sim.simulator().vehicle().state().p_W;
     vehicle_position = p;
+    if (mc.verbose && sim.simulator().vehicle().collision_count() != reported_collisions) {
+      reported_collisions = sim.simulator().vehicle().collision_count();
+      std::fprintf(stderr, "COLLISION at t %.2f s with %s, vehicle at %.2f %.2f %.2f\n", t,
+                   sim.simulator().vehicle().last_collision().c_str(), p.x(), p.y(), p.z());
+    }
+    if (!r.left_start_collision_cell) {
+      const Eigen::Vector2d cell_now =
+          ((p.head<2>() - world.map_min_m.head<2>()) / alpha_c).array().floor();
+      r.left_start_collision_cell = cell_now != start_cell;
+    }
     r.path_length_m += (p - last_position).norm();
     last_position = p;
     if (land_utime < 0 && explorer.state() == exploration_status_t::STATE_DONE) {
@@ -305,6 +337,7 @@ MissionResult RunMission(const MissionConfig& mc) {
   r.sensor_messages_dropped = r_sensor_dropped_;
   r.poses_dropped = r_poses_dropped_;
   r.collisions = sim.simulator().vehicle().collision_count();
+  r.last_collision = sim.simulator().vehicle().last_collision();
   r.plans = static_cast<int>(explorer.plans());
   r.planning_wall_s = explorer.total_planning_s();
   r.scans_applied = mapper.scans_applied();
@@ -338,7 +371,8 @@ std::string MissionSummary(const MissionResult& r) {
     << (r.wall_time_s > 0 ? r.sim_time_s / r.wall_time_s : 0) << "x real time)\n"
     << "exploration time (take-off to land command): " << r.exploration_time_s << " s\n"
     << "landed: " << (r.landed ? "yes" : "no") << "\n"
-    << "collisions: " << r.collisions << "\n"
+    << "collisions: " << r.collisions
+    << (r.collisions > 0 ? " (last with " + r.last_collision + ")" : std::string()) << "\n"
     << "path length: " << r.path_length_m << " m\n"
     << "plans: " << r.plans << ", planning wall time " << r.planning_wall_s << " s ("
     << (r.plans > 0 ? 1000.0 * r.planning_wall_s / r.plans : 0) << " ms per plan)\n"

@@ -56,6 +56,7 @@ struct MissionResult {
   double exploration_time_s{-1};  ///< take-off to the explorer's land command (-1: never)
   bool landed{false};             ///< the controller ended in IDLE after the land command
   int collisions{0};              ///< collision episodes (obstacles and floor crashes)
+  std::string last_collision;     ///< obstacle of the latest collision ("floor": a crash)
   double path_length_m{0};        ///< flown distance (true state)
   int plans{0};
   double planning_wall_s{0};  ///< total wall time of all plans
@@ -70,6 +71,11 @@ struct MissionResult {
   int64_t sensor_messages_dropped{0};  ///< by the fault injection
   int64_t poses_dropped{0};            ///< by the motion-capture outage
   bool tracked_after_outage{false};    ///< the controller was in TRACK after the outage
+  /// The explorer's first plan after the start-up turn chose a goal (a trajectory was sent).
+  bool first_plan_chose_goal{false};
+  /// The vehicle's (x, y) left the collision cell (ALGORITHMS.md section 7, edge alpha_C from the
+  /// map's lower corner) that holds the take-off point, at some time of the flight.
+  bool left_start_collision_cell{false};
 };
 
 /// Runs a mission. @throws ConfigError / std::invalid_argument on bad configuration.

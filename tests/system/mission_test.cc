@@ -17,33 +17,33 @@ MissionConfig CiProfile() {
   return mc;
 }
 
-// Measured (seed 1): explored and landed after 260.7 s, no collision, known 0.960, accuracy
-// 0.990, Brier 0.019. A vehicle that only hovers reaches about 0.38 known (its start-up turn).
+// Measured (seed 1, 2026-11-22): 95% known at 435 s, explored and landed after 669.7 s (the
+// progress-stall end), no collision, known 0.981, accuracy 0.986, Brier 0.018. A vehicle that
+// only hovers reaches about 0.38 known (its start-up turn).
 TEST(Mission, ExploresLasrWithoutCollisionAndLands) {
   MissionConfig mc = CiProfile();
-  mc.max_time_s = 420;
+  mc.max_time_s = 900;
   const MissionResult r = RunMission(mc);
   std::printf("%s", MissionSummary(r).c_str());
   EXPECT_EQ(r.collisions, 0);
   EXPECT_TRUE(r.landed) << r.end_reason;
   EXPECT_GT(r.exploration_time_s, 0);
-  EXPECT_LT(r.exploration_time_s, 360) << "measured 260.7 s";
-  EXPECT_GE(r.quality.known_fraction, 0.90) << "measured 0.960";
-  EXPECT_GE(r.quality.accuracy, 0.97) << "measured 0.990";
-  EXPECT_LE(r.quality.brier, 0.04) << "measured 0.019";
+  EXPECT_LT(r.exploration_time_s, 800) << "measured 669.7 s";
+  EXPECT_GE(r.quality.known_fraction, 0.93) << "measured 0.981";
+  EXPECT_GE(r.quality.accuracy, 0.97) << "measured 0.986";
+  EXPECT_LE(r.quality.brier, 0.03) << "measured 0.018";
   EXPECT_GT(r.path_length_m, 20.0) << "the vehicle must actually explore";
   EXPECT_TRUE(r.mapper_applied_every_message);
 }
 
 // Faults (issue 8): 10% of the depth images and scans dropped, and motion capture lost for 1 s
 // (shorter than the land time-out) while exploring: the vehicle flies on its IMU-propagated
-// state, resumes tracking, and mapping and exploration go on. Measured (seed 1): 266 sensor
-// messages and 100 poses dropped, tracking resumed, landed after 105 s with 66.7% known,
-// accuracy 0.990 (this flight ends early: the combined map B calls a collision cell known as soon
-// as one of its 3D cells is, so the unknown south-west room scores below 1 nat).
+// state, resumes tracking, and mapping and exploration go on. Measured (seed 1, 2026-11-22): 1058
+// sensor messages and 100 poses dropped, tracking resumed, landed after 413 s with 77.9% known,
+// accuracy 0.984.
 TEST(Mission, SurvivesDroppedSensorMessagesAndAMotionCaptureOutage) {
   MissionConfig mc = CiProfile();
-  mc.max_time_s = 420;
+  mc.max_time_s = 700;
   mc.sensor_drop_fraction = 0.10;
   mc.mocap_outage_at_s = 60.0;
   mc.mocap_outage_s = 1.0;
@@ -54,7 +54,7 @@ TEST(Mission, SurvivesDroppedSensorMessagesAndAMotionCaptureOutage) {
   EXPECT_GE(r.poses_dropped, 90) << "100 Hz motion capture for 1 s";
   EXPECT_TRUE(r.tracked_after_outage);
   EXPECT_TRUE(r.landed) << r.end_reason;
-  EXPECT_GE(r.quality.known_fraction, 0.55);
+  EXPECT_GE(r.quality.known_fraction, 0.65) << "measured 0.779";
   EXPECT_GE(r.quality.accuracy, 0.97);
 }
 
@@ -72,6 +72,25 @@ TEST(Mission, SameSeedSameMap) {
   mc.seed = 2;
   EXPECT_NE(RunMission(mc).map_hash, a.map_hash);
 }
+
+// ALGORITHMS.md section 8: in every world, the first plan after the start-up turn chooses a goal
+// and the vehicle leaves the collision cell it took off from. (Before the start-up rule, nothing
+// near the start is traversable; before the block lattice, office's corridor, one collision cell
+// wide between two lattice rows, had no candidate at all.)
+class FirstPlan : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(FirstPlan, LeavesTheStartCell) {
+  MissionConfig mc = CiProfile();
+  mc.world_file = std::string("config/worlds/") + GetParam() + ".yaml";
+  mc.max_time_s = 45;  // take-off, the 17 s turn, the first plan and part of its flight
+  mc.compute_quality = false;
+  const MissionResult r = RunMission(mc);
+  EXPECT_TRUE(r.first_plan_chose_goal) << GetParam();
+  EXPECT_TRUE(r.left_start_collision_cell) << GetParam();
+  EXPECT_EQ(r.collisions, 0) << GetParam();
+}
+
+INSTANTIATE_TEST_SUITE_P(Worlds, FirstPlan, ::testing::Values("paper_sim", "lasr", "office"));
 
 }  // namespace
 }  // namespace kestrel
