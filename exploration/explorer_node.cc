@@ -368,6 +368,10 @@ void ExplorerNode::Step() {
         Log(LogLevel::kInfo, "home (" + std::to_string((pose_.p.head<2>() - home_xy_).norm()) +
                                  " m from the take-off point)");
         SendLand();
+        // The status says DONE too: processes watching EXPLORATION_STATUS (flight_check, the
+        // viewer, an operator) learn that exploration is over from it.
+        ++plan_seq_;
+        PublishStatus(PlanResult{}, "home: land sent");
       }
       break;
     default:

@@ -128,6 +128,7 @@ MissionResult RunMission(const MissionConfig& mc) {
   watch.Add<exploration_status_t>(
       explorer_config.status_channel,
       [&](const std::string&, const exploration_status_t& m) {
+        if (m.state == exploration_status_t::STATE_DONE) r.done_status_published = true;
         if (first_plan_seen || m.state == exploration_status_t::STATE_STARTUP ||
             m.state == exploration_status_t::STATE_WAITING) {
           return;

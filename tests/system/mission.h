@@ -76,6 +76,8 @@ struct MissionResult {
   /// The vehicle's (x, y) left the collision cell (ALGORITHMS.md section 7, edge alpha_C from the
   /// map's lower corner) that holds the take-off point, at some time of the flight.
   bool left_start_collision_cell{false};
+  /// An EXPLORATION_STATUS message said DONE (what processes watching the explorer rely on).
+  bool done_status_published{false};
 };
 
 /// Runs a mission. @throws ConfigError / std::invalid_argument on bad configuration.

@@ -27,6 +27,7 @@ TEST(Mission, ExploresLasrWithoutCollisionAndLands) {
   std::printf("%s", MissionSummary(r).c_str());
   EXPECT_EQ(r.collisions, 0);
   EXPECT_TRUE(r.landed) << r.end_reason;
+  EXPECT_TRUE(r.done_status_published) << "EXPLORATION_STATUS never said DONE";
   EXPECT_GT(r.exploration_time_s, 0);
   EXPECT_LT(r.exploration_time_s, 800) << "measured 669.7 s";
   EXPECT_GE(r.quality.known_fraction, 0.93) << "measured 0.981";
