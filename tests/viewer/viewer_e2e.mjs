@@ -89,10 +89,13 @@ const viewerState = (page) => page.evaluate(() => {
   const k = window.kestrelViewer;
   return { ...k, status: k.status, errors: [...k.errors] };
 });
-// Waits until the page's model reaches the oracle's map (count and sequence), or times out.
+// Waits until the page's model reaches the oracle's map (count and sequence) and its 3D view has
+// started (three.js loads after the socket connects: under load a snapshot can reach the model
+// before the view exists, and the view then draws what the model holds), or times out.
 async function waitForMap(page, name, timeoutMs) {
   try {
-    await page.waitForFunction(([n, s]) => window.kestrelViewer.voxelCount === n && window.kestrelViewer.mapSeq === s,
+    await page.waitForFunction(([n, s]) => window.kestrelViewer.voxelCount === n && window.kestrelViewer.mapSeq === s &&
+                               window.kestrelViewer.view3d !== 'starting',
                                [expected, expectedSeq], { timeout: timeoutMs, polling: 100 });
   } catch {
     const s = await viewerState(page);
@@ -149,6 +152,7 @@ try {
   const b = await waitForMap(late, 'late page', 10000);
   check(b.voxelSnapshots === 1 && b.voxelDeltas === 0,
         `late page: ${b.voxelSnapshots} snapshots and ${b.voxelDeltas} deltas, expected 1 and 0`);
+  check(b.view3d === 'ok', `late page: the 3D view did not start: ${b.view3d}`);
   check(b.renderedVoxels === b.voxelCount, `late page: ${b.renderedVoxels} voxels drawn for ${b.voxelCount}`);
   check(b.pathPoints === a.pathPoints, `late page: path ${b.pathPoints} points, early page ${a.pathPoints}`);
   await late.close();
