@@ -244,8 +244,7 @@ ScanStats OccupancyMap<Grid>::ApplyRays(int count, const Source& source, const S
     };
     // std::function over reference wrappers: no allocation.
     const TraversalPipeline::Prepare prepare_fn(std::cref(prepare));
-    pipeline_->Run(count, TraversalPipeline::Source(std::cref(source)),
-                   getenv("KP_NOPREP") ? nullptr : &prepare_fn,
+    pipeline_->Run(count, TraversalPipeline::Source(std::cref(source)), &prepare_fn,
                    TraversalPipeline::Sink(std::cref(sink)));
     return stats;
   }
