@@ -150,11 +150,15 @@ int RayCaster::CastImpl(const Eigen::Vector3d& o, const Eigen::Vector3d& u, doub
     }
     KESTREL_DEMAND(bound <= static_cast<double>(capacity));
   }
+  // The current cell's indices as plain integers (registers): CellIndex's operator[] picks a
+  // member by reference, which kept the cell in memory, and storing it whole right after a
+  // one-member update stalled store-to-load forwarding on every step.
+  int32_t cell[3] = {c.x, c.y, c.z};
   int n = 0;
   double t_in = 0.0;
   const auto store = [&](double t_out) {
     KESTREL_ASSERT(n < capacity);  // the bound above
-    if constexpr (kCells) cells[n] = c;
+    if constexpr (kCells) cells[n] = CellIndex{cell[0], cell[1], cell[2]};
     distance[n] = 0.5 * (t_in + t_out);  // ALGORITHMS.md section 2: d_k at the chord midpoint
     if constexpr (kLinear) linear_out[n] = linear;
     ++n;
@@ -165,7 +169,7 @@ int RayCaster::CastImpl(const Eigen::Vector3d& o, const Eigen::Vector3d& u, doub
   const auto step_axes = [&](double t_axis) {
     for (int a = 0; a < 3; ++a) {
       if (t_max[a] <= t_axis) {  // == t_axis (the minimum); <= needs no NaN test
-        c[a] += step[a];
+        cell[a] += step[a];
         if constexpr (kLinear) linear += linear_step[a];
         exit_index[a] += step_d[a];
         // (Boundary(a, c + exit_offset) - o) * (1/u), the same expression and value.
