@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <thread>
@@ -190,6 +191,10 @@ TEST(ViconNode, RepeatedAndLateFramesOverUdpAreIgnored) {
 }
 
 // With the host clock the stamp is the kernel's arrival time, not the (late) read time.
+// Linux turns packet time stamping on for the first SO_TIMESTAMPNS socket from a work queue, so
+// a datagram sent right after the node opened its socket can miss it and be stamped when read
+// (seen under load in CI). A warm-up datagram goes first, and the measurement gets three tries:
+// a node that stamped at read time fails all three.
 TEST(ViconNode, StampsWithKernelArrivalTimeNotReadTime) {
   lcm::LCM lcm("memq://");
   WallClock clock;
@@ -199,14 +204,24 @@ TEST(ViconNode, StampsWithKernelArrivalTimeNotReadTime) {
   subs.Add<pose_t>(
       "POSE_VICON", [&](const std::string&, const pose_t& p) { poses.push_back(p); }, nullptr);
   TestSender sender(node.bound_port());
-  const int64_t before_utime = clock.NowUtime();
   sender.Send(Good(1, 1000.0));
-  const int64_t sent_utime = clock.NowUtime();
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the node reads late
   ASSERT_TRUE(PumpUntil(node, lcm, [&] { return poses.size() == 1; }));
-  const int64_t receive_utime = poses[0].utime + 2000;  // latency_s = 0.002 was subtracted
-  EXPECT_GE(receive_utime, before_utime);
-  EXPECT_LT(receive_utime - sent_utime, 150000) << "stamped at read time, not arrival";
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  std::vector<int64_t> delays_us;
+  for (uint32_t frame = 2; frame <= 4; ++frame) {
+    const size_t seen = poses.size();
+    const int64_t before_utime = clock.NowUtime();
+    sender.Send(Good(frame, 1000.0));
+    const int64_t sent_utime = clock.NowUtime();
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the node reads late
+    ASSERT_TRUE(PumpUntil(node, lcm, [&] { return poses.size() == seen + 1; }));
+    const int64_t receive_utime = poses.back().utime + 2000;  // latency_s = 0.002 was subtracted
+    EXPECT_GE(receive_utime, before_utime);
+    delays_us.push_back(receive_utime - sent_utime);
+    if (delays_us.back() < 150000) break;
+  }
+  EXPECT_LT(*std::min_element(delays_us.begin(), delays_us.end()), 150000)
+      << "stamped at read time, not arrival, in all " << delays_us.size() << " tries";
 }
 
 TEST(ViconEmitter, RefusesNonLoopbackDestinations) {
