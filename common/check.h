@@ -31,12 +31,12 @@ namespace kestrel::internal {
 #endif
 
 /// `message` is a stream expression: KESTREL_THROW_UNLESS(x > 0, "x = " << x).
-#define KESTREL_THROW_UNLESS(condition, message)                             \
-  do {                                                                       \
-    if (!(condition)) {                                                      \
-      std::ostringstream kestrel_throw_stream_;                              \
-      kestrel_throw_stream_ << message;                                      \
-      ::kestrel::internal::ThrowUnlessFailed(#condition, __FILE__, __LINE__, \
-                                             kestrel_throw_stream_.str());   \
-    }                                                                        \
+#define KESTREL_THROW_UNLESS(condition, message)                                 \
+  do {                                                                           \
+    if (!(condition)) {                                                          \
+      std::ostringstream kestrel_throw_stream_;                                  \
+      kestrel_throw_stream_ << message; /* NOLINT(bugprone-macro-parentheses) */ \
+      ::kestrel::internal::ThrowUnlessFailed(#condition, __FILE__, __LINE__,     \
+                                             kestrel_throw_stream_.str());       \
+    }                                                                            \
   } while (0)

@@ -49,8 +49,8 @@ struct ConfigNode::Document {
   std::set<std::string> used;
 };
 
-ConfigNode::ConfigNode(std::shared_ptr<Document> doc, YAML::Node node, std::string path)
-    : doc_(std::move(doc)), node_(std::move(node)), path_(std::move(path)) {}
+ConfigNode::ConfigNode(std::shared_ptr<Document> doc, const YAML::Node& node, std::string path)
+    : doc_(std::move(doc)), node_(node), path_(std::move(path)) {}
 
 ConfigNode ConfigNode::LoadFile(const std::string& path) {
   std::ifstream in(path);
@@ -303,7 +303,8 @@ void ConfigNode::CollectUnknown(const YAML::Node& node, const std::string& path,
   if (!node.IsMap()) return;
   for (const auto& kv : node) {
     const std::string key = kv.first.as<std::string>();
-    const std::string key_path = path.empty() ? key : path + "." + key;
+    std::string key_path = key;
+    if (!path.empty()) key_path.insert(0, path + ".");
     if (doc_->used.count(key_path) == 0) {
       unknown->push_back(key_path + LineOf(kv.first));
       continue;

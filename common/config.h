@@ -118,7 +118,7 @@ class ConfigNode {
 
  private:
   struct Document;
-  ConfigNode(std::shared_ptr<Document> doc, YAML::Node node, std::string path);
+  ConfigNode(std::shared_ptr<Document> doc, const YAML::Node& node, std::string path);
   [[nodiscard]] std::string KeyPath(const std::string& key) const;
   [[nodiscard]] YAML::Node Lookup(const std::string& key) const;
   [[noreturn]] void ThrowMissing(const std::string& key) const;

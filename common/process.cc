@@ -42,10 +42,8 @@ ProcessArgs ParseProcessArgs(int argc, char** argv, const std::string& usage) {
       args.lcm_url = value("--lcm-url");
     } else if (a == "--sim-clock" || a.rfind("--sim-clock=", 0) == 0) {
       args.sim_clock_channel = value("--sim-clock");
-    } else if (a.rfind("--", 0) == 0 && a.size() > 2) {
-      args.positional.push_back(a);  // process-specific flags are the body's to check
     } else {
-      args.positional.push_back(a);
+      args.positional.push_back(a);  // process-specific flags and arguments: the body's to check
     }
   }
   return args;

@@ -18,7 +18,8 @@ trajectory_t ToMessage(const PiecewisePolynomialTrajectory& trajectory, int64_t 
   auto rows = [&](const std::vector<double>& axis) {
     std::vector<std::vector<double>> out(flat.durations_s.size());
     for (size_t s = 0; s < out.size(); ++s)
-      out[s].assign(axis.begin() + s * n, axis.begin() + (s + 1) * n);
+      out[s].assign(axis.begin() + static_cast<std::ptrdiff_t>(s * n),
+                    axis.begin() + static_cast<std::ptrdiff_t>((s + 1) * n));
     return out;
   };
   msg.coeffs_x = rows(flat.x);

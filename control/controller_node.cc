@@ -25,7 +25,7 @@ void LcmMotorOutput::Send(int64_t utime, const FlightOutput& output) {
   motor_command_t msg;
   msg.utime = utime;
   msg.seq = seq_++;
-  msg.armed = output.armed;
+  msg.armed = static_cast<int8_t>(output.armed);
   msg.num_motors = 4;
   msg.thrust_N.assign(output.rotor_thrust_N.data(), output.rotor_thrust_N.data() + 4);
   msg.total_thrust_N = output.thrust_N;
@@ -227,7 +227,8 @@ void ControllerNode::PublishStatus(int64_t utime) {
   CopyVector(last_.moment_Nm, msg.moment_Nm);
   msg.pose_age_s = std::isfinite(last_.pose_age_s) ? last_.pose_age_s : 1e9;
   msg.trajectory_seq = trajectory_seq_;
-  msg.trajectory_done = trajectory_seq_ >= 0 && UtimeToSeconds(utime) > trajectory_end_s_;
+  msg.trajectory_done =
+      static_cast<int8_t>(trajectory_seq_ >= 0 && UtimeToSeconds(utime) > trajectory_end_s_);
   lcm_.publish(config_.status_channel, &msg);
 }
 

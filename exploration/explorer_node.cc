@@ -24,12 +24,11 @@ void ExplorerConfig::Validate() const {
   KESTREL_THROW_UNLESS(height_tolerance_m > 0 && replan_period_s > 0 && safety_check_period_s > 0 &&
                            retry_period_s > 0,
                        "explorer periods and tolerances must be > 0");
-  KESTREL_THROW_UNLESS(end_stall_window_s >= 0 && end_stall_min_growth >= 0 &&
-                           end_stall_min_growth < 1,
-                       "explorer.end_stall_window_s = " << end_stall_window_s
-                                                        << " (accepted >= 0), end_stall_min_growth = "
-                                                        << end_stall_min_growth
-                                                        << " (accepted [0, 1))");
+  KESTREL_THROW_UNLESS(
+      end_stall_window_s >= 0 && end_stall_min_growth >= 0 && end_stall_min_growth < 1,
+      "explorer.end_stall_window_s = " << end_stall_window_s
+                                       << " (accepted >= 0), end_stall_min_growth = "
+                                       << end_stall_min_growth << " (accepted [0, 1))");
   KESTREL_THROW_UNLESS(max_failed_plans >= 1,
                        "explorer.max_failed_plans = " << max_failed_plans << " must be >= 1");
   KESTREL_THROW_UNLESS(max_status_candidates >= 1, "explorer.max_status_candidates = "
@@ -304,11 +303,14 @@ bool ExplorerNode::RemainingPathSafe() {
       trajectory_->Evaluate(trajectory_->start_time_s()).position_m.head<2>();
   const std::vector<bool> allowed = AllowedCells(c.collision, traversable, start_xy, r);
   // From half a second ahead (the vehicle's own disc is where it is) to the end.
-  for (double s = t + 0.5; s <= trajectory_->end_time_s(); s += 0.05) {
+  // Sample times by repeated addition (the same times as before this was a while loop).
+  double s = t + 0.5;
+  while (s <= trajectory_->end_time_s()) {
     const Eigen::Vector3d p = trajectory_->Evaluate(s).position_m;
     if (!DiscClear(c.collision, allowed, p.head<2>(), r)) {
       return false;
     }
+    s += 0.05;
   }
   return true;
 }

@@ -384,7 +384,7 @@ double GainEvaluator::EvaluateRay(const GridMap2D& map, int sensor,
   if (std::abs(sy) < 1e-15) sy = 0.0;
   const Eigen::Vector2d u = Eigen::Vector2d(cx, sy).normalized();
   const int n = CastRay2D(map, position_m, u, model.config().z_max_m, &ray_);
-  if (prior_.size() < static_cast<size_t>(n)) prior_.resize(static_cast<size_t>(2 * n));
+  if (prior_.size() < static_cast<size_t>(n)) prior_.resize(2 * static_cast<size_t>(n));
   for (int j = 0; j < n; ++j) {
     prior_[static_cast<size_t>(j)] =
         map.values[static_cast<size_t>(ray_.index[static_cast<size_t>(j)])];

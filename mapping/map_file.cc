@@ -140,7 +140,7 @@ std::string ReadVerified(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw MapFileError("map file " + path + ": cannot open");
   std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const size_t kMinSize = sizeof(kMagic) + 4 + 4 + 4 + 8 * 12 + 4 + 8 + 4;
+  const size_t kMinSize = sizeof(kMagic) + 4 + 4 + 4 + size_t{8} * 12 + 4 + 8 + 4;
   if (bytes.size() < kMinSize) {
     throw MapFileError("map file " + path + ": truncated (" + std::to_string(bytes.size()) +
                        " bytes, a map file has at least " + std::to_string(kMinSize) + ")");

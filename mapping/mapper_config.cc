@@ -54,7 +54,7 @@ std::string ResolvePath(const std::string& relative, const std::string& config_f
   if (relative.empty() || relative[0] == '/') return relative;
   const size_t slash = config_file.rfind('/');
   if (slash != std::string::npos) {
-    const std::string beside = config_file.substr(0, slash + 1) + relative;
+    std::string beside = config_file.substr(0, slash + 1) + relative;
     if (access(beside.c_str(), R_OK) == 0) return beside;
   }
   return relative;

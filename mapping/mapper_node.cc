@@ -281,7 +281,8 @@ void MapperNode::Apply(const Pending& p, const Pose3& X_WB) {
           } else {
             std::vector<float> sub;
             for (int i = 0; i < s.num_ranges; i += k) sub.push_back(s.ranges_m[i]);
-            stats = map->ApplyPlanarScan(X_WS, s.angle_min_rad, s.angle_step_rad * k, sub.data(),
+            stats = map->ApplyPlanarScan(X_WS, s.angle_min_rad,
+                                         s.angle_step_rad * static_cast<float>(k), sub.data(),
                                          static_cast<int>(sub.size()), model);
           }
         }
@@ -478,7 +479,7 @@ void MapperNode::PublishStatus() {
   msg.queue_depth = static_cast<int32_t>(queue_.size());
   msg.backlog_s = queue_.empty() ? 0.0 : UtimeToSeconds(latest_input_utime_ - queue_.front().utime);
   msg.ray_decimation = 1.0 / ray_stride_;
-  msg.applied_every_message = applied_every_message();
+  msg.applied_every_message = static_cast<int8_t>(applied_every_message());
   lcm_.publish(config_.status_channel, &msg);
 
   heartbeat_.SetState(ray_stride_ > 1 || (!queue_.empty() && msg.backlog_s > config_.max_backlog_s)

@@ -90,7 +90,7 @@ void SimNode::Publish(const SimFrame& frame) {
     msg.seq = pose_seq_++;
     msg.frame_id = "world";
     msg.child_frame_id = "kestrel";
-    msg.valid = s.valid;
+    msg.valid = static_cast<int8_t>(s.valid);
     for (int a = 0; a < 3; ++a) msg.position_m[a] = s.valid ? s.X_WB.p[a] : 0.0;
     msg.orientation_wxyz[0] = s.valid ? s.X_WB.q.w() : 1.0;
     msg.orientation_wxyz[1] = s.valid ? s.X_WB.q.x() : 0.0;
@@ -179,7 +179,7 @@ void SimNode::Publish(const SimFrame& frame) {
     msg.orientation_wxyz[2] = s.q_WB.y();
     msg.orientation_wxyz[3] = s.q_WB.z();
     for (int i = 0; i < 4; ++i) msg.rotor_thrust_N[i] = s.thrust_N[i];
-    msg.in_collision = sim.vehicle().in_collision();
+    msg.in_collision = static_cast<int8_t>(sim.vehicle().in_collision());
     msg.collision_count = sim.vehicle().collision_count();
     msg.seed = config.seed;
     msg.real_time_factor = real_time_factor_;

@@ -325,12 +325,13 @@ int WorldRayCaster::BuildBvh(std::vector<int>* ids, int begin, int end,
 
 void WorldRayCaster::WalkBvh(const Ray& ray, double max_range_m, double* best, int* hit) const {
   // Entry distance of the ray into a node's box within [0, min(best, range)], or +inf.
-  auto enter = [&](const BvhNode& n) {
+  auto enter = [&](const BvhNode& n) -> double {
     double t0 = 0.0;
     double t1 = std::min(*best, max_range_m);
     for (int a = 0; a < 3; ++a) {
       SlabBranchless(n.lo[a] - ray.o[a], n.hi[a] - ray.o[a], ray.inv[a], &t0, &t1);
     }
+    // NOLINTNEXTLINE(bugprone-narrowing-conversions): +inf, double to double (clang-tidy 14)
     return t0 <= t1 ? t0 : kInf;
   };
   const double t_root = enter(bvh_[0]);
@@ -346,7 +347,8 @@ void WorldRayCaster::WalkBvh(const Ray& ray, double max_range_m, double* best, i
     const BvhNode& n = bvh_[static_cast<size_t>(stack[top])];
     if (n.count > 0) {
       for (int k = 0; k < n.count; ++k) {
-        TestPrimitive(bvh_items_[static_cast<size_t>(n.first + k)], ray, best, hit);
+        TestPrimitive(bvh_items_[static_cast<size_t>(n.first) + static_cast<size_t>(k)], ray, best,
+                      hit);
       }
       continue;
     }

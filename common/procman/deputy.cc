@@ -100,7 +100,7 @@ void Deputy::Order(int8_t action, bool is_group, const std::string& target) {
   order.source = config_.host;
   order.host = "";
   order.action = action;
-  order.is_group = is_group;
+  order.is_group = static_cast<int8_t>(is_group);
   order.target = target;
   procman_order_t local = order;
   local.source = "";
@@ -344,7 +344,7 @@ void Deputy::PublishStatus() {
     c.id = id;
     c.group = s.command->group;
     c.exec = s.command->exec;
-    c.desired_running = s.desired_running;
+    c.desired_running = static_cast<int8_t>(s.desired_running);
     c.state = s.state;
     c.pid = s.pid;
     c.exit_code = s.exit_code;

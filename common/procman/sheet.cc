@@ -110,12 +110,12 @@ class Parser {
   }
   const Token& Peek() const { return t_[i_]; }
   Token Next() {
-    const Token t = t_[i_];
+    Token t = t_[i_];
     if (t.kind != Token::Kind::kEnd) ++i_;
     return t;
   }
   Token Expect(Token::Kind kind, const std::string& what) {
-    const Token t = Next();
+    Token t = Next();
     if (t.kind != kind)
       Fail(t, "expected " + what + (t.text.empty() ? "" : ", found '" + t.text + "'"));
     return t;

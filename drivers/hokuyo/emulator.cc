@@ -42,7 +42,7 @@ std::string TimestampLine(uint32_t timestamp_ms) {
 }  // namespace
 
 void SyntheticRoomRanges(const HokuyoModel& model, std::vector<uint32_t>* ranges_mm) {
-  ranges_mm->assign(static_cast<size_t>(model.amax + 1), 0);
+  ranges_mm->assign(static_cast<size_t>(model.amax) + 1, 0);
   const unsigned no_object = NoObjectCode(model.name);
   for (int s = 0; s <= model.amax; ++s) {
     const double angle = model.StepAngleRad(s);
@@ -240,7 +240,7 @@ std::string HokuyoEmulator::MakeScanReply(const std::string& echo, const std::st
   } else {
     SyntheticRoomRanges(m, &all);
   }
-  all.resize(static_cast<size_t>(m.amax + 1), NoObjectCode(m.name));
+  all.resize(static_cast<size_t>(m.amax) + 1, NoObjectCode(m.name));
   const int chars = scip::CharsPerRange(command);
   const bool intensity = scip::HasIntensity(command);
   const uint32_t max_value = (1u << (6 * chars)) - 1;
@@ -311,6 +311,7 @@ void HokuyoEmulator::HandleLine(const std::string& line, int64_t now_utime) {
     return;
   }
   const std::string cmd = text.substr(0, std::min<size_t>(2, text.size()));
+  // NOLINTNEXTLINE(bugprone-branch-clone): the same status as an unknown command, another reason
   if (text == "SCIP2.0") {
     Send(StatusReply(line, "0E"));  // already in SCIP 2.0
   } else if (text == "VV") {

@@ -153,8 +153,9 @@ ViconPacketError ParseViconDatagram(const uint8_t* data, size_t size,
     }
     const uint8_t* values = name_bytes + kViconNameBytes;
     for (int j = 0; j < 3; ++j) {
-      object.translation_mm[j] = ReadF64(values + 8 * j);
-      object.rotation_rad[j] = ReadF64(values + 24 + 8 * j);
+      const size_t value_offset = 8 * static_cast<size_t>(j);
+      object.translation_mm[j] = ReadF64(values + value_offset);
+      object.rotation_rad[j] = ReadF64(values + 24 + value_offset);
     }
     if (!object.translation_mm.allFinite() || !object.rotation_rad.allFinite()) {
       return Fail(ViconPacketError::kNonFinite, reason,

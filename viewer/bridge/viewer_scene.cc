@@ -267,8 +267,8 @@ std::string ViewerScene::ExplorationJson() const {
   out += ",\"best_gain\":";
   AppendNumber(&out, m.best_unweighted_gain_nats);
   // The chosen candidate is kept first in the list sent, then the best objectives.
-  std::vector<int> order;
-  for (int i = 0; i < static_cast<int>(m.candidates.size()); ++i) order.push_back(i);
+  std::vector<int> order(m.candidates.size());
+  for (int i = 0; i < static_cast<int>(order.size()); ++i) order[static_cast<size_t>(i)] = i;
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
     if ((a == m.chosen_index) != (b == m.chosen_index)) return a == m.chosen_index;
     return m.candidates[static_cast<size_t>(a)].objective >

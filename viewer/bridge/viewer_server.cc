@@ -73,7 +73,7 @@ struct ViewerServer::Impl {
   Counters counters;
   bool stopped{false};
 
-  void OnHttp(Handle hdl) {
+  void OnHttp(const Handle& hdl) {
     websocketpp::lib::error_code ec;
     const WsServer::connection_ptr con = server.get_con_from_hdl(hdl, ec);
     if (ec) return;
@@ -94,7 +94,7 @@ struct ViewerServer::Impl {
     con->set_body(body);
   }
 
-  bool OnValidate(Handle) {
+  bool OnValidate(const Handle& /*hdl*/) {
     if (static_cast<int>(clients.size()) >= options.max_clients) {
       ++counters.refused;
       return false;
@@ -102,15 +102,15 @@ struct ViewerServer::Impl {
     return true;
   }
 
-  void OnOpen(Handle hdl) {
+  void OnOpen(const Handle& hdl) {
     ++counters.connections;
     clients[hdl] = Client{};
   }
 
-  void OnGone(Handle hdl) { clients.erase(hdl); }
+  void OnGone(const Handle& hdl) { clients.erase(hdl); }
 
   // Sends one frame; false if the page is gone (it is then forgotten by the close handler).
-  bool Send(Handle hdl, const ViewerFrame& frame) {
+  bool Send(const Handle& hdl, const ViewerFrame& frame) {
     websocketpp::lib::error_code ec;
     server.send(
         hdl, frame.bytes,
@@ -130,13 +130,13 @@ ViewerServer::ViewerServer(const Options& options) : impl_(std::make_unique<Impl
   s.server.init_asio(ec);
   if (ec) throw std::runtime_error("viewer server: " + ec.message());
   s.server.set_reuse_addr(true);
-  s.server.set_max_message_size(64 * 1024);  // pages send nothing of interest
-  s.server.set_http_handler([this](Handle h) { impl_->OnHttp(h); });
-  s.server.set_validate_handler([this](Handle h) { return impl_->OnValidate(h); });
-  s.server.set_open_handler([this](Handle h) { impl_->OnOpen(h); });
-  s.server.set_close_handler([this](Handle h) { impl_->OnGone(h); });
-  s.server.set_fail_handler([this](Handle h) { impl_->OnGone(h); });
-  s.server.set_message_handler([](Handle, WsServer::message_ptr) {});
+  s.server.set_max_message_size(size_t{64} * 1024);  // pages send nothing of interest
+  s.server.set_http_handler([this](const Handle& h) { impl_->OnHttp(h); });
+  s.server.set_validate_handler([this](const Handle& h) { return impl_->OnValidate(h); });
+  s.server.set_open_handler([this](const Handle& h) { impl_->OnOpen(h); });
+  s.server.set_close_handler([this](const Handle& h) { impl_->OnGone(h); });
+  s.server.set_fail_handler([this](const Handle& h) { impl_->OnGone(h); });
+  s.server.set_message_handler([](const Handle& /*hdl*/, const WsServer::message_ptr& /*msg*/) {});
   const asio::ip::address address = asio::ip::make_address(
       options.host == "localhost" ? std::string("127.0.0.1") : options.host, ec);
   if (ec) throw std::runtime_error("viewer server: bad host '" + options.host + "'");
@@ -149,7 +149,13 @@ ViewerServer::ViewerServer(const Options& options) : impl_(std::make_unique<Impl
   if (ec) throw std::runtime_error("viewer server: cannot accept: " + ec.message());
 }
 
-ViewerServer::~ViewerServer() { Stop(); }
+ViewerServer::~ViewerServer() {
+  try {
+    Stop();
+  } catch (const std::exception& e) {  // a destructor must not throw: say it and go on
+    Log(LogLevel::kWarning, std::string("viewer server: stopping: ") + e.what());
+  }
+}
 
 int ViewerServer::port() const {
   websocketpp::lib::error_code ec;

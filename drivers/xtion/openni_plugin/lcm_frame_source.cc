@@ -78,7 +78,8 @@ void LcmFrameSource::Run(const std::string& url, const std::string& channel) {
       channel,
       [this, &drop](const std::string&, const depth_image_t& m) {
         const int64_t pixels = int64_t{m.width} * m.height;
-        if (m.width <= 0 || m.height <= 0 || pixels > 4096 * 4096 || !(m.depth_scale_m > 0.0)) {
+        if (m.width <= 0 || m.height <= 0 || pixels > int64_t{4096} * 4096 ||
+            !(m.depth_scale_m > 0.0)) {
           drop("bad size or scale");
           return;
         }
