@@ -303,8 +303,7 @@ void ConfigNode::CollectUnknown(const YAML::Node& node, const std::string& path,
   if (!node.IsMap()) return;
   for (const auto& kv : node) {
     const std::string key = kv.first.as<std::string>();
-    std::string key_path = key;
-    if (!path.empty()) key_path.insert(0, path + ".");
+    const std::string key_path = path.empty() ? key : path + "." + key;
     if (doc_->used.count(key_path) == 0) {
       unknown->push_back(key_path + LineOf(kv.first));
       continue;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <numeric>
 
 #include "common/check.h"
 #include "common/trajectory_message.h"
@@ -268,7 +269,7 @@ std::string ViewerScene::ExplorationJson() const {
   AppendNumber(&out, m.best_unweighted_gain_nats);
   // The chosen candidate is kept first in the list sent, then the best objectives.
   std::vector<int> order(m.candidates.size());
-  for (int i = 0; i < static_cast<int>(order.size()); ++i) order[static_cast<size_t>(i)] = i;
+  std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
     if ((a == m.chosen_index) != (b == m.chosen_index)) return a == m.chosen_index;
     return m.candidates[static_cast<size_t>(a)].objective >

@@ -234,12 +234,7 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
     std::string error;
     auto malformed = [&]() {
       ++summary.malformed;
-      if (malformed_by_channel[channel]++ == 0) {
-        std::string what = channel;
-        what += ": malformed message: ";
-        what += error;
-        warn(what);
-      }
+      if (malformed_by_channel[channel]++ == 0) warn(channel + ": malformed message: " + error);
     };
     if (channel == config.map_channel) {
       map3d_chunk_t chunk;

@@ -54,9 +54,7 @@ RawFrameFolder::RawFrameFolder(const std::string& dir) {
   }
   std::sort(names.begin(), names.end());
   for (const auto& name : names) {
-    std::string path = dir;
-    path += '/';
-    path += name;
+    const std::string path = dir + "/" + name;
     struct stat st {};
     if (stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) continue;
     std::ifstream in(path, std::ios::binary);
