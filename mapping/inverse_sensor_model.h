@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "common/check.h"
+#include "mapping/lanes.h"
 #include "mapping/sensor_model.h"
 
 namespace kestrel {
@@ -46,6 +47,16 @@ class InverseSensorModelScratch {
   std::vector<double> c_term_;  // C_k = S_(k-1) + Pbar_(k-1) a_k (ExactUpdate::Apply)
   std::vector<double> prior_;   // P_k as read in the forward pass
   uint64_t cell_visits_{0};
+};
+
+/// One lane of a RayBatch's arrays (ray_caster.h) seen as a ray's own array: element k is
+/// data[k * lanes::kLanes]. A null view stands for "not filled" (as a null pointer does).
+struct LaneView {
+  const double* data{nullptr};  ///< the lane's first element
+  /// Element k of the lane.
+  double operator[](int k) const { return data[static_cast<ptrdiff_t>(k) * lanes::kLanes]; }
+  /// Whether the view holds values.
+  explicit operator bool() const { return data != nullptr; }
 };
 
 /// The cells a call wrote: posterior[first .. first + count), and p(z).
@@ -75,12 +86,13 @@ struct ExactUpdate {
   /// order) and each posterior handed to write(k, P'_k) (in order), so that a map can read and
   /// write its cells in place without staging arrays. `likelihood`, if not null, holds a_k for
   /// the cells used (as ForwardLikelihoods computes them, e.g. on another thread).
+  /// `distance_m` and `likelihood` are indexed with [k]: pointers, or LaneViews into a RayBatch.
   /// @throws std::invalid_argument on a kInvalid reading or n out of range.
-  template <class PriorAt, class Write>
+  template <class Distance, class PriorAt, class Write, class Likelihood = const double*>
   static ExactUpdateResult Apply(const SensorModel& model, const Reading& reading,
-                                 const double* distance_m, int n, PriorAt&& prior_at, Write&& write,
-                                 InverseSensorModelScratch* scratch,
-                                 const double* likelihood = nullptr);
+                                 const Distance& distance_m, int n, PriorAt&& prior_at,
+                                 Write&& write, InverseSensorModelScratch* scratch,
+                                 Likelihood likelihood = nullptr);
 
   /// The cells a reading uses (the shortcut's cut for a return, all for "no return"), and their
   /// a_k written to likelihood[0 .. returned count). Reads no map.
@@ -103,11 +115,11 @@ inline ExactUpdateResult ComputeExactPosteriors(const SensorModel& model, const 
 // ---------------------------------------------------------------------------------------------
 // Implementation.
 
-template <class PriorAt, class Write>
+template <class Distance, class PriorAt, class Write, class Likelihood>
 ExactUpdateResult ExactUpdate::Apply(const SensorModel& model, const Reading& reading,
-                                     const double* distance_m, int n, PriorAt&& prior_at,
+                                     const Distance& distance_m, int n, PriorAt&& prior_at,
                                      Write&& write, InverseSensorModelScratch* scratch,
-                                     const double* likelihood) {
+                                     Likelihood likelihood) {
   // Eqs. (2)-(3) rewritten: P_k S_(k-1) + pi_k a_k = P_k (S_(k-1) + Pbar_(k-1) a_k) = P_k C_k,
   // so P'_k = eta P_k C_k with C_k = S_(k-1) + Pbar_(k-1) a_k (a sum of non-negative terms, no
   // cancellation). Over a leading run of cells whose a_k is the same constant A (for a return:
@@ -154,11 +166,11 @@ ExactUpdateResult ExactUpdate::Apply(const SensorModel& model, const Reading& re
         pbar_run *= 1.0 - p;
       }
     };
-    if (likelihood != nullptr) {
+    if (likelihood) {
       window([likelihood](int k) { return likelihood[k]; });
     } else {
       const ReturnLikelihoodEvaluator a_k = model.ReturnEvaluator();
-      window([&a_k, z, distance_m](int k) { return a_k(z, distance_m[k]); });
+      window([&a_k, z, &distance_m](int k) { return a_k(z, distance_m[k]); });
     }
     tail_a = model.spurious_density();  // eq. (4), completed tail: p_rand u prod Pbar
   } else {
@@ -166,8 +178,7 @@ ExactUpdateResult ExactUpdate::Apply(const SensorModel& model, const Reading& re
       const double p = prior_at(k);
       KESTREL_ASSERT(p >= 0.0 && p <= 1.0);
       prior[k] = p;
-      const double a =
-          likelihood != nullptr ? likelihood[k] : model.NoReturnProbability(distance_m[k]);
+      const double a = likelihood ? likelihood[k] : model.NoReturnProbability(distance_m[k]);
       const double pbar_a = pbar_run * a;  // Pbar_(k-1) a_k
       c_term[k] = s + pbar_a;              // C_k
       s += p * pbar_a;                     // S_k

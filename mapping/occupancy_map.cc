@@ -16,30 +16,16 @@ OccupancyMap<Grid>::OccupancyMap(Grid grid, std::unique_ptr<OccupancyUpdater> up
     : grid_(std::move(grid)),
       updater_(std::move(updater)),
       caster_(grid_.geometry()),
-      ray_(max_range_m, grid_.geometry().resolution_m()) {
+      ray_(max_range_m, grid_.geometry().resolution_m()),
+      batch_(max_range_m, grid_.geometry().resolution_m()) {
   KESTREL_THROW_UNLESS(updater_ != nullptr, "OccupancyMap: updater must not be null");
   cell_pointers_.resize(ray_.cells.size());
   changed_.resize(ray_.cells.size());
   if constexpr (std::is_same_v<Grid, GrowingGrid>) {
     accessor_ = std::make_unique<GrowingGrid::Accessor>(&grid_);
     cell_block_.resize(ray_.cells.size());
-  } else {
-    const CellIndex& d = grid_.dims();
-    entropy_blocks_ = {(d.x + 7) / 8, (d.y + 7) / 8, (d.z + 7) / 8};
-    // floor(n / v) = (n m) >> s for all n < 2^31 with l = ceil(log2 v), s = 31 + l,
-    // m = ceil(2^s / v) (Granlund & Montgomery 1994): m < 2^32, so n m < 2^63.
-    const auto divider = [](int32_t v) {
-      Divider out;
-      int l = 0;
-      while ((int64_t{1} << l) < v) ++l;
-      out.shift = 31 + l;
-      out.multiplier =
-          ((uint64_t{1} << out.shift) + static_cast<uint64_t>(v) - 1) / static_cast<uint64_t>(v);
-      return out;
-    };
-    divide_nx_ = divider(d.x);
-    divide_ny_ = divider(d.y);
   }
+  SetRayBatches(lanes::BestIsa() == lanes::Isa::kAvx512);
   ResetEntropy();
 }
 
@@ -58,8 +44,7 @@ void OccupancyMap<Grid>::SyncBlocks() {
   if constexpr (std::is_same_v<Grid, GrowingGrid>) {
     count = grid_.block_count();
   } else {
-    count = static_cast<size_t>(entropy_blocks_.x) * static_cast<size_t>(entropy_blocks_.y) *
-            static_cast<size_t>(entropy_blocks_.z);
+    count = (grid_.size() + (size_t{1} << kDenseBlockShift) - 1) >> kDenseBlockShift;
   }
   const size_t old = block_entropy_.size();
   if (count == old) return;
@@ -81,19 +66,10 @@ uint32_t OccupancyMap<Grid>::EntropyBlockOf(const RayCells& ray, int k) const {
     (void)ray;
     return cell_block_[static_cast<size_t>(k)];
   } else {
-    CellIndex c;
-    if (ray.has_cells) {
-      c = ray.cells[static_cast<size_t>(k)];
-    } else {  // CastLinearOnly: x + nx (y + ny z) back to (x, y, z)
-      const uint32_t linear = static_cast<uint32_t>(ray.linear_index[static_cast<size_t>(k)]);
-      const uint32_t yz = divide_nx_.Divide(linear);
-      const uint32_t z = divide_ny_.Divide(yz);
-      c.x = static_cast<int32_t>(linear - yz * static_cast<uint32_t>(grid_.dims().x));
-      c.y = static_cast<int32_t>(yz - z * static_cast<uint32_t>(grid_.dims().y));
-      c.z = static_cast<int32_t>(z);
-    }
-    return static_cast<uint32_t>((c.x >> 3) +
-                                 entropy_blocks_.x * ((c.y >> 3) + entropy_blocks_.y * (c.z >> 3)));
+    const size_t i = static_cast<size_t>(k);
+    return DenseBlockOf(ray.has_linear_index
+                            ? int64_t{ray.linear_index[i]}
+                            : static_cast<int64_t>(grid_.LinearIndexOf(ray.cells[i])));
   }
 }
 
@@ -113,20 +89,10 @@ double OccupancyMap<Grid>::BlockEntropy(uint32_t b) const {
   if constexpr (std::is_same_v<Grid, GrowingGrid>) {
     for (float v : grid_.block(b).values) h += cached_entropy(v);
   } else {
-    const CellIndex& d = grid_.dims();
-    const int bx = static_cast<int>(b % static_cast<uint32_t>(entropy_blocks_.x));
-    const int rest = static_cast<int>(b / static_cast<uint32_t>(entropy_blocks_.x));
-    const int by = rest % entropy_blocks_.y;
-    const int bz = rest / entropy_blocks_.y;
-    const int x1 = std::min(d.x, 8 * bx + 8), y1 = std::min(d.y, 8 * by + 8);
-    const int z1 = std::min(d.z, 8 * bz + 8);
-    for (int z = 8 * bz; z < z1; ++z) {
-      for (int y = 8 * by; y < y1; ++y) {
-        for (int x = 8 * bx; x < x1; ++x) {
-          h += cached_entropy(grid_.Get(CellIndex{x, y, z}));
-        }
-      }
-    }
+    const std::vector<float>& values = grid_.values();
+    const size_t begin = size_t{b} << kDenseBlockShift;
+    const size_t end = std::min(values.size(), begin + (size_t{1} << kDenseBlockShift));
+    for (size_t i = begin; i < end; ++i) h += cached_entropy(values[i]);
   }
   return h;
 }
@@ -226,6 +192,14 @@ void OccupancyMap<Grid>::SetTraversalThread(bool enabled) {
 }
 
 template <class Grid>
+void OccupancyMap<Grid>::SetRayBatches(bool enabled, lanes::Isa isa) {
+  KESTREL_THROW_UNLESS(lanes::CpuSupports(isa),
+                       "SetRayBatches: this CPU does not run " << lanes::IsaName(isa) << " code");
+  batch_isa_.reset();
+  if (enabled) batch_isa_ = isa;
+}
+
+template <class Grid>
 template <class Source>
 ScanStats OccupancyMap<Grid>::ApplyRays(int count, const Source& source, const SensorModel& model) {
   KESTREL_THROW_UNLESS(model.config().z_max_m <= ray_.max_length_m,
@@ -248,6 +222,12 @@ ScanStats OccupancyMap<Grid>::ApplyRays(int count, const Source& source, const S
                    TraversalPipeline::Sink(std::cref(sink)));
     return stats;
   }
+  if constexpr (!std::is_same_v<Grid, GrowingGrid>) {
+    if (batch_isa_ && caster_.LinearIndexable()) {
+      ApplyRayBatches(count, source, model, &stats);
+      return stats;
+    }
+  }
   TraversalPipeline::RaySpec spec;
   for (int i = 0; i < count; ++i) {
     source(i, &spec);
@@ -257,6 +237,43 @@ ScanStats OccupancyMap<Grid>::ApplyRays(int count, const Source& source, const S
     ApplyCastRay(spec.reading, ray_, model, &stats);
   }
   return stats;
+}
+
+template <class Grid>
+template <class Source>
+void OccupancyMap<Grid>::ApplyRayBatches(int count, const Source& source, const SensorModel& model,
+                                         ScanStats* stats) {
+  float* const values = DenseValues();
+  TraversalPipeline::RaySpec spec;
+  RaySegment segments[lanes::kLanes];
+  Reading readings[lanes::kLanes];
+  int i = 0;
+  while (i < count) {
+    // The next eight readings that carry information (invalid ones are counted, not cast).
+    int lanes_used = 0;
+    for (; i < count && lanes_used < lanes::kLanes; ++i) {
+      source(i, &spec);
+      if (spec.reading.kind == ReadingKind::kInvalid) {
+        ++stats->rays_invalid;
+        continue;
+      }
+      segments[lanes_used] = RaySegment{spec.origin_W, spec.direction_W, spec.length_m};
+      readings[lanes_used] = spec.reading;
+      ++lanes_used;
+    }
+    caster_.CastBatch(segments, lanes_used, &batch_, *batch_isa_);
+    // The rays one after the other, in order: each sees its predecessors' posteriors.
+    const int32_t* const linear = batch_.linear_index.data();
+    for (int l = 0; l < lanes_used; ++l) {
+      const int changed = updater_->UpdateBatchLane(model, readings[l], batch_, l, values,
+                                                    &stats->cells_updated, changed_.data());
+      for (int c = 0; c < changed; ++c) {
+        MarkDirty(DenseBlockOf(linear[RayBatch::At(changed_[static_cast<size_t>(c)], l)]));
+      }
+      ++stats->rays_applied;
+      if (readings[l].kind == ReadingKind::kNoReturn) ++stats->rays_no_return;
+    }
+  }
 }
 
 template <class Grid>

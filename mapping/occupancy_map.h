@@ -3,8 +3,9 @@
 /// A 3D occupancy map that applies whole scans ray by ray (ALGORITHMS.md sections 1-5): a grid
 /// (DenseGrid with the paper's fixed limits, or GrowingGrid), a ray caster over its lattice, and
 /// an OccupancyUpdater (Kestrel's exact model or the log-odds baseline). The map entropy
-/// H(map) = sum_i H(P(m_i)) (eqs. 5-6) is kept per block of 8^3 cells (the GrowingGrid's blocks;
-/// 8^3 sub-boxes of a DenseGrid): a ray marks the blocks of the cells it changed, and a query
+/// H(map) = sum_i H(P(m_i)) (eqs. 5-6) is kept per block of 512 cells (the GrowingGrid's 8^3
+/// blocks; runs of 512 consecutive cells of a DenseGrid's array, so a cell's block is its linear
+/// index / 512): a ray marks the blocks of the cells it changed, and a query
 /// recomputes the marked blocks' sums and adds all block sums in block order. The result is a
 /// function of the cell values only (not of when it is queried), costs no logarithm per cell
 /// update, and is O(changed blocks x 512 + blocks) per query; for a GrowingGrid it sums the
@@ -14,10 +15,17 @@
 /// inner), scans in ascending angle, one ray fully applied before the next. No allocation per
 /// ray (the scratch is sized at construction from max_range_m); a GrowingGrid allocates a block
 /// the first time a ray touches it.
+///
+/// Batches (DenseGrid, no traversal thread): ApplyDepthImage and ApplyPlanarScan cast eight rays
+/// at once in vector registers (RayCaster::CastBatch) and evaluate their forward models together
+/// (OccupancyUpdater::PrecomputeBatch), then update the eight rays one after the other, in
+/// order. Neither step reads the map, so the map is the one ray-by-ray updates give, bit for
+/// bit (tests/mapping/occupancy_map_test.cc).
 
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "common/se3.h"
@@ -128,12 +136,26 @@ class OccupancyMap {
   /// Whether a traversal thread is in use.
   [[nodiscard]] bool traversal_thread() const { return pipeline_ != nullptr; }
 
+  /// Casts the rays of ApplyDepthImage and ApplyPlanarScan eight at a time, compiled for `isa`
+  /// (file comment; DenseGrid without a traversal thread only): same map bit for bit. Default:
+  /// on where the CPU has AVX-512 (lanes::BestIsa), where it is faster than one ray at a time
+  /// (measured: bench/mapping); narrower vectors are slower, so elsewhere off.
+  /// @throws std::invalid_argument if the CPU does not run `isa`.
+  void SetRayBatches(bool enabled, lanes::Isa isa = lanes::BestIsa());
+  /// Whether rays are cast in batches (SetRayBatches).
+  [[nodiscard]] bool ray_batches() const { return batch_isa_.has_value(); }
+
  private:
   float* CellPointer(const CellIndex& c);
   // DenseGrid: the first cell value (nullptr for a GrowingGrid).
   float* DenseValues();
   // Entropy block of the k-th cell of the ray last passed to ApplyCastRay.
   uint32_t EntropyBlockOf(const RayCells& ray, int k) const;
+  // DenseGrid: entropy block of the cell with linear index `linear` (file comment).
+  static uint32_t DenseBlockOf(int64_t linear) {
+    return static_cast<uint32_t>(linear >> kDenseBlockShift);
+  }
+  static constexpr int kDenseBlockShift = 9;  // 512 cells per DenseGrid entropy block
   // Sum of H over the cells of entropy block b.
   double BlockEntropy(uint32_t b) const;
   // Marks block b for recomputation.
@@ -148,30 +170,24 @@ class OccupancyMap {
   // Updates the cells of an already cast ray; adds to *stats.
   void ApplyCastRay(const Reading& reading, const RayCells& ray, const SensorModel& model,
                     ScanStats* stats);
-  // Applies rays 0..count-1 described by source(i, &spec), pipelined or not (defined and used
-  // in occupancy_map.cc only).
+  // Applies rays 0..count-1 described by source(i, &spec), pipelined, batched or one by one
+  // (defined and used in occupancy_map.cc only).
   template <class Source>
   ScanStats ApplyRays(int count, const Source& source, const SensorModel& model);
+  // ApplyRays in batches of eight (file comment).
+  template <class Source>
+  void ApplyRayBatches(int count, const Source& source, const SensorModel& model, ScanStats* stats);
 
   Grid grid_;
   std::unique_ptr<OccupancyUpdater> updater_;
   RayCaster caster_;
   RayCells ray_;
+  RayBatch batch_;
+  std::optional<lanes::Isa> batch_isa_;  // batches on, compiled for this instruction set
   std::vector<float*> cell_pointers_;
   std::vector<int> changed_;          // indices k of the cells the last ray changed
   std::vector<uint32_t> cell_block_;  // GrowingGrid: block index of each cell of the ray
   // Lazy entropy (file comment): per-block sums, dirty flags and list, cached total.
-  CellIndex entropy_blocks_;  // DenseGrid: 8^3 blocks per axis
-  // DenseGrid: exact division of a 31-bit linear index by nx and ny (multiply and shift,
-  // Granlund-Montgomery), to find a changed cell's block when the ray carries no CellIndex.
-  struct Divider {
-    uint64_t multiplier{1};
-    int shift{0};
-    [[nodiscard]] uint32_t Divide(uint32_t n) const {
-      return static_cast<uint32_t>((uint64_t{n} * multiplier) >> shift);
-    }
-  };
-  Divider divide_nx_, divide_ny_;
   mutable std::vector<double> block_entropy_;
   mutable std::vector<uint8_t> block_dirty_;
   mutable std::vector<uint32_t> dirty_blocks_;

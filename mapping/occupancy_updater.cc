@@ -36,7 +36,9 @@ int ExactBayesUpdater::UpdateRay(const SensorModel& model, const Reading& readin
                                  const RayCells& ray, float* const* cells, uint64_t* cells_written,
                                  int* changed) {
   return Update(
-      model, reading, ray, [cells](int k) -> float& { return *cells[k]; }, cells_written, changed);
+      model, reading, ray.distance_m.data(), ray.size,
+      ray.has_likelihood ? ray.likelihood.data() : nullptr,
+      [cells](int k) -> float& { return *cells[k]; }, cells_written, changed);
 }
 
 int ExactBayesUpdater::UpdateRayLinear(const SensorModel& model, const Reading& reading,
@@ -45,19 +47,32 @@ int ExactBayesUpdater::UpdateRayLinear(const SensorModel& model, const Reading& 
   KESTREL_DEMAND(ray.has_linear_index);
   const int32_t* const linear = ray.linear_index.data();
   return Update(
-      model, reading, ray, [base, linear](int k) -> float& { return base[linear[k]]; },
+      model, reading, ray.distance_m.data(), ray.size,
+      ray.has_likelihood ? ray.likelihood.data() : nullptr,
+      [base, linear](int k) -> float& { return base[linear[k]]; }, cells_written, changed);
+}
+
+int ExactBayesUpdater::UpdateBatchLane(const SensorModel& model, const Reading& reading,
+                                       const RayBatch& batch, int lane, float* base,
+                                       uint64_t* cells_written, int* changed) {
+  const int32_t* const linear = batch.linear_index.data() + lane;
+  return Update(
+      model, reading, LaneView{batch.distance_m.data() + lane}, batch.size[lane], LaneView{},
+      [base, linear](int k) -> float& {
+        return base[linear[static_cast<ptrdiff_t>(k) * lanes::kLanes]];
+      },
       cells_written, changed);
 }
 
-template <class CellAt>
-int ExactBayesUpdater::Update(const SensorModel& model, const Reading& reading, const RayCells& ray,
+template <class Distance, class Likelihood, class CellAt>
+int ExactBayesUpdater::Update(const SensorModel& model, const Reading& reading,
+                              const Distance& distance_m, int n, Likelihood likelihood,
                               const CellAt& cell_at, uint64_t* cells_written, int* changed) {
-  KESTREL_DEMAND(ray.size <= scratch_.capacity());
+  KESTREL_DEMAND(n <= scratch_.capacity());
   const double p_min = limits_.p_min;
   int m = 0;
   const ExactUpdateResult r = ExactUpdate::Apply(
-      model, reading, ray.distance_m.data(), ray.size,
-      [&cell_at](int k) { return static_cast<double>(cell_at(k)); },
+      model, reading, distance_m, n, [&cell_at](int k) { return static_cast<double>(cell_at(k)); },
       [&](int k, double posterior) {
         // ALGORITHMS.md section 1: clamp to [P_min, 1 - P_min] after each update. Branch-free:
         // a cell held at its value (typically a free cell at the clamp) is rewritten unchanged
@@ -68,7 +83,7 @@ int ExactBayesUpdater::Update(const SensorModel& model, const Reading& reading, 
         m += BitsOf(stored) != BitsOf(cell) ? 1 : 0;  // no NaN here: compare the bits
         cell = stored;
       },
-      &scratch_, ray.has_likelihood ? ray.likelihood.data() : nullptr);
+      &scratch_, likelihood);
   *cells_written += static_cast<uint64_t>(r.count);
   return m;
 }
@@ -112,7 +127,8 @@ int LogOddsUpdater::UpdateRay(const SensorModel& /*model*/, const Reading& readi
                               const RayCells& ray, float* const* cells, uint64_t* cells_written,
                               int* changed) {
   return Update(
-      reading, ray, [cells](int k) -> float& { return *cells[k]; }, cells_written, changed);
+      reading, ray.size, ray.left_bounds, [cells](int k) -> float& { return *cells[k]; },
+      cells_written, changed);
 }
 
 int LogOddsUpdater::UpdateRayLinear(const SensorModel& /*model*/, const Reading& reading,
@@ -121,21 +137,32 @@ int LogOddsUpdater::UpdateRayLinear(const SensorModel& /*model*/, const Reading&
   KESTREL_DEMAND(ray.has_linear_index);
   const int32_t* const linear = ray.linear_index.data();
   return Update(
-      reading, ray, [base, linear](int k) -> float& { return base[linear[k]]; }, cells_written,
-      changed);
+      reading, ray.size, ray.left_bounds,
+      [base, linear](int k) -> float& { return base[linear[k]]; }, cells_written, changed);
+}
+
+int LogOddsUpdater::UpdateBatchLane(const SensorModel& /*model*/, const Reading& reading,
+                                    const RayBatch& batch, int lane, float* base,
+                                    uint64_t* cells_written, int* changed) {
+  const int32_t* const linear = batch.linear_index.data() + lane;
+  return Update(
+      reading, batch.size[lane], batch.left_bounds[lane],
+      [base, linear](int k) -> float& {
+        return base[linear[static_cast<ptrdiff_t>(k) * lanes::kLanes]];
+      },
+      cells_written, changed);
 }
 
 template <class CellAt>
-int LogOddsUpdater::Update(const Reading& reading, const RayCells& ray, const CellAt& cell_at,
+int LogOddsUpdater::Update(const Reading& reading, int n, bool left_bounds, const CellAt& cell_at,
                            uint64_t* cells_written, int* changed) {
-  const int n = ray.size;
   int m = 0;
   for (int k = 0; k < n; ++k) {
     float& cell = cell_at(k);
     const float prior = cell;
     // The end point's cell is the last one cast for a return: a hit (OctoMap updateNode(hit)).
     // A ray that ended at the map limits never reached its end point: all misses.
-    const bool hit = reading.kind == ReadingKind::kReturn && k == n - 1 && !ray.left_bounds;
+    const bool hit = reading.kind == ReadingKind::kReturn && k == n - 1 && !left_bounds;
     const float stored = std::clamp(prior + (hit ? hit_ : miss_), min_, max_);
     changed[m] = k;
     m += stored != prior ? 1 : 0;

@@ -58,6 +58,11 @@ class OccupancyUpdater {
   /// precondition: ray.has_linear_index), without a pointer per cell.
   virtual int UpdateRayLinear(const SensorModel& model, const Reading& reading, const RayCells& ray,
                               float* base, uint64_t* cells_written, int* changed) = 0;
+  /// Same as UpdateRayLinear for lane `lane` of a batch cast by RayCaster::CastBatch: the same
+  /// cells and values as UpdateRayLinear on that ray alone.
+  virtual int UpdateBatchLane(const SensorModel& model, const Reading& reading,
+                              const RayBatch& batch, int lane, float* base, uint64_t* cells_written,
+                              int* changed) = 0;
 };
 
 /// Kestrel's exact update (ALGORITHMS.md section 4), float storage, double accumulation.
@@ -79,14 +84,17 @@ class ExactBayesUpdater final : public OccupancyUpdater {
                 float* const* cells, uint64_t* cells_written, int* changed) override;
   int UpdateRayLinear(const SensorModel& model, const Reading& reading, const RayCells& ray,
                       float* base, uint64_t* cells_written, int* changed) override;
+  int UpdateBatchLane(const SensorModel& model, const Reading& reading, const RayBatch& batch,
+                      int lane, float* base, uint64_t* cells_written, int* changed) override;
   /// The clamp and prior.
   [[nodiscard]] const OccupancyLimits& limits() const { return limits_; }
 
  private:
-  // The update with cell k's value at cell_at(k) (a float&).
-  template <class CellAt>
-  int Update(const SensorModel& model, const Reading& reading, const RayCells& ray,
-             const CellAt& cell_at, uint64_t* cells_written, int* changed);
+  // The update of n cells at distances distance_m[k] (a_k in likelihood[k] if it holds values)
+  // with cell k's value at cell_at(k) (a float&).
+  template <class Distance, class Likelihood, class CellAt>
+  int Update(const SensorModel& model, const Reading& reading, const Distance& distance_m, int n,
+             Likelihood likelihood, const CellAt& cell_at, uint64_t* cells_written, int* changed);
 
   OccupancyLimits limits_;
   double diagonal_m_;  // sqrt(3) alpha: the longest chord through one cell, m
@@ -122,13 +130,16 @@ class LogOddsUpdater final : public OccupancyUpdater {
                 float* const* cells, uint64_t* cells_written, int* changed) override;
   int UpdateRayLinear(const SensorModel& model, const Reading& reading, const RayCells& ray,
                       float* base, uint64_t* cells_written, int* changed) override;
+  int UpdateBatchLane(const SensorModel& model, const Reading& reading, const RayBatch& batch,
+                      int lane, float* base, uint64_t* cells_written, int* changed) override;
   /// The parameters.
   [[nodiscard]] const LogOddsConfig& config() const { return config_; }
 
  private:
-  // The update with cell k's value at cell_at(k) (a float&).
+  // The update of a ray of n cells (left_bounds: it ended at the map limits) with cell k's value
+  // at cell_at(k) (a float&).
   template <class CellAt>
-  int Update(const Reading& reading, const RayCells& ray, const CellAt& cell_at,
+  int Update(const Reading& reading, int n, bool left_bounds, const CellAt& cell_at,
              uint64_t* cells_written, int* changed);
 
   LogOddsConfig config_;

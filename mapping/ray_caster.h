@@ -27,8 +27,13 @@
 #include <vector>
 
 #include "mapping/grid.h"
+#include "mapping/lanes.h"
 
 namespace kestrel {
+
+namespace detail {
+struct RayWalk;  // one ray's traversal state (ray_caster.cc)
+}  // namespace detail
 
 /// Caller-owned scratch for one ray: the cells crossed and their d_k. Sized once, reused for
 /// every ray, so that casting allocates nothing.
@@ -65,6 +70,46 @@ struct RayCells {
   GridGeometry last_origin_lattice;  ///< lattice of last_origin_cell
 };
 
+/// One ray to cast: from origin_W along unit direction_W for length_m.
+struct RaySegment {
+  Eigen::Vector3d origin_W{Eigen::Vector3d::Zero()};      ///< sensor origin o, m, W
+  Eigen::Vector3d direction_W{Eigen::Vector3d::UnitX()};  ///< unit direction u, W
+  double length_m{0.0};                                   ///< L, m
+};
+
+/// Caller-owned scratch for up to lanes::kLanes rays cast together (RayCaster::CastBatch) on a
+/// bounded lattice: the k-th cell of lane (ray) l is at [k * kLanes + l] of every array, so eight
+/// rays step in one vector register. Holds what RayCells holds with has_linear_index and
+/// without cells. Sized once.
+struct RayBatch {
+  /// Scratch for rays of length up to `max_length_m` on a lattice of edge `resolution_m`.
+  /// @throws std::invalid_argument unless both are positive and finite.
+  RayBatch(double max_length_m, double resolution_m);
+
+  /// Cells per lane this scratch holds (RayCells::CapacityFor).
+  [[nodiscard]] int capacity() const { return capacity_; }
+  /// Index of lane l's k-th cell in the arrays.
+  [[nodiscard]] static size_t At(int k, int lane) {
+    return static_cast<size_t>(k) * lanes::kLanes + static_cast<size_t>(lane);
+  }
+
+  std::vector<double> distance_m;     ///< d_k per lane, m (ray_caster.h)
+  std::vector<int32_t> linear_index;  ///< x + nx (y + ny z) per lane (RayCells::linear_index)
+  int count{0};                       ///< lanes in use, the rays of the last CastBatch
+  int size[lanes::kLanes]{};          ///< n_r per lane
+  bool left_bounds[lanes::kLanes]{};  ///< per lane, as RayCells::left_bounds
+  int longest{0};                     ///< max of size[]: the rows of the arrays in use
+  double max_length_m;                ///< longest ray this scratch holds, m
+  /// Cell of the last origin cast on the lattice last_origin_lattice (as in RayCells).
+  Eigen::Vector3d last_origin_W{
+      Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN())};
+  CellIndex last_origin_cell;        ///< cell of last_origin_W
+  GridGeometry last_origin_lattice;  ///< lattice of last_origin_cell
+
+ private:
+  int capacity_;
+};
+
 /// Casts rays through a lattice (fixed or unbounded). Reads no map: traversal can run apart from
 /// (and ahead of) the updates.
 class RayCaster {
@@ -89,12 +134,27 @@ class RayCaster {
   int CastLinearOnly(const Eigen::Vector3d& origin_W, const Eigen::Vector3d& direction_W,
                      double length_m, RayCells* out) const;
 
+  /// Casts rays[0 .. count) (count <= lanes::kLanes) together, eight lanes stepping in one
+  /// vector register: lane l gets exactly the d_k, linear indices and left_bounds that
+  /// CastWithLinearIndex gives rays[l], bit for bit, on every instruction set (lanes.h).
+  /// Precondition: LinearIndexable(); checks as Cast.
+  /// @throws std::invalid_argument when a precondition fails.
+  void CastBatch(const RaySegment* rays, int count, RayBatch* out,
+                 lanes::Isa isa = lanes::BestIsa()) const;
+
   /// The lattice.
   [[nodiscard]] const GridGeometry& geometry() const { return geometry_; }
+  /// Whether this lattice gets linear indices (bounded, fewer than 2^31 cells).
+  [[nodiscard]] bool LinearIndexable() const;
 
  private:
-  // Whether this lattice gets linear indices (bounded, fewer than 2^31 cells).
-  [[nodiscard]] bool LinearIndexable() const;
+  // Checks the inputs (as Cast) and sets up the walk of one ray: its first cell (through the
+  // origin cache), per-axis steps and crossings, the clip at the bounds, the linear index, and
+  // the capacity check. Returns false when the origin lies outside the bounds.
+  bool StartWalk(const Eigen::Vector3d& o, const Eigen::Vector3d& u, double length_m,
+                 double max_length_m, int capacity, Eigen::Vector3d* last_origin_W,
+                 CellIndex* last_origin_cell, GridGeometry* last_origin_lattice,
+                 detail::RayWalk* walk) const;
   template <bool kLinear, bool kCells = true>
   int CastImpl(const Eigen::Vector3d& o, const Eigen::Vector3d& u, double length_m,
                RayCells* out) const;

@@ -2,7 +2,9 @@
 // exact model (dense and growing grid), Kestrel's log-odds baseline, and OctoMap's
 // insertPointCloud (liboctomap, discretize = false, maxrange 4 m), 0.075 m cells, the paper's map
 // x -4..4, y -6..6, z -0.15..1.5 m. One iteration applies one frame; frames cycle.
-// Counters: rays/s (returns and "no return" rays to 4 m) and cell updates/s. The *Threaded*
+// Counters: rays/s (returns and "no return" rays to 4 m) and cell updates/s. The exact model
+// casts eight rays at a time on CPUs with AVX-512 (OccupancyMap::SetRayBatches); *OneByOne* casts
+// them one by one (the same map), as on CPUs without it. The *Threaded*
 // variants (traversal thread on) are timed in wall time and also report rays/busiest_cpu_s: rays
 // per CPU second of the busier of the two threads, the rate on two otherwise idle cores (the
 // machine is shared, so wall time overstates their cost).
@@ -117,6 +119,12 @@ void BM_KestrelExact_Depth(benchmark::State& state) {
   auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
   RunDepth(state, map.get());
 }
+// Rays cast one by one (SetRayBatches(false)), the path of CPUs without AVX-512.
+void BM_KestrelExactOneByOne_Depth(benchmark::State& state) {
+  auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  map->SetRayBatches(false);
+  RunDepth(state, map.get());
+}
 void BM_KestrelExactThreaded_Depth(benchmark::State& state) {
   auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
   map->SetTraversalThread(true);
@@ -132,6 +140,11 @@ void BM_KestrelLogOdds_Depth(benchmark::State& state) {
 }
 void BM_KestrelExact_Scan682(benchmark::State& state) {
   auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  RunScan(state, map.get());
+}
+void BM_KestrelExactOneByOne_Scan682(benchmark::State& state) {
+  auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  map->SetRayBatches(false);
   RunScan(state, map.get());
 }
 void BM_KestrelExactThreaded_Scan682(benchmark::State& state) {
@@ -229,6 +242,11 @@ BENCHMARK(BM_KestrelExact_Depth)
     ->Args({320, 240})
     ->Args({640, 480})
     ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_KestrelExactOneByOne_Depth)
+    ->Args({160, 120})
+    ->Args({320, 240})
+    ->Args({640, 480})
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_KestrelExactThreaded_Depth)
     ->Args({160, 120})
     ->Args({320, 240})
@@ -247,6 +265,7 @@ BENCHMARK(BM_OctoMap_Depth)
     ->Args({640, 480})
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_KestrelExact_Scan682)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_KestrelExactOneByOne_Scan682)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_KestrelExactThreaded_Scan682)->Unit(benchmark::kMicrosecond)->UseRealTime();
 BENCHMARK(BM_KestrelLogOdds_Scan682)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_OctoMap_Scan682)->Unit(benchmark::kMicrosecond);

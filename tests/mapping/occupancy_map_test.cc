@@ -353,29 +353,34 @@ TEST(OccupancyMap, ShortenedCastEqualsFullRayUpdate) {
   EXPECT_GT(cut_cells, 1000);
 }
 
-// Casting on a second thread (SetTraversalThread) gives the same map bit for bit as casting
-// inline, for depth images and scans, on both grids.
-TEST(OccupancyMap, TraversalThreadGivesBitIdenticalMaps) {
+// Six depth images (97 x 61: not a multiple of any batch size; returns, "no return" pixels)
+// and six 682-beam scans (with invalid beams) from varied poses, applied to `map`.
+template <class Map>
+ScanStats ApplyMixedFrames(Map* map) {
   const SensorModel xtion(SensorModelConfig::Xtion());
   const SensorModel hokuyo(SensorModelConfig::Hokuyo());
   std::mt19937 rng(12);
-  std::vector<uint16_t> depth(97 * 61);  // not a multiple of the batch size
+  std::vector<uint16_t> depth(97 * 61);
   for (uint16_t& d : depth) d = rng() % 9 == 0 ? 0 : static_cast<uint16_t>(300 + rng() % 4500);
   std::vector<float> ranges(682);
   for (float& r : ranges) r = rng() % 11 == 0 ? std::nanf("") : 0.3f + 0.001f * (rng() % 4500);
   const DepthIntrinsics in{80.0, 80.0, 48.0, 30.0};
-  const auto run = [&](auto* map) {
-    ScanStats stats;
-    for (int f = 0; f < 6; ++f) {
-      Pose3 X_WS;
-      X_WS.p = Eigen::Vector3d(0.1 * f, -0.2 * f, 0.7);
-      X_WS.q = QuaternionFromYaw(0.7 * f) *
-               Eigen::Quaterniond(Eigen::AngleAxisd(1.3, Eigen::Vector3d::UnitY()));
-      stats += map->ApplyDepthImage(X_WS, in, depth.data(), 97, 61, 0.001, xtion);
-      stats += map->ApplyPlanarScan(X_WS, -2.0, 0.006, ranges.data(), 682, hokuyo);
-    }
-    return stats;
-  };
+  ScanStats stats;
+  for (int f = 0; f < 6; ++f) {
+    Pose3 X_WS;
+    X_WS.p = Eigen::Vector3d(0.1 * f, -0.2 * f, 0.7);
+    X_WS.q = QuaternionFromYaw(0.7 * f) *
+             Eigen::Quaterniond(Eigen::AngleAxisd(1.3, Eigen::Vector3d::UnitY()));
+    stats += map->ApplyDepthImage(X_WS, in, depth.data(), 97, 61, 0.001, xtion);
+    stats += map->ApplyPlanarScan(X_WS, -2.0, 0.006, ranges.data(), 682, hokuyo);
+  }
+  return stats;
+}
+
+// Casting on a second thread (SetTraversalThread) gives the same map bit for bit as casting
+// inline, for depth images and scans, on both grids.
+TEST(OccupancyMap, TraversalThreadGivesBitIdenticalMaps) {
+  const auto run = [](auto* map) { return ApplyMixedFrames(map); };
   auto inline_map = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
   auto threaded_map = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
   threaded_map->SetTraversalThread(true);
@@ -395,6 +400,35 @@ TEST(OccupancyMap, TraversalThreadGivesBitIdenticalMaps) {
   EXPECT_EQ(inline_growing->Hash(), threaded_growing->Hash());
   threaded_map->SetTraversalThread(false);
   EXPECT_FALSE(threaded_map->traversal_thread());
+}
+
+// Rays cast eight at a time (SetRayBatches), compiled for every instruction set this CPU runs,
+// give the same map bit for bit as rays cast one by one, with the same statistics and entropy,
+// for the exact model and the log-odds baseline.
+TEST(OccupancyMap, RayBatchesGiveBitIdenticalMapsOnEveryInstructionSet) {
+  const auto compare = [](auto make) {
+    auto one_by_one = make();
+    one_by_one->SetRayBatches(false);
+    EXPECT_FALSE(one_by_one->ray_batches());
+    const ScanStats expected = ApplyMixedFrames(one_by_one.get());
+    for (const lanes::Isa isa : lanes::SupportedIsas()) {
+      SCOPED_TRACE(lanes::IsaName(isa));
+      auto batched = make();
+      batched->SetRayBatches(true, isa);
+      EXPECT_TRUE(batched->ray_batches());
+      const ScanStats got = ApplyMixedFrames(batched.get());
+      EXPECT_EQ(batched->Hash(), one_by_one->Hash());
+      EXPECT_EQ(got.rays_applied, expected.rays_applied);
+      EXPECT_EQ(got.rays_no_return, expected.rays_no_return);
+      EXPECT_EQ(got.rays_invalid, expected.rays_invalid);
+      EXPECT_EQ(got.cells_updated, expected.cells_updated);
+      EXPECT_EQ(batched->entropy_nats(), one_by_one->entropy_nats());
+    }
+    EXPECT_GT(expected.rays_invalid, 0u);
+    EXPECT_GT(expected.rays_no_return, 0u);
+  };
+  compare([] { return MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0); });
+  compare([] { return MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0); });
 }
 
 TEST(OccupancyMap, RejectsBadImages) {

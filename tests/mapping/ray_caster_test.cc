@@ -201,6 +201,115 @@ TEST(RayCaster, StepsTiedAxesTogetherThroughEdgesAndCorners) {
 
 // A small fixed map where most rays run out of bounds: the ray ends at the first outside cell,
 // and an origin outside the map gives no cells.
+// CastBatch, compiled for every instruction set this CPU runs, gives each lane exactly what
+// CastWithLinearIndex gives that ray alone (sizes, left_bounds, d_k and linear indices bit for
+// bit) on `g` (bounded), for batches of 1 to 8 rays from `origin_of` along `direction_of`.
+template <class Origin, class Direction>
+void ExpectBatchesMatchSingleRays(const GridGeometry& g, double max_length, int batches,
+                                  std::mt19937& rng, const Origin& origin_of,
+                                  const Direction& direction_of) {
+  const RayCaster caster(g);
+  RayCells single(max_length, g.resolution_m());
+  for (const lanes::Isa isa : lanes::SupportedIsas()) {
+    SCOPED_TRACE(lanes::IsaName(isa));
+    RayBatch batch(max_length, g.resolution_m());
+    for (int b = 0; b < batches; ++b) {
+      const int count = 1 + b % lanes::kLanes;
+      RaySegment rays[lanes::kLanes];
+      for (int l = 0; l < count; ++l) {
+        rays[l].origin_W = origin_of(l);
+        rays[l].direction_W = direction_of(l);
+        // Mostly full length; some short, some zero-length rays.
+        const int kind = static_cast<int>(rng() % 10);
+        rays[l].length_m = kind == 0   ? 0.0
+                           : kind == 1 ? std::uniform_real_distribution<double>(0.0, 0.2)(rng)
+                           : kind == 2
+                               ? std::uniform_real_distribution<double>(0.0, max_length)(rng)
+                               : max_length;
+      }
+      caster.CastBatch(rays, count, &batch, isa);
+      ASSERT_EQ(batch.count, count);
+      int longest = 0;
+      for (int l = 0; l < count; ++l) {
+        const int n = caster.CastWithLinearIndex(rays[l].origin_W, rays[l].direction_W,
+                                                 rays[l].length_m, &single);
+        ASSERT_EQ(batch.size[l], n) << "lane " << l << " o = " << rays[l].origin_W.transpose()
+                                    << " u = " << rays[l].direction_W.transpose();
+        ASSERT_EQ(batch.left_bounds[l], single.left_bounds) << "lane " << l;
+        for (int k = 0; k < n; ++k) {
+          // Bit for bit: the same operations in every lane.
+          ASSERT_EQ(batch.distance_m[RayBatch::At(k, l)], single.distance_m[k])
+              << "lane " << l << " k = " << k;
+          ASSERT_EQ(batch.linear_index[RayBatch::At(k, l)], single.linear_index[k])
+              << "lane " << l << " k = " << k;
+        }
+        longest = std::max(longest, n);
+      }
+      ASSERT_EQ(batch.longest, longest);
+    }
+  }
+}
+
+// The paper's map: batches of random rays from one origin per batch (a scan), from a different
+// origin per ray, from origins on faces, edges and corners, and from outside the map.
+TEST(RayCaster, BatchesMatchSingleRaysInPaperMap) {
+  const GridGeometry g = GridGeometry::Fixed(MapLimits{});
+  std::mt19937 rng(7);
+  const Eigen::Vector3d lo(-4.0, -6.0, -0.15);
+  const Eigen::Vector3d hi(4.0, 6.0, 1.5);
+  Eigen::Vector3d scan_origin = RandomOrigin(rng, g, lo, hi, 0);
+  ExpectBatchesMatchSingleRays(
+      g, 4.0, 300, rng,
+      [&](int l) {
+        if (l == 0) scan_origin = RandomOrigin(rng, g, lo, hi, static_cast<int>(rng() % 4));
+        return rng() % 3 == 0 ? scan_origin : RandomOrigin(rng, g, lo, hi, l % 4);
+      },
+      [&](int l) { return l % 2 == 0 ? RandomUnit(rng) : RandomSpecialDirection(rng); });
+  if (HasFatalFailure()) return;
+  // Origins outside the bounds give empty lanes next to full ones.
+  ExpectBatchesMatchSingleRays(
+      g, 4.0, 40, rng,
+      [&](int l) {
+        return l % 3 == 1 ? Eigen::Vector3d(0.0, 0.0, 2.0) : RandomOrigin(rng, g, lo, hi, 0);
+      },
+      [&](int) { return RandomUnit(rng); });
+}
+
+// alpha = 0.125 on a bounded map: exact ties (rays through edges and corners, along grid planes,
+// starting on boundaries) in every lane.
+TEST(RayCaster, BatchesStepTiedAxesTogether) {
+  MapLimits limits;
+  limits.min_m = Eigen::Vector3d(-2.0, -2.0, -1.0);
+  limits.max_m = Eigen::Vector3d(2.0, 2.0, 1.0);
+  limits.resolution_m = 0.125;
+  const GridGeometry g = GridGeometry::Fixed(limits);
+  std::mt19937 rng(9);
+  ExpectBatchesMatchSingleRays(
+      g, 3.0, 400, rng,
+      [&](int l) {
+        return RandomOrigin(rng, g, Eigen::Vector3d(-1.5, -1.5, -0.8),
+                            Eigen::Vector3d(1.5, 1.5, 0.8), 1 + l % 3);
+      },
+      [&](int) { return RandomSpecialDirection(rng); });
+}
+
+TEST(RayCaster, BatchRejectsBadInput) {
+  const GridGeometry g = GridGeometry::Fixed(MapLimits{});
+  const RayCaster caster(g);
+  RayBatch batch(4.0, g.resolution_m());
+  RaySegment rays[lanes::kLanes + 1];
+  EXPECT_THROW(caster.CastBatch(rays, lanes::kLanes + 1, &batch), std::invalid_argument);
+  EXPECT_THROW(caster.CastBatch(rays, -1, &batch), std::invalid_argument);
+  rays[0].length_m = 5.0;  // longer than the scratch
+  EXPECT_THROW(caster.CastBatch(rays, 1, &batch), std::invalid_argument);
+  rays[0].length_m = 1.0;
+  rays[0].direction_W = Eigen::Vector3d(1.0, 1.0, 0.0);  // not unit
+  EXPECT_THROW(caster.CastBatch(rays, 1, &batch), std::invalid_argument);
+  const RayCaster unbounded(GridGeometry::Unbounded(Eigen::Vector3d::Zero(), 0.1));
+  rays[0].direction_W = Eigen::Vector3d::UnitX();
+  EXPECT_THROW(unbounded.CastBatch(rays, 1, &batch), std::invalid_argument);
+}
+
 TEST(RayCaster, EndsAtMapLimits) {
   MapLimits limits;
   limits.min_m = Eigen::Vector3d(0.0, 0.0, 0.0);
