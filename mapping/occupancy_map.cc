@@ -262,6 +262,7 @@ void OccupancyMap<Grid>::ApplyRayBatches(int count, const Source& source, const 
       ++lanes_used;
     }
     caster_.CastBatch(segments, lanes_used, &batch_, *batch_isa_);
+    updater_->PrecomputeBatch(model, readings, *batch_isa_, &batch_);
     // The rays one after the other, in order: each sees its predecessors' posteriors.
     const int32_t* const linear = batch_.linear_index.data();
     for (int l = 0; l < lanes_used; ++l) {

@@ -52,12 +52,19 @@ int ExactBayesUpdater::UpdateRayLinear(const SensorModel& model, const Reading& 
       [base, linear](int k) -> float& { return base[linear[k]]; }, cells_written, changed);
 }
 
+void ExactBayesUpdater::PrecomputeBatch(const SensorModel& model, const Reading* readings,
+                                        lanes::Isa isa, RayBatch* batch) const {
+  batch->has_likelihood = model.FillLikelihoods(readings, batch->count, batch->distance_m.data(),
+                                                batch->longest, batch->likelihood.data(), isa);
+}
+
 int ExactBayesUpdater::UpdateBatchLane(const SensorModel& model, const Reading& reading,
                                        const RayBatch& batch, int lane, float* base,
                                        uint64_t* cells_written, int* changed) {
   const int32_t* const linear = batch.linear_index.data() + lane;
   return Update(
-      model, reading, LaneView{batch.distance_m.data() + lane}, batch.size[lane], LaneView{},
+      model, reading, LaneView{batch.distance_m.data() + lane}, batch.size[lane],
+      LaneView{batch.has_likelihood ? batch.likelihood.data() + lane : nullptr},
       [base, linear](int k) -> float& {
         return base[linear[static_cast<ptrdiff_t>(k) * lanes::kLanes]];
       },

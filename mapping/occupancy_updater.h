@@ -58,8 +58,12 @@ class OccupancyUpdater {
   /// precondition: ray.has_linear_index), without a pointer per cell.
   virtual int UpdateRayLinear(const SensorModel& model, const Reading& reading, const RayCells& ray,
                               float* base, uint64_t* cells_written, int* changed) = 0;
-  /// Same as UpdateRayLinear for lane `lane` of a batch cast by RayCaster::CastBatch: the same
-  /// cells and values as UpdateRayLinear on that ray alone.
+  /// Work for the readings of a cast batch that reads no map, eight rays at once with `isa`
+  /// (ExactBayesUpdater: a_k, SensorModel::FillLikelihoods, where that is faster).
+  virtual void PrecomputeBatch(const SensorModel& /*model*/, const Reading* /*readings*/,
+                               lanes::Isa /*isa*/, RayBatch* /*batch*/) const {}
+  /// Same as UpdateRayLinear for lane `lane` of a batch cast by RayCaster::CastBatch (and maybe
+  /// PrecomputeBatch): the same cells and values as UpdateRayLinear on that ray alone.
   virtual int UpdateBatchLane(const SensorModel& model, const Reading& reading,
                               const RayBatch& batch, int lane, float* base, uint64_t* cells_written,
                               int* changed) = 0;
@@ -84,6 +88,9 @@ class ExactBayesUpdater final : public OccupancyUpdater {
                 float* const* cells, uint64_t* cells_written, int* changed) override;
   int UpdateRayLinear(const SensorModel& model, const Reading& reading, const RayCells& ray,
                       float* base, uint64_t* cells_written, int* changed) override;
+  /// Fills batch->likelihood where SensorModel::FillLikelihoods can (has_likelihood).
+  void PrecomputeBatch(const SensorModel& model, const Reading* readings, lanes::Isa isa,
+                       RayBatch* batch) const override;
   int UpdateBatchLane(const SensorModel& model, const Reading& reading, const RayBatch& batch,
                       int lane, float* base, uint64_t* cells_written, int* changed) override;
   /// The clamp and prior.

@@ -254,6 +254,7 @@ RayBatch::RayBatch(double max_length, double resolution_m)
   const size_t n = static_cast<size_t>(capacity_) * lanes::kLanes;
   distance_m.resize(n);
   linear_index.resize(n);
+  likelihood.resize(n);
 }
 
 void RayCaster::CastBatch(const RaySegment* rays, int count, RayBatch* out, lanes::Isa isa) const {
@@ -264,6 +265,7 @@ void RayCaster::CastBatch(const RaySegment* rays, int count, RayBatch* out, lane
   KESTREL_THROW_UNLESS(LinearIndexable(),
                        "RayCaster::CastBatch: needs a bounded lattice of fewer than 2^31 cells");
   out->count = count;
+  out->has_likelihood = false;
   // Each lane's set-up and first cell as in CastImpl (scalar); afterwards every active lane has
   // stored exactly one cell, so all lanes store their k-th cell in the same step.
   alignas(64) double t_in[kLanes] = {}, length[kLanes] = {};

@@ -80,7 +80,7 @@ struct RaySegment {
 /// Caller-owned scratch for up to lanes::kLanes rays cast together (RayCaster::CastBatch) on a
 /// bounded lattice: the k-th cell of lane (ray) l is at [k * kLanes + l] of every array, so eight
 /// rays step in one vector register. Holds what RayCells holds with has_linear_index and
-/// without cells. Sized once.
+/// without cells, and optionally a_k. Sized once.
 struct RayBatch {
   /// Scratch for rays of length up to `max_length_m` on a lattice of edge `resolution_m`.
   /// @throws std::invalid_argument unless both are positive and finite.
@@ -95,8 +95,11 @@ struct RayBatch {
 
   std::vector<double> distance_m;     ///< d_k per lane, m (ray_caster.h)
   std::vector<int32_t> linear_index;  ///< x + nx (y + ny z) per lane (RayCells::linear_index)
-  int count{0};                       ///< lanes in use, the rays of the last CastBatch
-  int size[lanes::kLanes]{};          ///< n_r per lane
+  /// a_k per lane when has_likelihood (OccupancyUpdater::PrecomputeBatch); CastBatch clears it.
+  std::vector<double> likelihood;
+  bool has_likelihood{false};  ///< whether likelihood holds a_k for the rays of the last cast
+  int count{0};                ///< lanes in use, the rays of the last CastBatch
+  int size[lanes::kLanes]{};   ///< n_r per lane
   bool left_bounds[lanes::kLanes]{};  ///< per lane, as RayCells::left_bounds
   int longest{0};                     ///< max of size[]: the rows of the arrays in use
   double max_length_m;                ///< longest ray this scratch holds, m
