@@ -6,6 +6,10 @@
 
 #include "common/check.h"
 
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
 namespace kestrel {
 namespace {
 // The bit pattern of a float (a changed cell is a changed bit pattern, as Hash sees it).
@@ -19,7 +23,12 @@ float Logit(double p) { return static_cast<float>(std::log(p / (1.0 - p))); }
 
 ExactBayesUpdater::ExactBayesUpdater(const OccupancyLimits& limits, int capacity,
                                      double resolution_m)
-    : limits_(limits), diagonal_m_(std::sqrt(3.0) * resolution_m), scratch_(capacity) {
+    : limits_(limits),
+      diagonal_m_(std::sqrt(3.0) * resolution_m),
+      scratch_(capacity),
+      lane_cells_(static_cast<size_t>(capacity)),
+      lane_priors_(static_cast<size_t>(capacity)),
+      lane_posteriors_(static_cast<size_t>(capacity)) {
   limits_.Validate();
 }
 
@@ -58,17 +67,93 @@ void ExactBayesUpdater::PrecomputeBatch(const SensorModel& model, const Reading*
                                                 batch->longest, batch->likelihood.data(), isa);
 }
 
+namespace {
+
+// Clamps posterior[i] (ClampProbability), stores it as float at base[cells[i]], and lists the
+// cells whose stored value changed (first + i, ascending) in changed[0 .. returned count);
+// priors[i] is the value stored before. The write step of ExactBayesUpdater::Update for n cells
+// at once.
+int StorePosteriorsScalar(const double* posterior, const int32_t* cells, const float* priors,
+                          int first, int n, double p_min, float* base, int* changed) {
+  int m = 0;
+  for (int i = 0; i < n; ++i) {
+    const float stored = static_cast<float>(ClampProbability(posterior[i], p_min));
+    changed[m] = first + i;
+    m += BitsOf(stored) != BitsOf(priors[i]) ? 1 : 0;
+    base[cells[i]] = stored;
+  }
+  return m;
+}
+
+#if defined(__x86_64__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+// The same, eight cells at a time: ClampProbability as min then max with the scalar code's
+// operand order (so ties and values agree), the conversion to float, a bit comparison with
+// the prior, the changed cells compressed into the list, and a scatter of the floats (a ray
+// never lists a cell twice, so the scatter's order does not matter).
+[[gnu::target("avx512f,avx512dq,avx512vl,avx512bw")]] int StorePosteriorsAvx512(
+    const double* posterior, const int32_t* cells, const float* priors, int first, int n,
+    double p_min, float* base, int* changed) {
+  const __m512d lower = _mm512_set1_pd(p_min);
+  const __m512d upper = _mm512_set1_pd(1.0 - p_min);
+  const __m256i step = _mm256_set1_epi32(8);
+  __m256i k = _mm256_add_epi32(_mm256_set1_epi32(first), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+  int m = 0;
+  for (int i = 0; i < n; i += 8) {
+    const __mmask8 live = n - i >= 8 ? __mmask8{0xFF} : static_cast<__mmask8>((1u << (n - i)) - 1);
+    const __m512d p = _mm512_maskz_loadu_pd(live, posterior + i);
+    // upper < p ? upper : p, then below_upper < p_min ? p_min : below_upper.
+    const __m512d clamped = _mm512_max_pd(lower, _mm512_min_pd(upper, p));
+    const __m256 stored = _mm512_cvtpd_ps(clamped);
+    const __m256i stored_bits = _mm256_castps_si256(stored);
+    const __m256i prior_bits = _mm256_maskz_loadu_epi32(live, priors + i);
+    const __mmask8 differ = _mm256_mask_cmpneq_epi32_mask(live, stored_bits, prior_bits);
+    _mm256_mask_compressstoreu_epi32(changed + m, differ, k);
+    m += __builtin_popcount(differ);
+    const __m256i where = _mm256_maskz_loadu_epi32(live, cells + i);
+    _mm256_mask_i32scatter_ps(base, live, where, stored, 4);
+    k = _mm256_add_epi32(k, step);
+  }
+  return m;
+}
+#pragma GCC diagnostic pop
+#endif
+
+}  // namespace
+
 int ExactBayesUpdater::UpdateBatchLane(const SensorModel& model, const Reading& reading,
                                        const RayBatch& batch, int lane, float* base,
                                        uint64_t* cells_written, int* changed) {
+  const int n = batch.size[lane];
+  KESTREL_DEMAND(n <= scratch_.capacity());
   const int32_t* const linear = batch.linear_index.data() + lane;
-  return Update(
-      model, reading, LaneView{batch.distance_m.data() + lane}, batch.size[lane],
-      LaneView{batch.has_likelihood ? batch.likelihood.data() + lane : nullptr},
-      [base, linear](int k) -> float& {
-        return base[linear[static_cast<ptrdiff_t>(k) * lanes::kLanes]];
+  int32_t* const cells = lane_cells_.data();
+  float* const priors = lane_priors_.data();
+  double* const posteriors = lane_posteriors_.data();
+  // Section 4 with the cells read once (their indices and values kept in order), then the
+  // write step for the cells written, at once (Update does the same cell by cell).
+  const ExactUpdateResult r = ExactUpdate::Apply(
+      model, reading, LaneView{batch.distance_m.data() + lane}, n,
+      [&](int k) {
+        const int32_t cell = linear[static_cast<ptrdiff_t>(k) * lanes::kLanes];
+        cells[k] = cell;
+        priors[k] = base[cell];
+        return static_cast<double>(priors[k]);
       },
-      cells_written, changed);
+      [posteriors](int k, double posterior) { posteriors[k] = posterior; }, &scratch_,
+      LaneView{batch.has_likelihood ? batch.likelihood.data() + lane : nullptr});
+  *cells_written += static_cast<uint64_t>(r.count);
+  const size_t first = static_cast<size_t>(r.first);
+#if defined(__x86_64__)
+  if (batch.isa == lanes::Isa::kAvx512) {
+    return StorePosteriorsAvx512(posteriors + first, cells + first, priors + first, r.first,
+                                 r.count, limits_.p_min, base, changed);
+  }
+#endif
+  return StorePosteriorsScalar(posteriors + first, cells + first, priors + first, r.first, r.count,
+                               limits_.p_min, base, changed);
 }
 
 template <class Distance, class Likelihood, class CellAt>

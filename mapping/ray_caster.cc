@@ -265,6 +265,7 @@ void RayCaster::CastBatch(const RaySegment* rays, int count, RayBatch* out, lane
   KESTREL_THROW_UNLESS(LinearIndexable(),
                        "RayCaster::CastBatch: needs a bounded lattice of fewer than 2^31 cells");
   out->count = count;
+  out->isa = isa;
   out->has_likelihood = false;
   // Each lane's set-up and first cell as in CastImpl (scalar); afterwards every active lane has
   // stored exactly one cell, so all lanes store their k-th cell in the same step.

@@ -99,10 +99,11 @@ struct RayBatch {
   std::vector<double> likelihood;
   bool has_likelihood{false};  ///< whether likelihood holds a_k for the rays of the last cast
   int count{0};                ///< lanes in use, the rays of the last CastBatch
-  int size[lanes::kLanes]{};   ///< n_r per lane
-  bool left_bounds[lanes::kLanes]{};  ///< per lane, as RayCells::left_bounds
-  int longest{0};                     ///< max of size[]: the rows of the arrays in use
-  double max_length_m;                ///< longest ray this scratch holds, m
+  lanes::Isa isa{lanes::Isa::kBaseline};  ///< instruction set of the last CastBatch
+  int size[lanes::kLanes]{};              ///< n_r per lane
+  bool left_bounds[lanes::kLanes]{};      ///< per lane, as RayCells::left_bounds
+  int longest{0};                         ///< max of size[]: the rows of the arrays in use
+  double max_length_m;                    ///< longest ray this scratch holds, m
   /// Cell of the last origin cast on the lattice last_origin_lattice (as in RayCells).
   Eigen::Vector3d last_origin_W{
       Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN())};
