@@ -5,10 +5,7 @@
 #include <cstring>
 
 #include "common/check.h"
-
-#if defined(__x86_64__)
-#include <immintrin.h>
-#endif
+#include "mapping/avx512.h"
 
 namespace kestrel {
 namespace {
@@ -86,16 +83,14 @@ int StorePosteriorsScalar(const double* posterior, const int32_t* cells, const f
 }
 
 #if defined(__x86_64__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wuninitialized"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+KESTREL_AVX512_BEGIN
 // The same, eight cells at a time: ClampProbability as min then max with the scalar code's
 // operand order (so ties and values agree), the conversion to float, a bit comparison with
 // the prior, the changed cells compressed into the list, and a scatter of the floats (a ray
 // never lists a cell twice, so the scatter's order does not matter).
-[[gnu::target("avx512f,avx512dq,avx512vl,avx512bw")]] int StorePosteriorsAvx512(
-    const double* posterior, const int32_t* cells, const float* priors, int first, int n,
-    double p_min, float* base, int* changed) {
+[[KESTREL_AVX512]] int StorePosteriorsAvx512(const double* posterior, const int32_t* cells,
+                                             const float* priors, int first, int n, double p_min,
+                                             float* base, int* changed) {
   const __m512d lower = _mm512_set1_pd(p_min);
   const __m512d upper = _mm512_set1_pd(1.0 - p_min);
   const __m256i step = _mm256_set1_epi32(8);
@@ -118,7 +113,7 @@ int StorePosteriorsScalar(const double* posterior, const int32_t* cells, const f
   }
   return m;
 }
-#pragma GCC diagnostic pop
+KESTREL_AVX512_END
 #endif
 
 }  // namespace

@@ -8,7 +8,7 @@
 #include <optional>
 
 #include "common/check.h"
-#include "mapping/lanes_vector.h"
+#include "mapping/avx512.h"
 
 namespace kestrel {
 
@@ -185,51 +185,35 @@ bool RayCaster::StartWalk(const Eigen::Vector3d& o, const Eigen::Vector3d& u, do
   return true;
 }
 
+namespace detail {
+
+// The walk of one set-up ray (StartWalk): stores d_k at distance[n * stride], and the linear
+// index (kLinear) and cell (kCells) likewise, for every cell with a positive-length chord, in
+// order; returns n_r. The first cell is the only one whose chord can have zero length (the
+// origin on a boundary, the ray pointing away): every later cell is entered at t_in < length
+// and left at a strictly larger crossing (or at length), so the loop stores without testing.
+// The current cell's indices stay plain integers in registers (RayWalk is a local of the
+// caller): CellIndex's operator[] picks a member by reference, which kept the cell in memory,
+// and storing it whole right after a one-member update stalled store-to-load forwarding on
+// every step.
 template <bool kLinear, bool kCells>
-int RayCaster::CastImpl(const Eigen::Vector3d& o, const Eigen::Vector3d& u, double length_m,
-                        RayCells* out) const {
-  KESTREL_THROW_UNLESS(out != nullptr, "RayCaster::Cast: out must not be null");
-  out->size = 0;
-  out->left_bounds = false;
-  out->has_likelihood = false;
-  out->has_linear_index = kLinear;
-  out->has_cells = kCells;
-  if constexpr (kLinear) {
-    if (out->linear_index.size() < out->cells.size()) out->linear_index.resize(out->cells.size());
-  }
-  const int capacity = static_cast<int>(out->cells.size());
-  RayWalk w;
-  if (!StartWalk(o, u, length_m, out->max_length_m, capacity, &out->last_origin_W,
-                 &out->last_origin_cell, &out->last_origin_lattice, &w)) {
-    out->left_bounds = true;
-    return 0;
-  }
-  out->left_bounds = w.left_bounds;
+[[gnu::always_inline]] inline int WalkRay(RayWalk w, const Eigen::Vector3d& o,
+                                          const Eigen::Vector3d& origin, double resolution,
+                                          ptrdiff_t stride, double* distance, int32_t* linear_out,
+                                          CellIndex* cells) {
   const double length = w.length;
-  const Eigen::Vector3d& origin = geometry_.origin_m();
-  const double resolution = geometry_.resolution_m();
-  CellIndex* const cells = out->cells.data();
-  double* const distance = out->distance_m.data();
-  int32_t* const linear_out = kLinear ? out->linear_index.data() : nullptr;
-  // The current cell's indices stay plain integers in registers (RayWalk is a local): CellIndex's
-  // operator[] picks a member by reference, which kept the cell in memory, and storing it whole
-  // right after a one-member update stalled store-to-load forwarding on every step.
-  int n = 0;
+  ptrdiff_t at = 0;
   double t_in = 0.0;
   const auto store = [&](double t_out) {
-    KESTREL_ASSERT(n < capacity);  // StartWalk's bound
-    if constexpr (kCells) cells[n] = CellIndex{w.cell[0], w.cell[1], w.cell[2]};
-    distance[n] = 0.5 * (t_in + t_out);  // ALGORITHMS.md section 2: d_k at the chord midpoint
-    if constexpr (kLinear) linear_out[n] = w.linear;
-    ++n;
+    if constexpr (kCells) cells[at] = CellIndex{w.cell[0], w.cell[1], w.cell[2]};
+    distance[at] = 0.5 * (t_in + t_out);  // ALGORITHMS.md section 2: d_k at the chord midpoint
+    if constexpr (kLinear) linear_out[at] = w.linear;
+    at += stride;
   };
   const auto step_axes = [&](double t_axis) {
     StepAxes<kLinear>(&w, t_axis, origin, resolution, o);
     t_in = t_axis;
   };
-  // The first cell is the only one whose chord can have zero length (the origin on a boundary,
-  // the ray pointing away): every later cell is entered at t_in < length and left at a strictly
-  // larger crossing (or at length), so the loop below stores without testing.
   double t_axis = NextCrossing(w);
   const double t_first = t_axis < length ? t_axis : length;
   if (t_first > t_in) store(t_first);  // positive-length chord only (file comment)
@@ -245,8 +229,36 @@ int RayCaster::CastImpl(const Eigen::Vector3d& o, const Eigen::Vector3d& u, doub
       step_axes(t_axis);
     }
   }
-  out->size = n;
-  return n;
+  return static_cast<int>(at / stride);
+}
+
+}  // namespace detail
+
+using detail::WalkRay;
+
+template <bool kLinear, bool kCells>
+int RayCaster::CastImpl(const Eigen::Vector3d& o, const Eigen::Vector3d& u, double length_m,
+                        RayCells* out) const {
+  KESTREL_THROW_UNLESS(out != nullptr, "RayCaster::Cast: out must not be null");
+  out->size = 0;
+  out->left_bounds = false;
+  out->has_likelihood = false;
+  out->has_linear_index = kLinear;
+  out->has_cells = kCells;
+  if constexpr (kLinear) {
+    if (out->linear_index.size() < out->cells.size()) out->linear_index.resize(out->cells.size());
+  }
+  RayWalk w;
+  if (!StartWalk(o, u, length_m, out->max_length_m, static_cast<int>(out->cells.size()),
+                 &out->last_origin_W, &out->last_origin_cell, &out->last_origin_lattice, &w)) {
+    out->left_bounds = true;
+    return 0;
+  }
+  out->left_bounds = w.left_bounds;
+  out->size = WalkRay<kLinear, kCells>(
+      w, o, geometry_.origin_m(), geometry_.resolution_m(), 1, out->distance_m.data(),
+      kLinear ? out->linear_index.data() : nullptr, out->cells.data());
+  return out->size;
 }
 
 RayBatch::RayBatch(double max_length, double resolution_m)
@@ -257,6 +269,88 @@ RayBatch::RayBatch(double max_length, double resolution_m)
   likelihood.resize(n);
 }
 
+#if defined(__x86_64__)
+namespace {
+
+// The lanes of a batch after their set-up and first cell (CastBatch), as arrays of 8.
+struct LaneStart {
+  alignas(64) double t_in[lanes::kLanes];
+  alignas(64) double length[lanes::kLanes];
+  alignas(64) double t_max[3][lanes::kLanes];
+  alignas(64) double exit_index[3][lanes::kLanes];
+  alignas(64) double step_d[3][lanes::kLanes];
+  alignas(64) double inv_u[3][lanes::kLanes];
+  alignas(64) double o[3][lanes::kLanes];
+  alignas(64) double linear[lanes::kLanes];
+  alignas(64) double linear_step[3][lanes::kLanes];
+  unsigned active;  // lanes still walking (bit l)
+};
+
+// WalkRay's loop for eight lanes in AVX-512 registers, from row 1 on (every active lane has
+// stored its first cell in row 0). Every lane does WalkRay's operations on its own values,
+// so its cells are the scalar walk's bit for bit; a lane that has ended keeps its size and
+// writes only into rows at or beyond it, which hold nothing of its ray. Each axis's crossing
+// after the next one is computed a step ahead (the same expression as StepAxes), so the chain
+// from one crossing to the next is min, compare, select. The linear index is kept in doubles
+// (exact below 2^53) and converted when stored. size[l] counts lane l's cells.
+KESTREL_AVX512_BEGIN
+[[KESTREL_AVX512]] void WalkLanesAvx512(const LaneStart& start, const double origin_m[3],
+                                        double resolution, double* distance, int32_t* linear_out,
+                                        int32_t size[lanes::kLanes]) {
+  __mmask8 active = static_cast<__mmask8>(start.active);
+  __m512d t_in = _mm512_load_pd(start.t_in);
+  const __m512d length = _mm512_load_pd(start.length);
+  const __m512d half = _mm512_set1_pd(0.5);
+  const __m512d alpha = _mm512_set1_pd(resolution);
+  __m512d t_max[3], t_after[3], exit_index[3], step_d[3], inv_u[3], o[3], origin[3];
+  __m512d linear_step[3];
+  for (int a = 0; a < 3; ++a) {
+    t_max[a] = _mm512_load_pd(start.t_max[a]);
+    exit_index[a] = _mm512_load_pd(start.exit_index[a]);
+    step_d[a] = _mm512_load_pd(start.step_d[a]);
+    inv_u[a] = _mm512_load_pd(start.inv_u[a]);
+    o[a] = _mm512_load_pd(start.o[a]);
+    origin[a] = _mm512_set1_pd(origin_m[a]);
+    linear_step[a] = _mm512_load_pd(start.linear_step[a]);
+    // ((origin + exit * alpha) - o) * (1/u) at exit + step: StepAxes's next crossing.
+    const __m512d next = _mm512_add_pd(exit_index[a], step_d[a]);
+    t_after[a] = _mm512_mul_pd(
+        _mm512_sub_pd(_mm512_add_pd(origin[a], _mm512_mul_pd(next, alpha)), o[a]), inv_u[a]);
+  }
+  __m512d linear = _mm512_load_pd(start.linear);
+  __m256i count = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(size));
+  const __m256i one = _mm256_set1_epi32(1);
+  for (ptrdiff_t row = 1; active != 0; ++row) {
+    // NextCrossing: t_xy = t0 < t1 ? t0 : t1, then t_xy < t2 ? t_xy : t2 (vminpd's rule).
+    const __m512d t = _mm512_min_pd(_mm512_min_pd(t_max[0], t_max[1]), t_max[2]);
+    const __mmask8 ends = _mm512_cmp_pd_mask(t, length, _CMP_GE_OQ);  // t >= length
+    const __m512d t_out = _mm512_mask_blend_pd(ends, t, length);
+    _mm512_storeu_pd(distance + row * lanes::kLanes,
+                     _mm512_mul_pd(half, _mm512_add_pd(t_in, t_out)));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(linear_out + row * lanes::kLanes),
+                        _mm512_cvttpd_epi32(linear));
+    count = _mm256_mask_add_epi32(count, active, count, one);
+    const __mmask8 go = active & static_cast<__mmask8>(~ends);
+    for (int a = 0; a < 3; ++a) {  // StepAxes: the axes whose crossing is the minimum
+      const __mmask8 m = _mm512_mask_cmp_pd_mask(go, t_max[a], t, _CMP_LE_OQ);
+      linear = _mm512_mask_add_pd(linear, m, linear, linear_step[a]);
+      t_max[a] = _mm512_mask_mov_pd(t_max[a], m, t_after[a]);
+      exit_index[a] = _mm512_mask_add_pd(exit_index[a], m, exit_index[a], step_d[a]);
+      const __m512d next = _mm512_add_pd(exit_index[a], step_d[a]);
+      t_after[a] = _mm512_mask_mul_pd(
+          t_after[a], m, _mm512_sub_pd(_mm512_add_pd(origin[a], _mm512_mul_pd(next, alpha)), o[a]),
+          inv_u[a]);
+    }
+    t_in = _mm512_mask_mov_pd(t_in, go, t);
+    active = go;
+  }
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(size), count);
+}
+KESTREL_AVX512_END
+
+}  // namespace
+#endif
+
 void RayCaster::CastBatch(const RaySegment* rays, int count, RayBatch* out, lanes::Isa isa) const {
   using lanes::kLanes;
   KESTREL_THROW_UNLESS(
@@ -264,135 +358,87 @@ void RayCaster::CastBatch(const RaySegment* rays, int count, RayBatch* out, lane
       "RayCaster::CastBatch: count = " << count << ", accepted [0, 8] with rays");
   KESTREL_THROW_UNLESS(LinearIndexable(),
                        "RayCaster::CastBatch: needs a bounded lattice of fewer than 2^31 cells");
+  KESTREL_THROW_UNLESS(lanes::CpuSupports(isa), "RayCaster::CastBatch: this CPU does not run "
+                                                    << lanes::IsaName(isa) << " code");
   out->count = count;
   out->isa = isa;
   out->has_likelihood = false;
-  // Each lane's set-up and first cell as in CastImpl (scalar); afterwards every active lane has
-  // stored exactly one cell, so all lanes store their k-th cell in the same step.
-  alignas(64) double t_in[kLanes] = {}, length[kLanes] = {};
-  alignas(64) double t_max[3][kLanes] = {}, exit_index[3][kLanes] = {}, step_d[3][kLanes] = {};
-  alignas(64) double inv_u[3][kLanes] = {}, o[3][kLanes] = {};
-  alignas(64) int32_t linear[kLanes] = {}, linear_step[3][kLanes] = {};
-  alignas(64) int64_t active[kLanes] = {}, size[kLanes] = {};
   const Eigen::Vector3d& origin = geometry_.origin_m();
   const double resolution = geometry_.resolution_m();
   double* const distance = out->distance_m.data();
   int32_t* const linear_out = out->linear_index.data();
-  for (int l = 0; l < kLanes; ++l) {
-    out->size[l] = 0;
-    out->left_bounds[l] = false;
-    if (l >= count) continue;
-    const RaySegment& ray = rays[l];
-    RayWalk w;
-    if (!StartWalk(ray.origin_W, ray.direction_W, ray.length_m, out->max_length_m, out->capacity(),
-                   &out->last_origin_W, &out->last_origin_cell, &out->last_origin_lattice, &w)) {
-      out->left_bounds[l] = true;
-      continue;
-    }
-    out->left_bounds[l] = w.left_bounds;
-    int n = 0;
-    double t = 0.0;
-    const auto store = [&](double t_out) {
-      distance[RayBatch::At(0, l)] = 0.5 * (t + t_out);  // only slot 0 is stored here
-      linear_out[RayBatch::At(0, l)] = w.linear;
-      n = 1;
-    };
-    bool walking = false;
-    double t_axis = NextCrossing(w);
-    const double t_first = t_axis < w.length ? t_axis : w.length;
-    if (t_first > t) store(t_first);
-    if (t_axis < w.length) {
-      StepAxes<true>(&w, t_axis, origin, resolution, ray.origin_W);
-      t = t_axis;
-      walking = true;
-      if (n == 0) {  // the first cell had a zero-length chord: one more step of CastImpl's loop
-        t_axis = NextCrossing(w);
-        if (t_axis >= w.length) {
-          store(w.length);
-          walking = false;
-        } else {
-          store(t_axis);
-          StepAxes<true>(&w, t_axis, origin, resolution, ray.origin_W);
-          t = t_axis;
+  RayWalk walks[kLanes];
+  bool started[kLanes] = {};
+  for (int l = 0; l < count; ++l) {
+    started[l] = StartWalk(rays[l].origin_W, rays[l].direction_W, rays[l].length_m,
+                           out->max_length_m, out->capacity(), &out->last_origin_W,
+                           &out->last_origin_cell, &out->last_origin_lattice, &walks[l]);
+  }
+  int32_t size[kLanes] = {};
+#if defined(__x86_64__)
+  if (isa == lanes::Isa::kAvx512) {
+    // Each lane's first cell as WalkRay stores it (scalar), then the other rows in lanes: after
+    // this, every active lane has stored exactly one cell, in row 0.
+    LaneStart start{};
+    start.active = 0;
+    for (int l = 0; l < count; ++l) {
+      if (!started[l]) continue;
+      RayWalk& w = walks[l];
+      const Eigen::Vector3d& o = rays[l].origin_W;
+      double t = 0.0;
+      const auto store = [&](double t_out) {
+        distance[RayBatch::At(0, l)] = 0.5 * (t + t_out);
+        linear_out[RayBatch::At(0, l)] = w.linear;
+        size[l] = 1;
+      };
+      bool walking = false;
+      double t_axis = NextCrossing(w);
+      const double t_first = t_axis < w.length ? t_axis : w.length;
+      if (t_first > t) store(t_first);
+      if (t_axis < w.length) {
+        StepAxes<true>(&w, t_axis, origin, resolution, o);
+        t = t_axis;
+        walking = true;
+        if (size[l] == 0) {  // the first cell had a zero-length chord: one more step of WalkRay
+          t_axis = NextCrossing(w);
+          if (t_axis >= w.length) {
+            store(w.length);
+            walking = false;
+          } else {
+            store(t_axis);
+            StepAxes<true>(&w, t_axis, origin, resolution, o);
+            t = t_axis;
+          }
         }
       }
+      if (walking) start.active |= 1u << l;
+      start.t_in[l] = t;
+      start.length[l] = w.length;
+      start.linear[l] = static_cast<double>(w.linear);
+      for (int a = 0; a < 3; ++a) {
+        start.t_max[a][l] = w.t_max[a];
+        start.exit_index[a][l] = w.exit_index[a];
+        start.step_d[a][l] = w.step_d[a];
+        start.inv_u[a][l] = w.inv_u[a];
+        start.o[a][l] = o[a];
+        start.linear_step[a][l] = static_cast<double>(w.linear_step[a]);
+      }
     }
-    size[l] = n;
-    active[l] = walking ? -1 : 0;
-    t_in[l] = t;
-    length[l] = w.length;
-    linear[l] = w.linear;
-    for (int a = 0; a < 3; ++a) {
-      t_max[a][l] = w.t_max[a];
-      exit_index[a][l] = w.exit_index[a];
-      step_d[a][l] = w.step_d[a];
-      inv_u[a][l] = w.inv_u[a];
-      o[a][l] = ray.origin_W[a];
-      linear_step[a][l] = w.linear_step[a];
+    const double origin_m[3] = {origin[0], origin[1], origin[2]};
+    WalkLanesAvx512(start, origin_m, resolution, distance, linear_out, size);
+  } else  // NOLINT(readability-misleading-indentation): the #if closes the else's scope
+#endif
+  {
+    for (int l = 0; l < count; ++l) {
+      if (!started[l]) continue;
+      size[l] = WalkRay<true, false>(walks[l], rays[l].origin_W, origin, resolution, kLanes,
+                                     distance + l, linear_out + l, nullptr);
     }
   }
-  // CastImpl's loop, eight lanes at once: a lane that has ended keeps its size and writes only
-  // into rows at or beyond it, which hold nothing of its ray.
-  lanes::RunWithIsa(isa, [&]() KESTREL_LANES_BODY {
-    using lanes::Load;
-    using lanes::Min;
-    using lanes::VD;
-    using lanes::VI;
-    using lanes::VL;
-    // Locals, not the closure's references: the stores below cannot alias them.
-    double* const distance_rows = distance;
-    int32_t* const linear_rows = linear_out;
-    const double alpha = resolution;
-    VD v_t_in = Load(t_in);
-    const VD v_length = Load(length);
-    // Per axis: the next crossing t_max and the one after it (the crossing of the boundary past
-    // exit_index + step, the same expression as StepAxes computes when it steps), so that a
-    // step only selects values computed the iteration before: the chain from one crossing to
-    // the next is min, compare, select.
-    VD v_t_max[3], v_t_after[3], v_exit[3], v_step_d[3], v_inv_u[3], v_o[3], v_origin[3];
-    VD v_linear_step[3];
-    const auto crossing = [&](int a, VD exit) KESTREL_LANES_BODY {
-      return ((v_origin[a] + exit * alpha) - v_o[a]) * v_inv_u[a];  // as StepAxes
-    };
-    for (int a = 0; a < 3; ++a) {
-      v_t_max[a] = Load(t_max[a]);
-      v_exit[a] = Load(exit_index[a]);
-      v_step_d[a] = Load(step_d[a]);
-      v_inv_u[a] = Load(inv_u[a]);
-      v_o[a] = Load(o[a]);
-      v_origin[a] = lanes::Splat(origin[a]);
-      v_linear_step[a] = __builtin_convertvector(lanes::LoadInt(linear_step[a]), VD);
-      v_t_after[a] = crossing(a, v_exit[a] + v_step_d[a]);
-    }
-    // The linear index in doubles (exact below 2^53): selects and adds stay in one register
-    // type; converted to 32 bits when stored.
-    VD v_linear = __builtin_convertvector(lanes::LoadInt(linear), VD);
-    VL v_active, v_size;
-    std::memcpy(&v_active, active, sizeof(VL));
-    std::memcpy(&v_size, size, sizeof(VL));
-    for (int k = 1; lanes::Any(v_active); ++k) {
-      const VD t = Min(Min(v_t_max[0], v_t_max[1]), v_t_max[2]);  // NextCrossing
-      const VL ends = t >= v_length;
-      const VD t_out = ends ? v_length : t;
-      lanes::Store(distance_rows + RayBatch::At(k, 0), 0.5 * (v_t_in + t_out));  // d_k
-      lanes::Store(linear_rows + RayBatch::At(k, 0), __builtin_convertvector(v_linear, VI));
-      v_size -= v_active;  // +1 where active
-      const VL go = v_active & ~ends;
-      for (int a = 0; a < 3; ++a) {  // StepAxes
-        const VL m = go & (v_t_max[a] <= t);
-        v_linear = m ? v_linear + v_linear_step[a] : v_linear;
-        v_t_max[a] = m ? v_t_after[a] : v_t_max[a];
-        v_exit[a] = m ? v_exit[a] + v_step_d[a] : v_exit[a];
-        v_t_after[a] = m ? crossing(a, v_exit[a] + v_step_d[a]) : v_t_after[a];
-      }
-      v_t_in = go ? t : v_t_in;
-      v_active = go;
-    }
-    std::memcpy(size, &v_size, sizeof(VL));
-  });
   out->longest = 0;
-  for (int l = 0; l < count; ++l) {
-    out->size[l] = static_cast<int>(size[l]);
+  for (int l = 0; l < kLanes; ++l) {
+    out->size[l] = l < count ? size[l] : 0;
+    out->left_bounds[l] = l < count && (!started[l] || walks[l].left_bounds);
     out->longest = std::max(out->longest, out->size[l]);
   }
 }

@@ -3,11 +3,8 @@
 #include <cstring>
 #include <limits>
 
-#if defined(__x86_64__)
-#include <immintrin.h>
-#endif
-
 #include "common/check.h"
+#include "mapping/avx512.h"
 
 namespace kestrel {
 
@@ -109,19 +106,15 @@ struct LikelihoodLanes {
   double near_none, in_range_none;  // P(none | r_k+) below z_min / in range
 };
 
-// GCC 12's AVX-512 headers start some results from _mm512_undefined_*(), which -Wuninitialized
-// (-Wmaybe-uninitialized) reports inside them; nothing here is read uninitialised.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wuninitialized"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+KESTREL_AVX512_BEGIN
 
 // ReturnLikelihoodEvaluator::Hermite in eight lanes: index min(trunc(s), last) (s is also
 // clamped at 0, which only changes lanes whose value is not used), t = s - index, and
 // c0 + t (c1 + t (c2 + t c3)) with the same roundings. Each lane's four coefficients are one
 // 32-byte load; an in-register transpose turns the eight loads into c0..c3 (gather
 // instructions are slower here).
-[[gnu::target("avx512f,avx512dq,avx512vl,avx512bw"), gnu::always_inline]] inline __m512d
-HermiteLanes(const double* table, double last, __m512d s) {
+[[KESTREL_AVX512, gnu::always_inline]] inline __m512d HermiteLanes(const double* table, double last,
+                                                                   __m512d s) {
   const __m512d s_in = _mm512_max_pd(_mm512_min_pd(s, _mm512_set1_pd(last)), _mm512_setzero_pd());
   const __m256i index = _mm512_cvttpd_epi32(s_in);
   const __m512d t = _mm512_sub_pd(s, _mm512_cvtepi32_pd(index));
@@ -149,9 +142,9 @@ HermiteLanes(const double* table, double last, __m512d s) {
   return _mm512_add_pd(c0, _mm512_mul_pd(t, mid));
 }
 
-[[gnu::target("avx512f,avx512dq,avx512vl,avx512bw")]] void FillLikelihoodsAvx512(
-    const LikelihoodLanes& c, const double* z, __mmask8 is_return, const double* distance_m,
-    int rows, double* likelihood) {
+[[KESTREL_AVX512]] void FillLikelihoodsAvx512(const LikelihoodLanes& c, const double* z,
+                                              __mmask8 is_return, const double* distance_m,
+                                              int rows, double* likelihood) {
   const __m512d v_z = _mm512_loadu_pd(z);
   const __m512d z_min = _mm512_set1_pd(c.z_min), z_max = _mm512_set1_pd(c.z_max);
   const __m512d cutoff = _mm512_set1_pd(c.cutoff), spurious = _mm512_set1_pd(c.spurious);
@@ -180,7 +173,7 @@ HermiteLanes(const double* table, double last, __m512d s) {
     _mm512_storeu_pd(likelihood + static_cast<ptrdiff_t>(k) * 8, a);
   }
 }
-#pragma GCC diagnostic pop
+KESTREL_AVX512_END
 
 }  // namespace
 #endif

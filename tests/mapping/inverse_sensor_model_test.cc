@@ -342,6 +342,64 @@ TEST(SensorModel, InterpolatedGaussianMatchesDirectEvaluation) {
   }
 }
 
+// FillLikelihoods (eight rays at once) gives ReturnLikelihood / NoReturnProbability bit for bit:
+// random returns and distances, and distances on and next to the edges (z_min, z_max, the
+// window's z -+ c sigma, z itself), with "no return", invalid and unused lanes mixed in. Where
+// the instruction set has no such kernel it says so and fills nothing.
+TEST(SensorModel, BatchLikelihoodsEqualTheModelBitForBit) {
+  constexpr int kL = lanes::kLanes;
+  for (const SensorModelConfig& config :
+       {SensorModelConfig::Xtion(), SensorModelConfig::Hokuyo()}) {
+    const SensorModel model(config);
+    const double cutoff = config.cutoff_sigmas * config.sigma_m;
+    std::mt19937 rng(33);
+    std::uniform_real_distribution<double> range(config.z_min_m, config.z_max_m);
+    for (const lanes::Isa isa : lanes::SupportedIsas()) {
+      SCOPED_TRACE(lanes::IsaName(isa));
+      int filled = 0;
+      for (int batch = 0; batch < 400; ++batch) {
+        const int count = 1 + batch % kL;
+        Reading readings[kL];
+        for (int l = 0; l < count; ++l) {
+          const int kind = static_cast<int>(rng() % 8);
+          readings[l] = kind == 0   ? Reading{ReadingKind::kNoReturn, 0.0}
+                        : kind == 1 ? Reading{ReadingKind::kInvalid, 0.0}
+                                    : Reading{ReadingKind::kReturn, range(rng)};
+        }
+        constexpr int kRows = 40;
+        std::vector<double> d(kRows * kL), a(kRows * kL, -1.0);
+        for (int k = 0; k < kRows; ++k) {
+          for (int l = 0; l < kL; ++l) {
+            const double z = readings[l].z_m;
+            const double edges[] = {config.z_min_m, config.z_max_m, z - cutoff, z + cutoff, z};
+            double v = std::uniform_real_distribution<double>(0.0, config.z_max_m + 0.5)(rng);
+            if (rng() % 3 == 0) {
+              v = edges[rng() % 5];
+              const int ulps = static_cast<int>(rng() % 3) - 1;  // on it, or one ulp either side
+              if (ulps != 0) v = std::nextafter(v, ulps > 0 ? 1e9 : -1e9);
+            }
+            d[k * kL + l] = std::max(v, 0.0);
+          }
+        }
+        if (!model.FillLikelihoods(readings, count, d.data(), kRows, a.data(), isa)) continue;
+        ++filled;
+        for (int k = 0; k < kRows; ++k) {
+          for (int l = 0; l < count; ++l) {
+            const double dk = d[k * kL + l];
+            const double expected = readings[l].kind == ReadingKind::kReturn
+                                        ? model.ReturnLikelihood(readings[l].z_m, dk)
+                                        : model.NoReturnProbability(dk);
+            ASSERT_EQ(a[k * kL + l], expected)
+                << "lane " << l << " z = " << readings[l].z_m << " d = " << dk;
+          }
+        }
+      }
+      // The AVX-512 kernel always fills (tables on); the baseline leaves a_k to the update.
+      EXPECT_EQ(filled > 0, isa == lanes::Isa::kAvx512);
+    }
+  }
+}
+
 // Each case of the forward model integrates to 1 over returns plus "no return" (numerical
 // quadrature of the return density over [z_min, z_max)).
 TEST(SensorModel, LikelihoodIntegratesToOne) {
