@@ -111,6 +111,7 @@ MapperConfig LoadMapperConfig(const ConfigNode& node) {
   node.Read("max_queue", &c.max_queue, Range::Closed(1, 100000));
   node.Read("max_backlog_s", &c.max_backlog_s, Range::Positive());
   node.Read("traversal_thread", &c.traversal_thread);
+  node.Read("ray_batches", &c.ray_batches);
   try {
     c.Validate();
   } catch (const std::invalid_argument& e) {

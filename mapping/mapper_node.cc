@@ -48,7 +48,12 @@ MapperNode::MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& c
   } else {
     CreateEmptyMap();
   }
-  std::visit([this](auto& m) { m->SetTraversalThread(config_.traversal_thread); }, map_);
+  std::visit(
+      [this](auto& m) {
+        m->SetTraversalThread(config_.traversal_thread);
+        if (!config_.ray_batches) m->SetRayBatches(false);  // else the map's default (AVX-512)
+      },
+      map_);
   auto on_error = [this](const std::string& channel, const std::string& reason) {
     skipped_.Count("malformed", channel + ": " + reason);
   };
