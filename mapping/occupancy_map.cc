@@ -1,6 +1,7 @@
 #include "mapping/occupancy_map.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -182,7 +183,37 @@ void OccupancyMap<Grid>::ApplyCastRay(const Reading& reading, const RayCells& ra
 
 template <class Grid>
 void OccupancyMap<Grid>::SetTraversalThread(bool enabled) {
-  if (!enabled) {
+  traversal_thread_ = enabled;
+  ConfigureWorkers();
+}
+
+template <class Grid>
+void OccupancyMap<Grid>::SetRayBatches(bool enabled, lanes::Isa isa) {
+  KESTREL_THROW_UNLESS(lanes::CpuSupports(isa),
+                       "SetRayBatches: this CPU does not run " << lanes::IsaName(isa) << " code");
+  batch_isa_.reset();
+  if (enabled) batch_isa_ = isa;
+  ConfigureWorkers();
+}
+
+template <class Grid>
+bool OccupancyMap<Grid>::Batched() const {
+  return std::is_same_v<Grid, DenseGrid> && batch_isa_.has_value() && caster_.LinearIndexable();
+}
+
+template <class Grid>
+void OccupancyMap<Grid>::ConfigureWorkers() {
+  // A worker of the kind the rays are cast with (batches or one by one), created once.
+  const bool batched = traversal_thread_ && Batched();
+  if (!batched || (batch_pipeline_ != nullptr && batch_pipeline_isa_ != *batch_isa_)) {
+    batch_pipeline_.reset();
+  }
+  if (batched && batch_pipeline_ == nullptr) {
+    batch_pipeline_ =
+        std::make_unique<RayBatchPipeline>(grid_.geometry(), ray_.max_length_m, *batch_isa_);
+    batch_pipeline_isa_ = *batch_isa_;
+  }
+  if (!traversal_thread_ || batched) {
     pipeline_.reset();
   } else if (pipeline_ == nullptr) {
     // The updates need a ray's CellIndex only through its linear index (ApplyCastRay).
@@ -192,21 +223,65 @@ void OccupancyMap<Grid>::SetTraversalThread(bool enabled) {
 }
 
 template <class Grid>
-void OccupancyMap<Grid>::SetRayBatches(bool enabled, lanes::Isa isa) {
-  KESTREL_THROW_UNLESS(lanes::CpuSupports(isa),
-                       "SetRayBatches: this CPU does not run " << lanes::IsaName(isa) << " code");
-  batch_isa_.reset();
-  if (enabled) batch_isa_ = isa;
+void OccupancyMap<Grid>::ApplyBatch(const Reading* readings, const RayBatch& batch,
+                                    const SensorModel& model, ScanStats* stats) {
+  float* const values = DenseValues();
+  const int32_t* const linear = batch.linear_index.data();
+  // The rays one after the other, in order: each sees its predecessors' posteriors.
+  for (int l = 0; l < batch.count; ++l) {
+    const int changed = updater_->UpdateBatchLane(model, readings[l], batch, l, values,
+                                                  &stats->cells_updated, changed_.data());
+    for (int c = 0; c < changed; ++c) {
+      MarkDirty(DenseBlockOf(linear[RayBatch::At(changed_[static_cast<size_t>(c)], l)]));
+    }
+    ++stats->rays_applied;
+    if (readings[l].kind == ReadingKind::kNoReturn) ++stats->rays_no_return;
+  }
 }
 
 template <class Grid>
 template <class Source>
-ScanStats OccupancyMap<Grid>::ApplyRays(int count, const Source& source, const SensorModel& model) {
+ScanStats OccupancyMap<Grid>::ApplyRays(ScanKind kind, int count, const Source& source,
+                                        const SensorModel& model) {
   KESTREL_THROW_UNLESS(model.config().z_max_m <= ray_.max_length_m,
                        "OccupancyMap: sensor z_max_m = " << model.config().z_max_m
                                                          << " exceeds the map's max_range_m = "
                                                          << ray_.max_length_m);
   ScanStats stats;
+  // With a batch worker, each kind of scan goes the way that has been faster (WorkerChoice).
+  WorkerChoice& choice = choices_[kind];
+  const bool use_worker = batch_pipeline_ != nullptr && choice.NextUsesWorker();
+  const auto started = std::chrono::steady_clock::now();
+  const auto record = [&](bool worker) {
+    if (batch_pipeline_ == nullptr) return;
+    choice.Record(
+        worker, stats.rays_applied,
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+  };
+  if (use_worker) {
+    // Batches cast and their forward models evaluated on the worker, updated here in order.
+    const OccupancyUpdater& updater = *updater_;
+    const lanes::Isa isa = *batch_isa_;
+    const auto batch_source = [&](int i, RayBatchPipeline::RaySpec* out) {
+      TraversalPipeline::RaySpec spec;
+      source(i, &spec);
+      out->reading = spec.reading;
+      out->segment = RaySegment{spec.origin_W, spec.direction_W, spec.length_m};
+    };
+    const auto prepare = [&](const Reading* readings, RayBatch* batch) {
+      updater.PrecomputeBatch(model, readings, isa, batch);
+    };
+    const auto sink = [&](const Reading* readings, const RayBatch& batch, uint64_t invalid) {
+      stats.rays_invalid += invalid;
+      ApplyBatch(readings, batch, model, &stats);
+    };
+    // std::function over reference wrappers: no allocation.
+    batch_pipeline_->Run(count, RayBatchPipeline::Source(std::cref(batch_source)),
+                         RayBatchPipeline::Prepare(std::cref(prepare)),
+                         RayBatchPipeline::Sink(std::cref(sink)));
+    record(true);
+    return stats;
+  }
   if (pipeline_ != nullptr) {
     const auto sink = [&](const TraversalPipeline::RaySpec& spec, const RayCells& ray) {
       ApplyCastRay(spec.reading, ray, model, &stats);
@@ -222,11 +297,10 @@ ScanStats OccupancyMap<Grid>::ApplyRays(int count, const Source& source, const S
                    TraversalPipeline::Sink(std::cref(sink)));
     return stats;
   }
-  if constexpr (!std::is_same_v<Grid, GrowingGrid>) {
-    if (batch_isa_ && caster_.LinearIndexable()) {
-      ApplyRayBatches(count, source, model, &stats);
-      return stats;
-    }
+  if (Batched()) {
+    ApplyRayBatches(count, source, model, &stats);
+    record(false);
+    return stats;
   }
   TraversalPipeline::RaySpec spec;
   for (int i = 0; i < count; ++i) {
@@ -243,7 +317,6 @@ template <class Grid>
 template <class Source>
 void OccupancyMap<Grid>::ApplyRayBatches(int count, const Source& source, const SensorModel& model,
                                          ScanStats* stats) {
-  float* const values = DenseValues();
   TraversalPipeline::RaySpec spec;
   RaySegment segments[lanes::kLanes];
   Reading readings[lanes::kLanes];
@@ -263,17 +336,7 @@ void OccupancyMap<Grid>::ApplyRayBatches(int count, const Source& source, const 
     }
     caster_.CastBatch(segments, lanes_used, &batch_, *batch_isa_);
     updater_->PrecomputeBatch(model, readings, *batch_isa_, &batch_);
-    // The rays one after the other, in order: each sees its predecessors' posteriors.
-    const int32_t* const linear = batch_.linear_index.data();
-    for (int l = 0; l < lanes_used; ++l) {
-      const int changed = updater_->UpdateBatchLane(model, readings[l], batch_, l, values,
-                                                    &stats->cells_updated, changed_.data());
-      for (int c = 0; c < changed; ++c) {
-        MarkDirty(DenseBlockOf(linear[RayBatch::At(changed_[static_cast<size_t>(c)], l)]));
-      }
-      ++stats->rays_applied;
-      if (readings[l].kind == ReadingKind::kNoReturn) ++stats->rays_no_return;
-    }
+    ApplyBatch(readings, batch_, model, stats);
   }
 }
 
@@ -316,7 +379,7 @@ ScanStats OccupancyMap<Grid>::ApplyDepthImage(const Pose3& X_WS, const DepthIntr
       spec->length_m = updater.CastLength(model, spec->reading);
     }
   };
-  return ApplyRays(width * height, source, model);
+  return ApplyRays(ScanKind::kDepthImage, width * height, source, model);
 }
 
 template <class Grid>
@@ -344,7 +407,7 @@ ScanStats OccupancyMap<Grid>::ApplyPlanarScan(const Pose3& X_WS, double angle_mi
       spec->length_m = updater.CastLength(model, spec->reading);
     }
   };
-  return ApplyRays(count, source, model);
+  return ApplyRays(ScanKind::kPlanarScan, count, source, model);
 }
 
 template <class Grid>

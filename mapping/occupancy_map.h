@@ -31,6 +31,7 @@
 #include "common/se3.h"
 #include "mapping/grid.h"
 #include "mapping/occupancy_updater.h"
+#include "mapping/ray_batch_pipeline.h"
 #include "mapping/ray_caster.h"
 #include "mapping/sensor_model.h"
 #include "mapping/traversal_pipeline.h"
@@ -127,25 +128,33 @@ class OccupancyMap {
   [[nodiscard]] double max_range_m() const { return ray_.max_length_m; }
 
   /// Casts the rays of ApplyDepthImage and ApplyPlanarScan on a second thread, ahead of the
-  /// updates, which stay in ray order (mapping/traversal_pipeline.h): same map bit for bit. The two
-  /// threads balance themselves, and only a ray's d_k and 32-bit cell indices cross between
-  /// them. Measured on the shared 2-vCPU machine: 0.6-1.8x one thread's rate from run to run
-  /// (~25 cache misses per ray whose cost depends on where the host places the vCPUs). Off by
-  /// default (kestrel-mapper: MapperConfig::traversal_thread); enabling creates the worker once.
+  /// updates, which stay in ray order: same map bit for bit. With ray batches (SetRayBatches)
+  /// the worker casts batches and evaluates their forward models (mapping/ray_batch_pipeline.h);
+  /// otherwise it casts rays one by one and the two threads balance themselves
+  /// (mapping/traversal_pipeline.h). Measured on the shared 2-vCPU machine: from below one
+  /// thread's rate to 1.9x it, in spells (each ray's data crosses the cores, and what that costs
+  /// depends on where the host places the vCPUs); so with batches each kind of scan (depth
+  /// images, planar scans) goes through the worker only while that has been the faster way
+  /// (WorkerChoice, re-tried every 16th scan). Off by default (kestrel-mapper:
+  /// MapperConfig::traversal_thread); enabling creates the worker once.
   void SetTraversalThread(bool enabled);
   /// Whether a traversal thread is in use.
-  [[nodiscard]] bool traversal_thread() const { return pipeline_ != nullptr; }
+  [[nodiscard]] bool traversal_thread() const {
+    return pipeline_ != nullptr || batch_pipeline_ != nullptr;
+  }
 
   /// Casts the rays of ApplyDepthImage and ApplyPlanarScan eight at a time, compiled for `isa`
-  /// (file comment; DenseGrid without a traversal thread only): same map bit for bit. Default:
-  /// on where the CPU has AVX-512 (lanes::BestIsa), where it is faster than one ray at a time
-  /// (measured: bench/mapping); narrower vectors are slower, so elsewhere off.
+  /// (file comment; DenseGrid only): same map bit for bit. Default: on where the CPU has
+  /// AVX-512 (lanes::BestIsa), where it is faster than one ray at a time (measured:
+  /// bench/mapping); the baseline kernels run the scalar code lane by lane, so elsewhere off.
   /// @throws std::invalid_argument if the CPU does not run `isa`.
   void SetRayBatches(bool enabled, lanes::Isa isa = lanes::BestIsa());
   /// Whether rays are cast in batches (SetRayBatches).
   [[nodiscard]] bool ray_batches() const { return batch_isa_.has_value(); }
 
  private:
+  // What ApplyRays applies (the batch worker's choice is kept per kind).
+  enum ScanKind : int { kDepthImage = 0, kPlanarScan = 1 };
   float* CellPointer(const CellIndex& c);
   // DenseGrid: the first cell value (nullptr for a GrowingGrid).
   float* DenseValues();
@@ -173,10 +182,17 @@ class OccupancyMap {
   // Applies rays 0..count-1 described by source(i, &spec), pipelined, batched or one by one
   // (defined and used in occupancy_map.cc only).
   template <class Source>
-  ScanStats ApplyRays(int count, const Source& source, const SensorModel& model);
+  ScanStats ApplyRays(ScanKind kind, int count, const Source& source, const SensorModel& model);
   // ApplyRays in batches of eight (file comment).
   template <class Source>
   void ApplyRayBatches(int count, const Source& source, const SensorModel& model, ScanStats* stats);
+  // Updates the rays of a cast batch in order; adds to *stats.
+  void ApplyBatch(const Reading* readings, const RayBatch& batch, const SensorModel& model,
+                  ScanStats* stats);
+  // Whether ApplyRays casts in batches (a DenseGrid with batches on).
+  [[nodiscard]] bool Batched() const;
+  // Creates or drops the workers to match traversal_thread_ and the batches.
+  void ConfigureWorkers();
 
   Grid grid_;
   std::unique_ptr<OccupancyUpdater> updater_;
@@ -194,7 +210,11 @@ class OccupancyMap {
   mutable double entropy_nats_{0.0};
   // GrowingGrid only: cached block access.
   std::unique_ptr<GrowingGrid::Accessor> accessor_;
-  std::unique_ptr<TraversalPipeline> pipeline_;
+  bool traversal_thread_{false};
+  WorkerChoice choices_[2];  // per ScanKind: with the batch worker or without (ApplyRays)
+  std::unique_ptr<TraversalPipeline> pipeline_;           // thread, rays one by one
+  std::unique_ptr<RayBatchPipeline> batch_pipeline_;      // thread, batches
+  lanes::Isa batch_pipeline_isa_{lanes::Isa::kBaseline};  // what batch_pipeline_ casts with
 };
 
 /// The paper's map: fixed limits, dense storage.

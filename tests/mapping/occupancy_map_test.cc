@@ -392,6 +392,20 @@ TEST(OccupancyMap, TraversalThreadGivesBitIdenticalMaps) {
   EXPECT_EQ(a.rays_invalid, b.rays_invalid);
   EXPECT_GT(a.rays_invalid, 0u);
   EXPECT_EQ(inline_map->entropy_nats(), threaded_map->entropy_nats());
+  // With ray batches on every instruction set, the worker casts batches (RayBatchPipeline; the
+  // first scan of each kind goes through it, WorkerChoice).
+  for (const lanes::Isa isa : lanes::SupportedIsas()) {
+    SCOPED_TRACE(lanes::IsaName(isa));
+    auto batched = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
+    batched->SetRayBatches(true, isa);
+    batched->SetTraversalThread(true);
+    EXPECT_TRUE(batched->traversal_thread());
+    const ScanStats c = run(batched.get());
+    EXPECT_EQ(batched->Hash(), inline_map->Hash());
+    EXPECT_EQ(c.cells_updated, a.cells_updated);
+    EXPECT_EQ(c.rays_invalid, a.rays_invalid);
+    EXPECT_EQ(batched->entropy_nats(), inline_map->entropy_nats());
+  }
   auto inline_growing = MakeExactGrowingMap(MapLimits{}, kOccupancy, 4.0);
   auto threaded_growing = MakeExactGrowingMap(MapLimits{}, kOccupancy, 4.0);
   threaded_growing->SetTraversalThread(true);

@@ -1,0 +1,119 @@
+#pragma once
+/// @file
+/// Batched ray casting on a second core (ALGORITHMS.md section 11, "traversal of the next rays on
+/// one core while the other applies updates in order"): a worker thread fills a ring of
+/// RayBatch slots, eight rays each (the source, RayCaster::CastBatch and the map-independent
+/// prepare step, e.g. a_k), while the caller consumes the slots strictly in order. Neither step
+/// on the worker reads the map, so the map is bit-identical to a single thread's.
+///
+/// Hand-over is by one atomic state per slot; a side that waits spins briefly, then yields its
+/// core (on a shared machine the other side may not be running). The worker and the slots are
+/// created once; Run allocates nothing.
+///
+/// Measured on the 2-vCPU development machine (bench/mapping, BM_KestrelExactThreaded_*): in
+/// some spells 1.5-1.9x one thread's rays per wall second, in others below one thread (each
+/// ray's d_k, cell indices and a_k, about 1.3 KB, cross between the cores, and what that costs
+/// depends on where the host places the two vCPUs), so it is off by default.
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <exception>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "mapping/ray_caster.h"
+#include "mapping/sensor_model.h"
+
+namespace kestrel {
+
+/// Chooses, scan by scan, whether a kind of scan goes through the worker or stays on one
+/// thread: whichever has been faster in rays per wall second (exponentially averaged), trying
+/// the other one every kProbePeriod-th scan so that a change of speed is noticed. The map is the
+/// same either way; only the time differs. Pure logic (the caller times the scans).
+class WorkerChoice {
+ public:
+  /// Every this many scans the slower way is tried again.
+  static constexpr int kProbePeriod = 16;
+  /// Whether the next scan should use the worker (an untried way is tried first).
+  [[nodiscard]] bool NextUsesWorker();
+  /// The scan just applied: `rays` in `seconds` of wall time, with or without the worker.
+  void Record(bool worker, uint64_t rays, double seconds);
+  /// Averaged rays per second with (true) or without the worker; 0 until tried.
+  [[nodiscard]] double rate(bool worker) const { return rate_[worker ? 1 : 0]; }
+
+ private:
+  double rate_[2] = {0.0, 0.0};
+  uint64_t scans_{0};
+};
+
+/// Casts batches of rays on a worker thread, hands them to the caller in order.
+class RayBatchPipeline {
+ public:
+  /// Slots in the ring (eight rays each).
+  static constexpr int kSlots = 32;
+
+  /// One ray to cast (filled by the source on the worker): a kInvalid reading is not cast.
+  struct RaySpec {
+    RaySegment segment;  ///< what to cast
+    Reading reading;     ///< the reading along it
+  };
+  /// Fills the spec of ray `index` (runs on the worker; must only read shared data).
+  using Source = std::function<void(int index, RaySpec* spec)>;
+  /// Map-independent work on a cast batch (runs on the worker), e.g. a_k.
+  using Prepare = std::function<void(const Reading* readings, RayBatch* batch)>;
+  /// Consumes a batch on the caller's thread, in ray order: its lanes' readings, the batch,
+  /// and the invalid readings skipped since the previous batch.
+  using Sink =
+      std::function<void(const Reading* readings, const RayBatch& batch, uint64_t invalid)>;
+
+  /// A worker casting through `caster`'s lattice (which must be LinearIndexable) rays up to
+  /// `max_length_m` long with instruction set `isa`.
+  /// @throws std::invalid_argument if the lattice has no linear indices.
+  RayBatchPipeline(const GridGeometry& geometry, double max_length_m, lanes::Isa isa);
+  ~RayBatchPipeline();
+  RayBatchPipeline(const RayBatchPipeline&) = delete;
+  RayBatchPipeline& operator=(const RayBatchPipeline&) = delete;
+
+  /// Runs rays 0..count-1 of `source`: cast and prepared on the worker, consumed by `sink` here
+  /// in order. Exceptions from the source, the caster, prepare or the sink are rethrown here
+  /// after the worker has stopped on this job.
+  void Run(int count, const Source& source, const Prepare& prepare, const Sink& sink);
+
+ private:
+  enum SlotState : int { kFree = 0, kFilled = 1 };
+  struct Slot {
+    explicit Slot(double max_length_m, double resolution_m) : batch(max_length_m, resolution_m) {}
+    RayBatch batch;
+    Reading readings[lanes::kLanes];
+    uint64_t invalid{0};  // invalid readings skipped before this batch's rays
+    bool last{false};     // no rays after this batch
+    std::exception_ptr error;
+    std::atomic<int> state{kFree};
+  };
+
+  void WorkerLoop();
+  // Waits until slot.state == want, or the job is cancelled (returns false).
+  bool WaitFor(const Slot& slot, int want) const;
+
+  RayCaster caster_;
+  lanes::Isa isa_;
+  std::vector<std::unique_ptr<Slot>> slots_;
+  std::atomic<bool> cancel_{false};
+  // Job hand-over, guarded by mutex_.
+  std::mutex mutex_;
+  std::condition_variable worker_cv_;
+  std::condition_variable caller_cv_;
+  const Source* source_{nullptr};
+  const Prepare* prepare_{nullptr};
+  int job_count_{0};
+  uint64_t job_generation_{0};
+  bool job_active_{false};
+  bool shutdown_{false};
+  std::thread worker_;
+};
+
+}  // namespace kestrel
