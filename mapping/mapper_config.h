@@ -50,10 +50,13 @@ struct MapperConfig {
   double max_backlog_s{0.5};  ///< backlog beyond which rays are decimated (status shows it)
 
   /// Cast the rays of each scan on a second thread ahead of the in-order updates
-  /// (OccupancyMap::SetTraversalThread): the same map bit for bit. Off by default: on this
-  /// 2-vCPU machine it gives 0.6-1.8x the rays/s of one thread from run to run (each ray's data
-  /// crosses cores, ~25 cache misses per ray, whose cost depends on where the host places the
-  /// vCPUs) and up to twice the CPU.
+  /// (OccupancyMap::SetTraversalThread): the same map bit for bit. With ray batches, each kind
+  /// of scan goes through the thread only while that is faster (WorkerChoice). Off unless
+  /// configured: on this 2-vCPU machine the thread gives from below one thread's rays/s to 1.9x
+  /// it, in
+  /// spells (each ray's data crosses the cores, and what that costs depends on where the host
+  /// places the vCPUs) and takes up to twice the CPU. config/mapper.yaml turns it on; the sim
+  /// sheet turns it off (the simulator and the other processes share the two cores).
   bool traversal_thread{false};
 
   /// Cast eight rays at a time, and evaluate their forward models and store their posteriors in

@@ -16,11 +16,11 @@
 /// ray (the scratch is sized at construction from max_range_m); a GrowingGrid allocates a block
 /// the first time a ray touches it.
 ///
-/// Batches (DenseGrid, no traversal thread): ApplyDepthImage and ApplyPlanarScan cast eight rays
-/// at once in vector registers (RayCaster::CastBatch) and evaluate their forward models together
-/// (OccupancyUpdater::PrecomputeBatch), then update the eight rays one after the other, in
-/// order. Neither step reads the map, so the map is the one ray-by-ray updates give, bit for
-/// bit (tests/mapping/occupancy_map_test.cc).
+/// Batches (DenseGrid, SetRayBatches): ApplyDepthImage and ApplyPlanarScan cast eight rays at
+/// once in vector registers (RayCaster::CastBatch) and evaluate their forward models together
+/// (OccupancyUpdater::PrecomputeBatch), on this thread or on the traversal thread, then update
+/// the eight rays one after the other, in order. Neither step reads the map, so the map is the
+/// one ray-by-ray updates give, bit for bit (tests/mapping/occupancy_map_test.cc).
 
 #include <Eigen/Core>
 #include <cstdint>
