@@ -122,9 +122,10 @@ KESTREL_AVX512_BEGIN
   _mm256_store_si256(reinterpret_cast<__m256i*>(at), index);
   // Rows of two lanes' coefficients: [c0 c1 c2 c3 | c0 c1 c2 c3] of lanes (0,1), (2,3), ...
   __m512d pair[4];
+  const auto row = [&](int lane) { return table + ptrdiff_t{4} * at[lane]; };
   for (int p = 0; p < 4; ++p) {
-    const __m512d low = _mm512_castpd256_pd512(_mm256_loadu_pd(table + 4 * at[2 * p]));
-    pair[p] = _mm512_insertf64x4(low, _mm256_loadu_pd(table + 4 * at[2 * p + 1]), 1);
+    const __m512d low = _mm512_castpd256_pd512(_mm256_loadu_pd(row(2 * p)));
+    pair[p] = _mm512_insertf64x4(low, _mm256_loadu_pd(row(2 * p + 1)), 1);
   }
   // [c0 of lanes 0-3 | c1 of lanes 0-3] and [c2 | c3] from pairs (0,1); likewise lanes 4-7.
   const __m512i even = _mm512_setr_epi64(0, 4, 8, 12, 1, 5, 9, 13);
