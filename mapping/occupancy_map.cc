@@ -258,16 +258,17 @@ ScanStats OccupancyMap<Grid>::ApplyRays(ScanKind kind, int count, const Source& 
         worker, stats.rays_applied,
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
   };
+  // The source as batches take it.
+  const auto batch_source = [&source](int i, BatchRaySpec* out) {
+    TraversalPipeline::RaySpec spec;
+    source(i, &spec);
+    out->reading = spec.reading;
+    out->segment = RaySegment{spec.origin_W, spec.direction_W, spec.length_m};
+  };
   if (use_worker) {
     // Batches cast and their forward models evaluated on the worker, updated here in order.
     const OccupancyUpdater& updater = *updater_;
     const lanes::Isa isa = *batch_isa_;
-    const auto batch_source = [&](int i, RayBatchPipeline::RaySpec* out) {
-      TraversalPipeline::RaySpec spec;
-      source(i, &spec);
-      out->reading = spec.reading;
-      out->segment = RaySegment{spec.origin_W, spec.direction_W, spec.length_m};
-    };
     const auto prepare = [&](const Reading* readings, RayBatch* batch) {
       updater.PrecomputeBatch(model, readings, isa, batch);
     };
@@ -298,7 +299,7 @@ ScanStats OccupancyMap<Grid>::ApplyRays(ScanKind kind, int count, const Source& 
     return stats;
   }
   if (Batched()) {
-    ApplyRayBatches(count, source, model, &stats);
+    ApplyRayBatches(count, batch_source, model, &stats);
     record(false);
     return stats;
   }
@@ -317,23 +318,12 @@ template <class Grid>
 template <class Source>
 void OccupancyMap<Grid>::ApplyRayBatches(int count, const Source& source, const SensorModel& model,
                                          ScanStats* stats) {
-  TraversalPipeline::RaySpec spec;
   RaySegment segments[lanes::kLanes];
   Reading readings[lanes::kLanes];
-  int i = 0;
-  while (i < count) {
-    // The next eight readings that carry information (invalid ones are counted, not cast).
-    int lanes_used = 0;
-    for (; i < count && lanes_used < lanes::kLanes; ++i) {
-      source(i, &spec);
-      if (spec.reading.kind == ReadingKind::kInvalid) {
-        ++stats->rays_invalid;
-        continue;
-      }
-      segments[lanes_used] = RaySegment{spec.origin_W, spec.direction_W, spec.length_m};
-      readings[lanes_used] = spec.reading;
-      ++lanes_used;
-    }
+  int next = 0;
+  while (next < count) {
+    const int lanes_used =
+        GatherLanes(source, count, &next, segments, readings, &stats->rays_invalid);
     caster_.CastBatch(segments, lanes_used, &batch_, *batch_isa_);
     updater_->PrecomputeBatch(model, readings, *batch_isa_, &batch_);
     ApplyBatch(readings, batch_, model, stats);

@@ -183,7 +183,7 @@ class OccupancyMap {
   // (defined and used in occupancy_map.cc only).
   template <class Source>
   ScanStats ApplyRays(ScanKind kind, int count, const Source& source, const SensorModel& model);
-  // ApplyRays in batches of eight (file comment).
+  // ApplyRays in batches of eight (file comment), from source(i, BatchRaySpec*).
   template <class Source>
   void ApplyRayBatches(int count, const Source& source, const SensorModel& model, ScanStats* stats);
   // Updates the rays of a cast batch in order; adds to *stats.

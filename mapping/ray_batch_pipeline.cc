@@ -65,7 +65,6 @@ void RayBatchPipeline::WorkerLoop() {
       prepare = prepare_;
       count = job_count_;
     }
-    RaySpec spec;
     RaySegment segments[lanes::kLanes];
     int next = 0;
     for (size_t s = 0;; s = (s + 1) % slots_.size()) {
@@ -73,19 +72,9 @@ void RayBatchPipeline::WorkerLoop() {
       if (!WaitFor(slot, kFree)) break;  // cancelled
       slot.error = nullptr;
       slot.invalid = 0;
-      int lanes_used = 0;
       try {
-        // The next eight readings that carry information (invalid ones are counted, not cast).
-        for (; next < count && lanes_used < lanes::kLanes; ++next) {
-          (*source)(next, &spec);
-          if (spec.reading.kind == ReadingKind::kInvalid) {
-            ++slot.invalid;
-            continue;
-          }
-          segments[lanes_used] = spec.segment;
-          slot.readings[lanes_used] = spec.reading;
-          ++lanes_used;
-        }
+        const int lanes_used =
+            GatherLanes(*source, count, &next, segments, slot.readings, &slot.invalid);
         caster_.CastBatch(segments, lanes_used, &slot.batch, isa_);
         (*prepare)(slot.readings, &slot.batch);
       } catch (...) {

@@ -30,6 +30,33 @@
 
 namespace kestrel {
 
+/// One ray to cast and its reading; a kInvalid reading is not cast.
+struct BatchRaySpec {
+  RaySegment segment;  ///< what to cast
+  Reading reading;     ///< the reading along it
+};
+
+/// Takes rays *next, *next + 1, ... (below count) from source(index, BatchRaySpec*) until eight
+/// carry information: their segments and readings fill the lanes, in order; the invalid ones
+/// are skipped and added to *invalid. Returns the lanes filled (0 once the rays run out).
+template <class Source>
+int GatherLanes(const Source& source, int count, int* next, RaySegment segments[lanes::kLanes],
+                Reading readings[lanes::kLanes], uint64_t* invalid) {
+  BatchRaySpec spec;
+  int lanes_used = 0;
+  for (; *next < count && lanes_used < lanes::kLanes; ++*next) {
+    source(*next, &spec);
+    if (spec.reading.kind == ReadingKind::kInvalid) {
+      ++*invalid;
+      continue;
+    }
+    segments[lanes_used] = spec.segment;
+    readings[lanes_used] = spec.reading;
+    ++lanes_used;
+  }
+  return lanes_used;
+}
+
 /// Chooses, scan by scan, whether a kind of scan goes through the worker or stays on one
 /// thread: whichever has been faster in rays per wall second (exponentially averaged), trying
 /// the other one every kProbePeriod-th scan so that a change of speed is noticed. The map is the
@@ -56,11 +83,8 @@ class RayBatchPipeline {
   /// Slots in the ring (eight rays each).
   static constexpr int kSlots = 32;
 
-  /// One ray to cast (filled by the source on the worker): a kInvalid reading is not cast.
-  struct RaySpec {
-    RaySegment segment;  ///< what to cast
-    Reading reading;     ///< the reading along it
-  };
+  /// One ray to cast (filled by the source on the worker).
+  using RaySpec = BatchRaySpec;
   /// Fills the spec of ray `index` (runs on the worker; must only read shared data).
   using Source = std::function<void(int index, RaySpec* spec)>;
   /// Map-independent work on a cast batch (runs on the worker), e.g. a_k.
