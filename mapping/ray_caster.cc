@@ -187,53 +187,65 @@ bool RayCaster::StartWalk(const Eigen::Vector3d& o, const Eigen::Vector3d& u, do
 
 namespace detail {
 
-// The walk of one set-up ray (StartWalk): stores d_k at distance[n * stride], and the linear
+// What WalkRay leaves: the cells stored, whether the ray goes on (kFirstCell), and t_in.
+struct WalkEnd {
+  int cells{0};
+  bool walking{false};
+  double t_in{0.0};
+};
+
+// The walk of one set-up ray *w (StartWalk): stores d_k at distance[n * stride], and the linear
 // index (kLinear) and cell (kCells) likewise, for every cell with a positive-length chord, in
-// order; returns n_r. The first cell is the only one whose chord can have zero length (the
-// origin on a boundary, the ray pointing away): every later cell is entered at t_in < length
-// and left at a strictly larger crossing (or at length), so the loop stores without testing.
-// The current cell's indices stay plain integers in registers (RayWalk is a local of the
-// caller): CellIndex's operator[] picks a member by reference, which kept the cell in memory,
-// and storing it whole right after a one-member update stalled store-to-load forwarding on
-// every step.
-template <bool kLinear, bool kCells>
-[[gnu::always_inline]] inline int WalkRay(RayWalk w, const Eigen::Vector3d& o,
-                                          const Eigen::Vector3d& origin, double resolution,
-                                          ptrdiff_t stride, double* distance, int32_t* linear_out,
-                                          CellIndex* cells) {
-  const double length = w.length;
+// order. The first cell is the only one whose chord can have zero length (the origin on a
+// boundary, the ray pointing away): every later cell is entered at t_in < length and left at a
+// strictly larger crossing (or at length), so the loop stores without testing. With kFirstCell
+// it stops after the first stored cell, leaving *w and the returned t_in where the walk goes on
+// (CastBatch continues it in vector lanes). The current cell's indices stay plain integers in
+// registers (*w is a local of the caller): CellIndex's operator[] picks a member by reference,
+// which kept the cell in memory, and storing it whole right after a one-member update stalled
+// store-to-load forwarding on every step.
+template <bool kLinear, bool kCells, bool kFirstCell = false>
+[[gnu::always_inline]] inline WalkEnd WalkRay(RayWalk* w, const Eigen::Vector3d& o,
+                                              const Eigen::Vector3d& origin, double resolution,
+                                              ptrdiff_t stride, double* distance,
+                                              int32_t* linear_out, CellIndex* cells) {
+  const double length = w->length;
   ptrdiff_t at = 0;
-  double t_in = 0.0;
+  WalkEnd end;
   const auto store = [&](double t_out) {
-    if constexpr (kCells) cells[at] = CellIndex{w.cell[0], w.cell[1], w.cell[2]};
-    distance[at] = 0.5 * (t_in + t_out);  // ALGORITHMS.md section 2: d_k at the chord midpoint
-    if constexpr (kLinear) linear_out[at] = w.linear;
+    if constexpr (kCells) cells[at] = CellIndex{w->cell[0], w->cell[1], w->cell[2]};
+    distance[at] = 0.5 * (end.t_in + t_out);  // ALGORITHMS.md section 2: d_k at the chord midpoint
+    if constexpr (kLinear) linear_out[at] = w->linear;
     at += stride;
   };
   const auto step_axes = [&](double t_axis) {
-    StepAxes<kLinear>(&w, t_axis, origin, resolution, o);
-    t_in = t_axis;
+    StepAxes<kLinear>(w, t_axis, origin, resolution, o);
+    end.t_in = t_axis;
   };
-  double t_axis = NextCrossing(w);
+  double t_axis = NextCrossing(*w);
   const double t_first = t_axis < length ? t_axis : length;
-  if (t_first > t_in) store(t_first);  // positive-length chord only (file comment)
+  if (t_first > end.t_in) store(t_first);  // positive-length chord only (file comment)
   if (t_axis < length) {
     step_axes(t_axis);
-    for (;;) {
-      t_axis = NextCrossing(w);
+    end.walking = true;
+    while (!kFirstCell || at == 0) {
+      t_axis = NextCrossing(*w);
       if (t_axis >= length) {
         store(length);
+        end.walking = false;
         break;
       }
       store(t_axis);
       step_axes(t_axis);
     }
   }
-  return static_cast<int>(at / stride);
+  end.cells = static_cast<int>(at / stride);
+  return end;
 }
 
 }  // namespace detail
 
+using detail::WalkEnd;
 using detail::WalkRay;
 
 template <bool kLinear, bool kCells>
@@ -256,8 +268,9 @@ int RayCaster::CastImpl(const Eigen::Vector3d& o, const Eigen::Vector3d& u, doub
   }
   out->left_bounds = w.left_bounds;
   out->size = WalkRay<kLinear, kCells>(
-      w, o, geometry_.origin_m(), geometry_.resolution_m(), 1, out->distance_m.data(),
-      kLinear ? out->linear_index.data() : nullptr, out->cells.data());
+                  &w, o, geometry_.origin_m(), geometry_.resolution_m(), 1, out->distance_m.data(),
+                  kLinear ? out->linear_index.data() : nullptr, out->cells.data())
+                  .cells;
   return out->size;
 }
 
@@ -385,34 +398,11 @@ void RayCaster::CastBatch(const RaySegment* rays, int count, RayBatch* out, lane
       if (!started[l]) continue;
       RayWalk& w = walks[l];
       const Eigen::Vector3d& o = rays[l].origin_W;
-      double t = 0.0;
-      const auto store = [&](double t_out) {
-        distance[RayBatch::At(0, l)] = 0.5 * (t + t_out);
-        linear_out[RayBatch::At(0, l)] = w.linear;
-        size[l] = 1;
-      };
-      bool walking = false;
-      double t_axis = NextCrossing(w);
-      const double t_first = t_axis < w.length ? t_axis : w.length;
-      if (t_first > t) store(t_first);
-      if (t_axis < w.length) {
-        StepAxes<true>(&w, t_axis, origin, resolution, o);
-        t = t_axis;
-        walking = true;
-        if (size[l] == 0) {  // the first cell had a zero-length chord: one more step of WalkRay
-          t_axis = NextCrossing(w);
-          if (t_axis >= w.length) {
-            store(w.length);
-            walking = false;
-          } else {
-            store(t_axis);
-            StepAxes<true>(&w, t_axis, origin, resolution, o);
-            t = t_axis;
-          }
-        }
-      }
-      if (walking) start.active |= 1u << l;
-      start.t_in[l] = t;
+      const WalkEnd first = WalkRay<true, false, true>(&w, o, origin, resolution, kLanes,
+                                                       distance + l, linear_out + l, nullptr);
+      size[l] = first.cells;
+      if (first.walking) start.active |= 1u << l;
+      start.t_in[l] = first.t_in;
       start.length[l] = w.length;
       start.linear[l] = static_cast<double>(w.linear);
       for (int a = 0; a < 3; ++a) {
@@ -431,8 +421,10 @@ void RayCaster::CastBatch(const RaySegment* rays, int count, RayBatch* out, lane
   {
     for (int l = 0; l < count; ++l) {
       if (!started[l]) continue;
-      size[l] = WalkRay<true, false>(walks[l], rays[l].origin_W, origin, resolution, kLanes,
-                                     distance + l, linear_out + l, nullptr);
+      RayWalk w = walks[l];
+      size[l] = WalkRay<true, false>(&w, rays[l].origin_W, origin, resolution, kLanes, distance + l,
+                                     linear_out + l, nullptr)
+                    .cells;
     }
   }
   out->longest = 0;
