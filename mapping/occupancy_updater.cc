@@ -64,30 +64,16 @@ void ExactBayesUpdater::PrecomputeBatch(const SensorModel& model, const Reading*
                                                 batch->longest, batch->likelihood.data(), isa);
 }
 
+#if defined(__x86_64__)
 namespace {
 
-// Clamps posterior[i] (ClampProbability), stores it as float at base[cells[i]], and lists the
-// cells whose stored value changed (first + i, ascending) in changed[0 .. returned count);
-// priors[i] is the value stored before. The write step of ExactBayesUpdater::Update for n cells
-// at once.
-int StorePosteriorsScalar(const double* posterior, const int32_t* cells, const float* priors,
-                          int first, int n, double p_min, float* base, int* changed) {
-  int m = 0;
-  for (int i = 0; i < n; ++i) {
-    const float stored = static_cast<float>(ClampProbability(posterior[i], p_min));
-    changed[m] = first + i;
-    m += BitsOf(stored) != BitsOf(priors[i]) ? 1 : 0;
-    base[cells[i]] = stored;
-  }
-  return m;
-}
-
-#if defined(__x86_64__)
 KESTREL_AVX512_BEGIN
-// The same, eight cells at a time: ClampProbability as min then max with the scalar code's
-// operand order (so ties and values agree), the conversion to float, a bit comparison with
-// the prior, the changed cells compressed into the list, and a scatter of the floats (a ray
-// never lists a cell twice, so the scatter's order does not matter).
+// The write step of ExactBayesUpdater::Update for n cells, eight at a time: clamps posterior[i]
+// (ClampProbability as min then max with the scalar code's operand order, so ties and values
+// agree), converts it to float, stores it at base[cells[i]] (a scatter: a ray never lists a cell
+// twice, so the order of the stores does not matter), and lists the cells whose stored value
+// changed, first + i ascending, in changed[0 .. returned count); priors[i] is the value stored
+// before (compared bit for bit).
 [[KESTREL_AVX512]] int StorePosteriorsAvx512(const double* posterior, const int32_t* cells,
                                              const float* priors, int first, int n, double p_min,
                                              float* base, int* changed) {
@@ -114,41 +100,47 @@ KESTREL_AVX512_BEGIN
   return m;
 }
 KESTREL_AVX512_END
-#endif
 
 }  // namespace
+#endif
 
 int ExactBayesUpdater::UpdateBatchLane(const SensorModel& model, const Reading& reading,
                                        const RayBatch& batch, int lane, float* base,
                                        uint64_t* cells_written, int* changed) {
   const int n = batch.size[lane];
-  KESTREL_DEMAND(n <= scratch_.capacity());
   const int32_t* const linear = batch.linear_index.data() + lane;
-  int32_t* const cells = lane_cells_.data();
-  float* const priors = lane_priors_.data();
-  double* const posteriors = lane_posteriors_.data();
-  // Section 4 with the cells read once (their indices and values kept in order), then the
-  // write step for the cells written, at once (Update does the same cell by cell).
-  const ExactUpdateResult r = ExactUpdate::Apply(
-      model, reading, LaneView{batch.distance_m.data() + lane}, n,
-      [&](int k) {
-        const int32_t cell = linear[static_cast<ptrdiff_t>(k) * lanes::kLanes];
-        cells[k] = cell;
-        priors[k] = base[cell];
-        return static_cast<double>(priors[k]);
-      },
-      [posteriors](int k, double posterior) { posteriors[k] = posterior; }, &scratch_,
-      LaneView{batch.has_likelihood ? batch.likelihood.data() + lane : nullptr});
-  *cells_written += static_cast<uint64_t>(r.count);
-  const size_t first = static_cast<size_t>(r.first);
+  const LaneView distance{batch.distance_m.data() + lane};
+  const LaneView likelihood{batch.has_likelihood ? batch.likelihood.data() + lane : nullptr};
 #if defined(__x86_64__)
   if (batch.isa == lanes::Isa::kAvx512) {
+    KESTREL_DEMAND(n <= scratch_.capacity());
+    int32_t* const cells = lane_cells_.data();
+    float* const priors = lane_priors_.data();
+    double* const posteriors = lane_posteriors_.data();
+    // Section 4 with the cells read once (their indices and values kept in order), then the
+    // write step for the cells written, eight at a time (Update does it cell by cell).
+    const ExactUpdateResult r = ExactUpdate::Apply(
+        model, reading, distance, n,
+        [&](int k) {
+          const int32_t cell = linear[static_cast<ptrdiff_t>(k) * lanes::kLanes];
+          cells[k] = cell;
+          priors[k] = base[cell];
+          return static_cast<double>(priors[k]);
+        },
+        [posteriors](int k, double posterior) { posteriors[k] = posterior; }, &scratch_,
+        likelihood);
+    *cells_written += static_cast<uint64_t>(r.count);
+    const size_t first = static_cast<size_t>(r.first);
     return StorePosteriorsAvx512(posteriors + first, cells + first, priors + first, r.first,
                                  r.count, limits_.p_min, base, changed);
   }
 #endif
-  return StorePosteriorsScalar(posteriors + first, cells + first, priors + first, r.first, r.count,
-                               limits_.p_min, base, changed);
+  return Update(
+      model, reading, distance, n, likelihood,
+      [base, linear](int k) -> float& {
+        return base[linear[static_cast<ptrdiff_t>(k) * lanes::kLanes]];
+      },
+      cells_written, changed);
 }
 
 template <class Distance, class Likelihood, class CellAt>

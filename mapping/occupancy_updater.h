@@ -106,7 +106,7 @@ class ExactBayesUpdater final : public OccupancyUpdater {
   OccupancyLimits limits_;
   double diagonal_m_;  // sqrt(3) alpha: the longest chord through one cell, m
   InverseSensorModelScratch scratch_;
-  // UpdateBatchLane: the lane's cell indices, priors (as stored) and posteriors, contiguous.
+  // UpdateBatchLane on AVX-512: the lane's cell indices, priors (as stored) and posteriors.
   std::vector<int32_t> lane_cells_;
   std::vector<float> lane_priors_;
   std::vector<double> lane_posteriors_;
