@@ -205,13 +205,12 @@ template <class Grid>
 void OccupancyMap<Grid>::ConfigureWorkers() {
   // A worker of the kind the rays are cast with (batches or one by one), created once.
   const bool batched = traversal_thread_ && Batched();
-  if (!batched || (batch_pipeline_ != nullptr && batch_pipeline_isa_ != *batch_isa_)) {
+  if (!batched || (batch_pipeline_ != nullptr && batch_pipeline_->isa() != *batch_isa_)) {
     batch_pipeline_.reset();
   }
   if (batched && batch_pipeline_ == nullptr) {
     batch_pipeline_ =
         std::make_unique<RayBatchPipeline>(grid_.geometry(), ray_.max_length_m, *batch_isa_);
-    batch_pipeline_isa_ = *batch_isa_;
   }
   if (!traversal_thread_ || batched) {
     pipeline_.reset();

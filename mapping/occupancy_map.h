@@ -212,9 +212,8 @@ class OccupancyMap {
   std::unique_ptr<GrowingGrid::Accessor> accessor_;
   bool traversal_thread_{false};
   WorkerChoice choices_[2];  // per ScanKind: with the batch worker or without (ApplyRays)
-  std::unique_ptr<TraversalPipeline> pipeline_;           // thread, rays one by one
-  std::unique_ptr<RayBatchPipeline> batch_pipeline_;      // thread, batches
-  lanes::Isa batch_pipeline_isa_{lanes::Isa::kBaseline};  // what batch_pipeline_ casts with
+  std::unique_ptr<TraversalPipeline> pipeline_;       // thread, rays one by one
+  std::unique_ptr<RayBatchPipeline> batch_pipeline_;  // thread, batches
 };
 
 /// The paper's map: fixed limits, dense storage.

@@ -42,10 +42,14 @@ RayBatchPipeline::~RayBatchPipeline() {
 }
 
 bool RayBatchPipeline::WaitFor(const Slot& slot, int want) const {
-  for (int spins = 0; slot.state.load(std::memory_order_acquire) != want; ++spins) {
+  for (int spins = 0; slot.state.load(std::memory_order_acquire) != want;) {
     if (cancel_.load(std::memory_order_relaxed)) return false;
     // Spin while the other side is probably running; then give the core away.
-    if (spins > 256) std::this_thread::yield();
+    if (spins < 256) {
+      ++spins;
+    } else {
+      std::this_thread::yield();
+    }
   }
   return true;
 }

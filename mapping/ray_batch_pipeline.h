@@ -94,7 +94,7 @@ class RayBatchPipeline {
   using Sink =
       std::function<void(const Reading* readings, const RayBatch& batch, uint64_t invalid)>;
 
-  /// A worker casting through `caster`'s lattice (which must be LinearIndexable) rays up to
+  /// A worker casting through the lattice `geometry` (which must be LinearIndexable) rays up to
   /// `max_length_m` long with instruction set `isa`.
   /// @throws std::invalid_argument if the lattice has no linear indices.
   RayBatchPipeline(const GridGeometry& geometry, double max_length_m, lanes::Isa isa);
@@ -106,6 +106,8 @@ class RayBatchPipeline {
   /// in order. Exceptions from the source, the caster, prepare or the sink are rethrown here
   /// after the worker has stopped on this job.
   void Run(int count, const Source& source, const Prepare& prepare, const Sink& sink);
+  /// The instruction set the worker casts with.
+  [[nodiscard]] lanes::Isa isa() const { return isa_; }
 
  private:
   enum SlotState : int { kFree = 0, kFilled = 1 };
