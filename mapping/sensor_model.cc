@@ -1,6 +1,5 @@
 #include "mapping/sensor_model.h"
 
-#include <cstring>
 #include <limits>
 
 #include "common/check.h"
