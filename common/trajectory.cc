@@ -206,4 +206,71 @@ std::vector<TrajectorySample> PiecewisePolynomialTrajectory::Sample(double dt_s)
   return samples;
 }
 
+std::vector<double> TaylorShift(const std::vector<double>& c, double shift) {
+  // Repeated synthetic division (Horner's scheme, one pass per coefficient): O(n^2), exact for
+  // shift 0.
+  std::vector<double> d = c;
+  const int n = static_cast<int>(d.size());
+  for (int i = 0; i < n - 1; ++i) {
+    for (int k = n - 2; k >= i; --k) {
+      d[static_cast<size_t>(k)] += shift * d[static_cast<size_t>(k) + 1];
+    }
+  }
+  return d;
+}
+
+TrajectoryStart StateAt(const PiecewisePolynomialTrajectory& trajectory, double t_s) {
+  const FlatOutput flat = trajectory.Evaluate(t_s);
+  TrajectoryStart start;
+  start.position_m = flat.position_m;
+  start.velocity_mps = flat.velocity_mps;
+  start.acceleration_mps2 = flat.acceleration_mps2;
+  start.yaw_rad = flat.yaw_rad;
+  start.yaw_rate_radps = flat.yaw_rate_radps;
+  start.time_s = t_s;
+  return start;
+}
+
+std::optional<PiecewisePolynomialTrajectory> Splice(const PiecewisePolynomialTrajectory& old,
+                                                    double now_s,
+                                                    const PiecewisePolynomialTrajectory& next) {
+  const double splice_s = next.start_time_s();
+  if (!std::isfinite(now_s) || splice_s < now_s) return std::nullopt;
+  std::vector<PolynomialSegment> pieces;
+  // A constant piece (the clamped hover of `old` before its start or after its end).
+  const auto hover = [&pieces](const FlatOutput& at, double duration_s) {
+    PolynomialSegment piece;
+    piece.duration_s = duration_s;
+    for (int axis = 0; axis < 3; ++axis) {
+      piece.coefficients[static_cast<size_t>(axis)] = {at.position_m[axis]};
+    }
+    piece.coefficients[3] = {at.yaw_rad};
+    pieces.push_back(std::move(piece));
+  };
+  if (now_s < std::min(old.start_time_s(), splice_s)) {
+    hover(old.Evaluate(old.start_time_s()), std::min(old.start_time_s(), splice_s) - now_s);
+  }
+  double piece_start_s = old.start_time_s();
+  for (const PolynomialSegment& segment : old.segments()) {
+    const double piece_end_s = piece_start_s + segment.duration_s;
+    const double from_s = std::max(piece_start_s, now_s);
+    const double to_s = std::min(piece_end_s, splice_s);
+    if (to_s > from_s) {
+      PolynomialSegment piece;
+      piece.duration_s = to_s - from_s;
+      for (size_t axis = 0; axis < 4; ++axis) {
+        piece.coefficients[axis] = TaylorShift(segment.coefficients[axis], from_s - piece_start_s);
+      }
+      pieces.push_back(std::move(piece));
+    }
+    piece_start_s = piece_end_s;
+  }
+  if (splice_s > std::max(old.end_time_s(), now_s)) {
+    const FlatOutput at_end = old.Evaluate(old.end_time_s() + 1.0);  // the end hover
+    hover(at_end, splice_s - std::max(old.end_time_s(), now_s));
+  }
+  for (const PolynomialSegment& segment : next.segments()) pieces.push_back(segment);
+  return PiecewisePolynomialTrajectory::Create(now_s, std::move(pieces), nullptr);
+}
+
 }  // namespace kestrel

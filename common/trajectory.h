@@ -124,4 +124,38 @@ class PiecewisePolynomialTrajectory {
 /// out[d] = d-th derivative, d = 0..4.
 void EvaluatePolynomial(const std::vector<double>& c, double tau, double out[5]);
 
+/// Taylor shift: the coefficients d of the same polynomial about a new origin,
+/// sum_k d[k] s^k == sum_k c[k] (s + shift)^k, i.e. d[m] = sum_{k>=m} c[k] C(k, m) shift^(k-m).
+[[nodiscard]] std::vector<double> TaylorShift(const std::vector<double>& c, double shift);
+
+/// The state a trajectory is planned from (exploration/trajectory_planner.h): where the vehicle is,
+/// or where its current trajectory will be, at time_s. World frame W, yaw not wrapped.
+struct TrajectoryStart {
+  Eigen::Vector3d position_m{Eigen::Vector3d::Zero()};         ///< m
+  Eigen::Vector3d velocity_mps{Eigen::Vector3d::Zero()};       ///< m/s
+  Eigen::Vector3d acceleration_mps2{Eigen::Vector3d::Zero()};  ///< m/s^2
+  double yaw_rad{0.0};                                         ///< rad
+  double yaw_rate_radps{0.0};                                  ///< rad/s
+  double time_s{0.0};  ///< s, the trajectory's start time (same time base as the trajectories)
+};
+
+/// The flat output of `trajectory` at t_s (clamped as Evaluate() is) as a start state at t_s:
+/// position, velocity, acceleration, yaw and yaw rate.
+[[nodiscard]] TrajectoryStart StateAt(const PiecewisePolynomialTrajectory& trajectory, double t_s);
+
+/// Replanning without a jump of the set point (docs/exploration.md, section "Non-stop flight"):
+/// the controller replaces its trajectory as soon as a new one arrives and holds the START
+/// position before a trajectory's start time, so a replan planned from StateAt(old, t_splice)
+/// (next.start_time_s() == t_splice, a little in the future) must be published as a trajectory
+/// that starts NOW. The result starts at now_s, equals `old` on [now_s, next.start_time_s()) and
+/// `next` from next.start_time_s() on (exactly as Evaluate() of each, clamped parts of `old`
+/// included, to rounding): the piece of `old` containing now_s is re-expanded about the new local
+/// time origin (TaylorShift), the piece containing the splice time is cut there, and next's
+/// pieces follow unchanged. Position, velocity and acceleration are continuous at the splice when
+/// `next` starts with StateAt(old, next.start_time_s()); higher derivatives in general are not.
+/// Returns std::nullopt when now_s is not finite or next starts before now_s.
+[[nodiscard]] std::optional<PiecewisePolynomialTrajectory> Splice(
+    const PiecewisePolynomialTrajectory& old, double now_s,
+    const PiecewisePolynomialTrajectory& next);
+
 }  // namespace kestrel

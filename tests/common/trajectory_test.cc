@@ -273,5 +273,148 @@ TEST(PiecewisePolynomialTrajectory, FlatLayoutRoundTrips) {
   }
 }
 
+// TaylorShift (Horner's scheme) agrees with the binomial expansion, for any shift.
+TEST(TaylorShift, MatchesTheBinomialExpansion) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 50; ++trial) {
+    std::vector<double> c(static_cast<size_t>(1 + trial % 10));
+    for (double& value : c) value = u(rng);
+    const double shift = 2.0 * u(rng);
+    const std::vector<double> a = TaylorShift(c, shift), b = ShiftPolynomial(c, shift);
+    ASSERT_EQ(a.size(), c.size());
+    for (size_t k = 0; k < c.size(); ++k) EXPECT_NEAR(a[k], b[k], 1e-12 * (1.0 + std::abs(b[k])));
+  }
+  EXPECT_EQ(TaylorShift({1.0, 2.0, 3.0}, 0.0), (std::vector<double>{1.0, 2.0, 3.0}));
+}
+
+// A trajectory from start_s of `pieces` pieces (durations 0.6 to 1.4 s) of ONE random degree-7
+// polynomial, so that it is smooth across its knots (where a discontinuous one would be
+// evaluated on either side depending on rounding).
+PiecewisePolynomialTrajectory RandomTrajectory(std::mt19937* rng, double start_s, int pieces) {
+  std::uniform_real_distribution<double> u(0.6, 1.4);
+  const PolynomialSegment whole = RandomSegment(rng, 1.0, 8);
+  std::vector<PolynomialSegment> segments;
+  double offset_s = 0.0;
+  for (int i = 0; i < pieces; ++i) {
+    PolynomialSegment piece;
+    piece.duration_s = u(*rng);
+    for (size_t axis = 0; axis < 4; ++axis) {
+      piece.coefficients[axis] = ShiftPolynomial(whole.coefficients[axis], offset_s);
+    }
+    offset_s += piece.duration_s;
+    segments.push_back(piece);
+  }
+  return *PiecewisePolynomialTrajectory::Create(start_s, segments, nullptr);
+}
+
+// Every member of two flat outputs agrees within tol (relative to 1 + the magnitude).
+void ExpectSameFlat(const FlatOutput& a, const FlatOutput& b, double tol, double t) {
+  const auto near = [&](const Eigen::Vector3d& x, const Eigen::Vector3d& y, const char* what) {
+    EXPECT_LT((x - y).norm(), tol * (1.0 + y.norm())) << what << " at t " << t;
+  };
+  near(a.position_m, b.position_m, "position");
+  near(a.velocity_mps, b.velocity_mps, "velocity");
+  near(a.acceleration_mps2, b.acceleration_mps2, "acceleration");
+  near(a.jerk_mps3, b.jerk_mps3, "jerk");
+  near(a.snap_mps4, b.snap_mps4, "snap");
+  EXPECT_NEAR(a.yaw_rad, b.yaw_rad, tol * (1.0 + std::abs(b.yaw_rad))) << t;
+  EXPECT_NEAR(a.yaw_rate_radps, b.yaw_rate_radps, tol * (1.0 + std::abs(b.yaw_rate_radps))) << t;
+  EXPECT_NEAR(a.yaw_acceleration_radps2, b.yaw_acceleration_radps2,
+              tol * (1.0 + std::abs(b.yaw_acceleration_radps2)))
+      << t;
+}
+
+// The spliced trajectory starts at now, equals the old one until the splice time and the next one
+// from then on (1e-9), wherever now and the splice time fall: inside a piece, on a knot, before
+// the old trajectory's start, after its end, or both at once.
+TEST(Splice, EqualsOldBeforeTheSpliceAndNextAfter) {
+  std::mt19937 rng(23);
+  const PiecewisePolynomialTrajectory old = RandomTrajectory(&rng, 10.0, 3);
+  const double k1 = 10.0 + old.segments()[0].duration_s;
+  const double k2 = k1 + old.segments()[1].duration_s;
+  const std::vector<std::pair<double, double>> cases = {{10.3, k1 + 0.2},
+                                                        {10.2, 10.5},
+                                                        {k1, k2},
+                                                        {10.0, 10.0},
+                                                        {10.4, 10.4},
+                                                        {8.5, 10.7},
+                                                        {8.5, 9.5},
+                                                        {k2 + 0.1, 100.0},
+                                                        {old.end_time_s() + 1.0, 200.0},
+                                                        {9.0, old.end_time_s()}};
+  for (const auto& [now_s, splice_s] : cases) {
+    const PiecewisePolynomialTrajectory next = RandomTrajectory(&rng, splice_s, 2);
+    const auto spliced = Splice(old, now_s, next);
+    ASSERT_TRUE(spliced.has_value()) << now_s << " " << splice_s;
+    SCOPED_TRACE(std::to_string(now_s) + " " + std::to_string(splice_s));
+    EXPECT_EQ(spliced->start_time_s(), now_s);
+    EXPECT_NEAR(spliced->end_time_s(), next.end_time_s(), 1e-9);
+    for (double t = now_s; t < splice_s - 1e-9; t += std::max(0.01, (splice_s - now_s) / 200)) {
+      ExpectSameFlat(spliced->Evaluate(t), old.Evaluate(t), 1e-9, t);
+    }
+    for (double t = splice_s; t <= next.end_time_s() + 0.5; t += 0.0137) {
+      ExpectSameFlat(spliced->Evaluate(t), next.Evaluate(t), 1e-9, t);
+    }
+  }
+}
+
+// Planned from StateAt(old, t_splice), the next trajectory continues the old one: position,
+// velocity and acceleration (and yaw, yaw rate) are continuous at the splice.
+TEST(Splice, ContinuousWhenNextStartsFromStateAt) {
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    const PiecewisePolynomialTrajectory old = RandomTrajectory(&rng, 3.0, 3);
+    const double now_s = 3.0 + 0.1 * trial;
+    const double splice_s = now_s + 0.3;
+    const TrajectoryStart state = StateAt(old, splice_s);
+    const FlatOutput at = old.Evaluate(splice_s);
+    EXPECT_EQ(state.time_s, splice_s);
+    EXPECT_EQ(state.position_m, at.position_m);
+    EXPECT_EQ(state.velocity_mps, at.velocity_mps);
+    EXPECT_EQ(state.acceleration_mps2, at.acceleration_mps2);
+    EXPECT_EQ(state.yaw_rad, at.yaw_rad);
+    EXPECT_EQ(state.yaw_rate_radps, at.yaw_rate_radps);
+    // A next trajectory starting with that state (and anything in its higher coefficients).
+    PolynomialSegment first = RandomSegment(&rng, 1.0, 8);
+    for (size_t axis = 0; axis < 3; ++axis) {
+      first.coefficients[axis][0] = state.position_m[static_cast<int>(axis)];
+      first.coefficients[axis][1] = state.velocity_mps[static_cast<int>(axis)];
+      first.coefficients[axis][2] = 0.5 * state.acceleration_mps2[static_cast<int>(axis)];
+    }
+    first.coefficients[3][0] = state.yaw_rad;
+    first.coefficients[3][1] = state.yaw_rate_radps;
+    const auto next = PiecewisePolynomialTrajectory::Create(splice_s, {first}, nullptr);
+    ASSERT_TRUE(next.has_value());
+    const auto spliced = Splice(old, now_s, *next);
+    ASSERT_TRUE(spliced.has_value());
+    const FlatOutput before = spliced->Evaluate(splice_s - 1e-9);
+    const FlatOutput after = spliced->Evaluate(splice_s);
+    EXPECT_LT((after.position_m - at.position_m).norm(), 1e-9);
+    EXPECT_LT((after.velocity_mps - at.velocity_mps).norm(), 1e-9);
+    EXPECT_LT((after.acceleration_mps2 - at.acceleration_mps2).norm(), 1e-9);
+    EXPECT_NEAR(after.yaw_rad, at.yaw_rad, 1e-9);
+    EXPECT_NEAR(after.yaw_rate_radps, at.yaw_rate_radps, 1e-9);
+    // Just before the splice (1e-9 s): the change is that of the next derivative over 1e-9 s.
+    EXPECT_LT((after.position_m - before.position_m).norm(),
+              2e-9 * (1.0 + before.velocity_mps.norm()));
+    EXPECT_LT((after.velocity_mps - before.velocity_mps).norm(),
+              2e-9 * (1.0 + before.acceleration_mps2.norm()));
+    EXPECT_LT((after.acceleration_mps2 - before.acceleration_mps2).norm(),
+              2e-9 * (1.0 + before.jerk_mps3.norm()));
+  }
+}
+
+// No splice into the past, nor at a time that is not finite.
+TEST(Splice, RejectsANextTrajectoryStartingBeforeNow) {
+  std::mt19937 rng(31);
+  const PiecewisePolynomialTrajectory old = RandomTrajectory(&rng, 0.0, 2);
+  const PiecewisePolynomialTrajectory next = RandomTrajectory(&rng, 1.0, 1);
+  EXPECT_FALSE(Splice(old, 1.2, next).has_value());
+  EXPECT_FALSE(Splice(old, std::numeric_limits<double>::quiet_NaN(), next).has_value());
+  EXPECT_TRUE(Splice(old, 1.0, next).has_value());
+}
+
 }  // namespace
 }  // namespace kestrel
