@@ -1,27 +1,55 @@
 #pragma once
 /// @file
-/// From a chosen candidate to a trajectory (ALGORITHMS.md section 8, "Path"):
+/// From a chosen candidate to a trajectory (ALGORITHMS.md section 8, "Path"; non-stop flight:
+/// docs/exploration.md, section "Non-stop flight"):
 ///  1. Dijkstra back-pointers give the cell path; waypoints are the vehicle's position, then the
 ///     centres of the path's cells (the start cell's included) up to the goal cell's centre.
 ///  2. Line-of-sight pruning: from each kept waypoint, jump to the farthest later one whose
 ///     straight segment keeps the vehicle's DISC (radius r) inside allowed cells (the swept
 ///     capsule is tested exactly against every cell square).
-///  3. A piecewise polynomial of degree 2k-1 (k = 4: minimum snap, k = 3: minimum jerk) through
+///  3. Time allocation from a speed profile along the whole pruned polyline. The speed at an
+///     interior waypoint is limited by its turn (bounded lateral acceleration): the velocity turns
+///     by the angle theta between the legs while the vehicle covers 2w around the waypoint, so its
+///     mean lateral acceleration 2 v sin(theta/2) / (2w / v) <= max_acceleration gives
+///     v <= sqrt(max_acceleration w / sin(theta/2)) (0 for a U-turn); w is an eighth of the
+///     shorter half-leg, at most of 1 s at max_speed (the polynomial pinned at the waypoint turns
+///     its velocity that close to it). Legs are split into pieces of at most 0.5 s at max_speed,
+///     with no added point within 1 s at max_speed of a turn or of the start (room to turn the
+///     velocity). A forward pass from the start speed (the start velocity's projection on the
+///     first leg), a backward pass to rest at the goal and the max_speed cap give the speed at
+///     every waypoint; each piece's duration is that of accelerate-cruise-decelerate between its
+///     end speeds at 2/3 max_acceleration (the time and distance of a cubic-smoothstep speed
+///     change peaking at max_acceleration), at least min_segment_duration_s. Up to three times
+///     the profile's speed and acceleration are lowered by the sampled overshoot of the
+///     polynomial (step 4) and the durations recomputed.
+///  4. A piecewise polynomial of degree 2k-1 (k = 4: minimum snap, k = 3: minimum jerk) through
 ///     the waypoints (x, y at the waypoints, z from the vehicle's height to h), minimising the
-///     integral of the squared k-th derivative subject to: positions at every waypoint, the
-///     vehicle's velocity and zero higher derivatives at the start, rest at the goal, and
-///     continuity of derivatives 1..k (up to snap, or jerk) at interior waypoints. All axes are
-///     solved as ONE KKT system [2Q A^T; A 0] with Eigen (one factorisation, three right-hand
-///     sides), each segment in normalised time for conditioning. Durations: trapezoidal profile
-///     per segment from the speed and acceleration limits, then scaled up uniformly until the
-///     sampled speed, acceleration and yaw rate respect the limits.
-///  4. Yaw turns from the vehicle's heading to the candidate's along the shortest way with a
-///     rest-to-rest polynomial (the smoothstep of the same degree) over the whole duration.
-///  5. Check: samples every sample_period_s keep the disc inside allowed cells. Repair: insert the
+///     integral of the squared k-th derivative subject to: positions at every waypoint, the start
+///     state's velocity AND acceleration (the jerk at the start is left free, so a replan spliced
+///     onto the old trajectory is continuous in position, velocity and acceleration, see Splice()
+///     in common/trajectory.h), rest at the goal, and continuity of derivatives 1..k (up to snap,
+///     or jerk) at interior waypoints: the vehicle does not stop there. All axes are solved as ONE
+///     KKT system [2Q A^T; A 0] with Eigen (one factorisation, three right-hand sides), each
+///     segment in normalised time for conditioning. Safety net: all durations scaled up
+///     uniformly until the sampled speed and acceleration respect the limits (the yaw rate
+///     respects its limit by construction, step 5).
+///  5. Yaw turns from the start yaw and yaw rate to the candidate's heading along the shortest
+///     way WHILE translating, over its own duration: the yaw rate ramps (cubic smoothsteps,
+///     yaw acceleration at most 2 max_yaw_rate per second) from the start's rate, which stays
+///     continuous, to at most max_yaw_rate, cruises and ramps to 0; the shortest such profile
+///     (this bound on the ramps is its floor), then the heading holds. The trajectory's pieces
+///     are split where the yaw profile changes piece (Taylor shifts); when the turn outlasts the
+///     flight, the vehicle hovers at the goal until it ends. The yaw rate respects max_yaw_rate
+///     by construction (unless the start's rate exceeds it).
+///  6. Check: samples every sample_period_s keep the disc inside allowed cells. Repair: insert the
 ///     midpoint of every straight segment whose polynomial piece fails and re-solve (up to
 ///     max_repair_rounds); then make the vehicle rest at both ends of every failing piece
 ///     (derivatives 1..k-1 zero there), round after round: a piece between two rests stays on its
 ///     straight, line-of-sight-checked segment, so the repair ends (with a start velocity of 0).
+///  The start state is used exactly first; if the time allocation does not converge or the
+///  repair fails with it, the planner retries from the start velocity's component along the first
+///  leg (at most 0.9 max_speed, zero acceleration), then from rest (the controller absorbs the
+///  step in the set point's velocity); TrajectoryPlan::start_matched tells which.
 /// Allowed cells: traversable cells of C, plus the cells the square of half-width r around the
 /// start position overlaps (the vehicle is already there), except cells other than the vehicle's
 /// own that are known occupied (P(C) > 0.5): those are allowed only on the pieces before the
@@ -42,9 +70,9 @@ namespace kestrel {
 
 /// Parameters of the trajectory generation.
 struct TrajectoryConfig {
-  double max_speed_mps{0.5};           ///< speed limit, m/s (> 0)
-  double max_acceleration_mps2{0.5};   ///< acceleration limit, m/s^2 (> 0)
-  double max_yaw_rate_radps{0.6};      ///< yaw-rate limit, rad/s (> 0)
+  double max_speed_mps{1.0};           ///< speed limit, m/s (> 0)
+  double max_acceleration_mps2{1.0};   ///< acceleration limit, m/s^2 (> 0)
+  double max_yaw_rate_radps{1.0};      ///< yaw-rate limit, rad/s (> 0)
   int derivative_order{4};             ///< k: 4 minimum snap (degree 7), 3 minimum jerk (5)
   double sample_period_s{0.01};        ///< check and display sampling, s (> 0)
   double vehicle_radius_m{0.44};       ///< disc radius r checked against C, m (> 0)
@@ -58,12 +86,17 @@ struct TrajectoryConfig {
 /// What PlanTrajectory produced.
 struct TrajectoryPlan {
   std::optional<PiecewisePolynomialTrajectory> trajectory;  ///< empty on failure
-  std::vector<Eigen::Vector3d> waypoints;  ///< the waypoints finally used (after pruning, repair)
-  std::vector<int> cell_path;              ///< Dijkstra's cells, start to goal
-  int unpruned_waypoints{0};               ///< before line-of-sight pruning
-  int repair_rounds{0};                    ///< midpoint insertion rounds used
-  int stop_waypoints{0};                   ///< interior waypoints where the vehicle rests
-  std::string error;                       ///< why there is no trajectory
+  /// The position at every knot of the trajectory, its end included: the waypoints finally used
+  /// (after pruning, splitting of long legs, repair), plus the points where the yaw profile
+  /// changes piece and, when the turn outlasts the flight, the goal again.
+  std::vector<Eigen::Vector3d> waypoints;
+  std::vector<int> cell_path;  ///< Dijkstra's cells, start to goal
+  int unpruned_waypoints{0};   ///< before line-of-sight pruning
+  int repair_rounds{0};        ///< midpoint insertion rounds used
+  int stop_waypoints{0};       ///< interior waypoints where the vehicle rests
+  bool start_matched{false};   ///< trajectory starts with the start's velocity and acceleration
+  double yaw_duration_s{0.0};  ///< duration of the turn to the goal's heading, s
+  std::string error;           ///< why there is no trajectory
 };
 
 /// Whether the disc of radius r at p overlaps only cells with allowed[i] (and no cell outside the
@@ -82,10 +115,11 @@ struct TrajectoryPlan {
     const GridMap2D& grid, const std::vector<bool>& allowed,
     const std::vector<Eigen::Vector2d>& points, double radius_m);
 
-/// The polynomial pieces through points[0..S] with durations[0..S-1] (step 3 of the file
-/// comment). start_velocity_mps at the start; rest at the end; stop_at[i] (empty: none) puts a
-/// rest (derivatives 1..k-1 zero on both sides) at interior waypoint i instead of continuity.
-/// Yaw is left zero. The KKT system is sparse (Eigen::SparseLU).
+/// The polynomial pieces through points[0..S] with durations[0..S-1] (step 4 of the file
+/// comment). start_velocity_mps at the start and derivatives 2..k-1 zero there (a start at
+/// constant velocity); rest at the end; stop_at[i] (empty: none) puts a rest (derivatives 1..k-1
+/// zero on both sides) at interior waypoint i instead of continuity. Yaw is left zero. The KKT
+/// system is sparse (Eigen::SparseLU).
 /// Returns nullopt if the KKT system cannot be solved.
 /// @throws std::invalid_argument on inconsistent sizes, k outside {3, 4} or a duration <= 0.
 [[nodiscard]] std::optional<std::vector<PolynomialSegment>> SolveMinimumDerivative(
@@ -93,9 +127,29 @@ struct TrajectoryPlan {
     int derivative_order, const Eigen::Vector3d& start_velocity_mps,
     const std::vector<bool>& stop_at = {});
 
-/// The whole step from a goal cell of `field` to a checked trajectory starting at start_time_s
-/// (file comment). `collision` gives the geometry of C; traversable its eq. (13) flags.
-/// @throws std::invalid_argument if config is invalid or sizes disagree.
+/// The same from a start in velocity AND acceleration: start_velocity_mps and
+/// start_acceleration_mps2 at the start, the start's jerk (k = 4) left FREE (the minimum-snap
+/// optimum chooses it: a replan cannot match the old trajectory's jerk anyway, and a free jerk
+/// lets the acceleration build up at once); rest at the end, continuity or stop_at as above.
+[[nodiscard]] std::optional<std::vector<PolynomialSegment>> SolveMinimumDerivative(
+    const std::vector<Eigen::Vector3d>& points, const std::vector<double>& durations_s,
+    int derivative_order, const Eigen::Vector3d& start_velocity_mps,
+    const Eigen::Vector3d& start_acceleration_mps2, const std::vector<bool>& stop_at = {});
+
+/// The whole step from a goal cell of `field` to a checked trajectory starting at start.time_s
+/// from the start state (file comment): in flight, StateAt(current trajectory, t_splice) with
+/// t_splice a little ahead, the result then published through Splice() (common/trajectory.h).
+/// `collision` gives the geometry of C; traversable its eq. (13) flags. The goal is the centre
+/// of goal_cell at height_m with heading goal_yaw_rad.
+/// @throws std::invalid_argument if config is invalid, sizes disagree or the start state, goal
+/// yaw or height is not finite.
+[[nodiscard]] TrajectoryPlan PlanTrajectory(const GridMap2D& collision,
+                                            const std::vector<bool>& traversable,
+                                            const DistanceField& field, int goal_cell,
+                                            const TrajectoryStart& start, double goal_yaw_rad,
+                                            double height_m, const TrajectoryConfig& config);
+
+/// The same from a start at position, velocity and yaw, with zero acceleration and yaw rate.
 [[nodiscard]] TrajectoryPlan PlanTrajectory(
     const GridMap2D& collision, const std::vector<bool>& traversable, const DistanceField& field,
     int goal_cell, const Eigen::Vector3d& start_position_m,

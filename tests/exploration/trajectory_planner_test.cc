@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <vector>
 
@@ -263,8 +265,9 @@ TEST(TrajectoryPlanner, NeverCutsThroughAnOccupiedCellItStartsNextTo) {
   };
   for (const int goal : {c.IndexOf(0, 4), c.IndexOf(0, 0), c.IndexOf(1, 3)}) {
     const Eigen::Vector2d s2 = c.CenterOf(start) + Eigen::Vector2d(-0.15, 0.2);  // 0.3 m away
-    const TrajectoryPlan plan = PlanTrajectory(c, t, f, goal, {s2.x(), s2.y(), 0.75},
-                                               Eigen::Vector3d::Zero(), 0.0, 0.0, 0.75, 0.0, config);
+    const TrajectoryPlan plan =
+        PlanTrajectory(c, t, f, goal, {s2.x(), s2.y(), 0.75}, Eigen::Vector3d::Zero(), 0.0, 0.0,
+                       0.75, 0.0, config);
     ASSERT_TRUE(plan.trajectory.has_value()) << plan.error;
     ASSERT_GE(plan.waypoints.size(), 3u);
     const Eigen::Vector2d centre = c.CenterOf(start);
@@ -273,7 +276,8 @@ TEST(TrajectoryPlanner, NeverCutsThroughAnOccupiedCellItStartsNextTo) {
     const double first_piece_s = plan.trajectory->segments()[0].duration_s;
     for (const TrajectorySample& smp : plan.trajectory->Sample(0.01)) {
       const Eigen::Vector2d p = smp.flat.position_m.head<2>();
-      EXPECT_GE(distance_to_frame(p), start_distance - 0.01) << "goal " << goal << " t " << smp.time_s;
+      EXPECT_GE(distance_to_frame(p), start_distance - 0.01)
+          << "goal " << goal << " t " << smp.time_s;
       if (smp.time_s > first_piece_s) {
         ASSERT_TRUE(DiscInsideBrute(c, t, p, config.vehicle_radius_m)) << "t " << smp.time_s;
       }
@@ -339,6 +343,295 @@ TEST(TrajectoryPlanner, LineOfSightUsesTheDisc) {
   EXPECT_FALSE(SegmentClear(c, t, {0.5, 0.5}, {2.5, 2.5}, 0.1));
   EXPECT_TRUE(DiscClear(c, t, {0.5, 0.5}, 0.49));
   EXPECT_FALSE(DiscClear(c, t, {0.5, 0.5}, 0.51));  // touches the grid's outside
+}
+
+// The non-stop flight tests (docs/exploration.md, section "Non-stop flight"): 1 m/s, 1 m/s^2,
+// 1 rad/s, on maps made of 0.5 m cells.
+TrajectoryConfig NonStopConfig() {
+  TrajectoryConfig config;
+  config.max_speed_mps = 1.0;
+  config.max_acceleration_mps2 = 1.0;
+  config.max_yaw_rate_radps = 1.0;
+  return config;
+}
+
+// A map of `cell_m` cells, free where `free(x, y)` (occupied, P = 0.9, elsewhere), the distance
+// field from cell `start`.
+struct TestMap {
+  GridMap2D collision;
+  std::vector<bool> traversable;
+  DistanceField field;
+};
+template <typename Free>
+TestMap MakeMap(int w, int h, double cell_m, const Cell2& start, Free free) {
+  TestMap m{GridMap2D::Filled({0.0, 0.0}, cell_m, 0.75, w, h, 0.0), {}, {}};
+  m.traversable.assign(static_cast<size_t>(w * h), false);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const bool f = free(x, y);
+      m.traversable[static_cast<size_t>(m.collision.IndexOf(x, y))] = f;
+      m.collision.at(x, y) = f ? 0.0 : 0.9;
+    }
+  }
+  m.field = ComputeDistanceField(w, h, m.traversable, start, cell_m);
+  return m;
+}
+
+// A straight corridor 1.5 m wide and 11.5 m long (0.5 m cells), the vehicle in cell (1, 1) at
+// (0.75, 0.75).
+TestMap Corridor() {
+  return MakeMap(23, 3, 0.5, {1, 1}, [](int, int) { return true; });
+}
+
+// An L-shaped corridor one 0.8 m cell wide: from cell (0, 0) at (0.4, 0.4) 4 m east to the corner
+// cell (5, 0), then 4 m north to cell (5, 5) at (4.4, 4.4). Dijkstra's path is the centre line.
+TestMap LCorridor() {
+  return MakeMap(6, 6, 0.8, {0, 0}, [](int x, int y) { return y == 0 || x == 5; });
+}
+
+// The L corridor's vehicle: a disc of radius 0.25 m (0.15 m from the walls on the centre line).
+TrajectoryConfig LConfig() {
+  TrajectoryConfig config = NonStopConfig();
+  config.vehicle_radius_m = 0.25;
+  return config;
+}
+
+// The largest sampled speed, acceleration and yaw rate (every 0.01 s) relative to the limits.
+struct LimitRatios {
+  double speed = 0.0, acceleration = 0.0, yaw_rate = 0.0;
+};
+LimitRatios SampledLimitRatios(const PiecewisePolynomialTrajectory& traj,
+                               const TrajectoryConfig& config) {
+  LimitRatios r;
+  for (const TrajectorySample& s : traj.Sample(0.01)) {
+    r.speed = std::max(r.speed, s.flat.velocity_mps.norm() / config.max_speed_mps);
+    r.acceleration =
+        std::max(r.acceleration, s.flat.acceleration_mps2.norm() / config.max_acceleration_mps2);
+    r.yaw_rate = std::max(r.yaw_rate, std::abs(s.flat.yaw_rate_radps) / config.max_yaw_rate_radps);
+  }
+  return r;
+}
+
+// A 10 m straight corridor at 1 m/s and 1 m/s^2: the rest-to-rest trapezoid takes 10 / 1 + 1 / 1
+// = 11 s; the speed profile over split pieces flies within 1.25 times that (the former
+// per-segment trapezoid on one 10 m minimum-snap piece needed 35/16 * 10 m / 1 m/s = 21.9 s).
+TEST(TrajectoryPlanner, StraightCorridorIsNearTheTrapezoidOptimum) {
+  const TestMap m = Corridor();
+  const TrajectoryConfig config = NonStopConfig();
+  const TrajectoryPlan plan =
+      PlanTrajectory(m.collision, m.traversable, m.field, m.collision.IndexOf(21, 1),
+                     {0.75, 0.75, 0.75}, Eigen::Vector3d::Zero(), 0.0, 0.0, 0.75, 5.0, config);
+  ASSERT_TRUE(plan.trajectory.has_value()) << plan.error;
+  const PiecewisePolynomialTrajectory& traj = *plan.trajectory;
+  EXPECT_NEAR(
+      (traj.Evaluate(traj.end_time_s()).position_m - Eigen::Vector3d(10.75, 0.75, 0.75)).norm(),
+      0.0, 1e-8);
+  const double optimum_s = 11.0;
+  std::printf("10 m corridor: %.3f s (%.3f x the trapezoid's 11 s), %d pieces\n", traj.duration_s(),
+              traj.duration_s() / optimum_s, traj.num_segments());
+  RecordProperty("corridor_duration_s", std::to_string(traj.duration_s()));
+  EXPECT_LE(traj.duration_s(), 1.25 * optimum_s);
+  EXPECT_GE(traj.duration_s(), optimum_s - 0.01);  // nothing beats the trapezoid
+  const LimitRatios r = SampledLimitRatios(traj, config);
+  EXPECT_LE(r.speed, 1.0 + 1e-9);
+  EXPECT_LE(r.acceleration, 1.0 + 1e-9);
+  EXPECT_LE(r.yaw_rate, 1.0 + 1e-9);
+  EXPECT_TRUE(plan.start_matched);
+}
+
+// An L-shaped corridor (1.5 m wide legs of about 4 m): the vehicle does not stop at the corner.
+TEST(TrajectoryPlanner, LShapedPathDoesNotStopAtTheCorner) {
+  const TestMap m = LCorridor();
+  const TrajectoryConfig config = LConfig();
+  const TrajectoryPlan plan =
+      PlanTrajectory(m.collision, m.traversable, m.field, m.collision.IndexOf(5, 5),
+                     {0.4, 0.4, 0.75}, Eigen::Vector3d::Zero(), 0.0, M_PI / 2, 0.75, 0.0, config);
+  ASSERT_TRUE(plan.trajectory.has_value()) << plan.error;
+  const PiecewisePolynomialTrajectory& traj = *plan.trajectory;
+  EXPECT_EQ(plan.stop_waypoints, 0);
+  // The path does turn: some waypoint's legs meet at 60 deg or more.
+  double max_turn = 0.0;
+  for (size_t i = 1; i + 1 < plan.waypoints.size(); ++i) {
+    const Eigen::Vector3d in = plan.waypoints[i] - plan.waypoints[i - 1];
+    const Eigen::Vector3d out = plan.waypoints[i + 1] - plan.waypoints[i];
+    if (in.norm() < 1e-6 || out.norm() < 1e-6) continue;
+    max_turn =
+        std::max(max_turn, std::acos(std::clamp(in.normalized().dot(out.normalized()), -1.0, 1.0)));
+  }
+  EXPECT_GE(max_turn, M_PI / 3);
+  // Away from the ends (1 s), the speed never drops below 0.2 m/s.
+  double min_speed = 1e9;
+  for (const TrajectorySample& s : traj.Sample(0.01)) {
+    if (s.time_s < traj.start_time_s() + 1.0 || s.time_s > traj.end_time_s() - 1.0) continue;
+    min_speed = std::min(min_speed, s.flat.velocity_mps.norm());
+  }
+  double path_m = 0.0;
+  for (size_t i = 0; i + 1 < plan.waypoints.size(); ++i) {
+    path_m += (plan.waypoints[i + 1] - plan.waypoints[i]).norm();
+  }
+  const LimitRatios r = SampledLimitRatios(traj, config);
+  std::printf(
+      "L path: %.2f m in %.3f s, largest turn %.0f deg, min speed away from the ends %.3f m/s, "
+      "peak speed / acceleration / yaw rate at %.3f / %.3f / %.3f of the limits\n",
+      path_m, traj.duration_s(), max_turn * 180 / M_PI, min_speed, r.speed, r.acceleration,
+      r.yaw_rate);
+  RecordProperty("l_path_duration_s", std::to_string(traj.duration_s()));
+  EXPECT_GT(min_speed, 0.2);
+  EXPECT_LE(r.speed, 1.0 + 1e-9);
+  EXPECT_LE(r.acceleration, 1.0 + 1e-9);
+  EXPECT_LE(r.yaw_rate, 1.0 + 1e-9);
+  const FlatOutput end = traj.Evaluate(traj.end_time_s());
+  EXPECT_NEAR((end.position_m - Eigen::Vector3d(4.4, 4.4, 0.75)).norm(), 0.0, 1e-8);
+  EXPECT_NEAR(std::remainder(end.yaw_rad - M_PI / 2, 2 * M_PI), 0.0, 1e-8);
+}
+
+// A replan in flight: the trajectory starts with the start state's position, velocity (0.8 m/s),
+// acceleration (0.5 m/s^2), yaw and yaw rate.
+TEST(TrajectoryPlanner, StartsWithTheStartState) {
+  const TestMap m = Corridor();
+  const TrajectoryConfig config = NonStopConfig();
+  for (const Eigen::Vector3d& direction :
+       {Eigen::Vector3d(1.0, 0.0, 0.0), Eigen::Vector3d(0.96, 0.28, 0.0)}) {
+    TrajectoryStart start;
+    start.position_m = Eigen::Vector3d(1.0, 0.7, 0.7);
+    start.velocity_mps = 0.8 * direction;
+    start.acceleration_mps2 = 0.5 * direction;
+    start.yaw_rad = 0.2;
+    start.yaw_rate_radps = 0.3;
+    start.time_s = 42.0;
+    const TrajectoryPlan plan = PlanTrajectory(
+        m.collision, m.traversable, m.field, m.collision.IndexOf(15, 1), start, -0.5, 0.75, config);
+    ASSERT_TRUE(plan.trajectory.has_value()) << plan.error;
+    EXPECT_TRUE(plan.start_matched);
+    const PiecewisePolynomialTrajectory& traj = *plan.trajectory;
+    EXPECT_EQ(traj.start_time_s(), 42.0);
+    const FlatOutput f = traj.Evaluate(42.0);
+    EXPECT_NEAR((f.position_m - start.position_m).norm(), 0.0, 1e-6);
+    EXPECT_NEAR((f.velocity_mps - start.velocity_mps).norm(), 0.0, 1e-6);
+    EXPECT_NEAR((f.acceleration_mps2 - start.acceleration_mps2).norm(), 0.0, 1e-6);
+    EXPECT_NEAR(f.yaw_rad, start.yaw_rad, 1e-6);
+    EXPECT_NEAR(f.yaw_rate_radps, start.yaw_rate_radps, 1e-6);
+    const LimitRatios r = SampledLimitRatios(traj, config);
+    EXPECT_LE(r.speed, 1.0 + 1e-9);
+    EXPECT_LE(r.acceleration, 1.0 + 1e-9);
+    EXPECT_LE(r.yaw_rate, 1.0 + 1e-9);
+    EXPECT_NEAR(traj.Evaluate(traj.end_time_s()).yaw_rad, -0.5, 1e-8);
+  }
+}
+
+// A 180 deg heading change during a 5 m hop: the yaw turns while the vehicle flies and reaches
+// the goal's heading within 1.6 pi / max_yaw_rate (the former rest-to-rest smoothstep over the
+// whole hop needed 35/16 pi / max_yaw_rate at least), never faster than the limit.
+TEST(TrajectoryPlanner, TurnsAroundWhileFlying) {
+  const TestMap m = Corridor();
+  const TrajectoryConfig config = NonStopConfig();
+  const TrajectoryPlan plan =
+      PlanTrajectory(m.collision, m.traversable, m.field, m.collision.IndexOf(11, 1),
+                     {0.75, 0.75, 0.75}, Eigen::Vector3d::Zero(), 0.0, M_PI, 0.75, 0.0, config);
+  ASSERT_TRUE(plan.trajectory.has_value()) << plan.error;
+  const PiecewisePolynomialTrajectory& traj = *plan.trajectory;
+  // The last time the heading is more than 1e-6 rad away from the goal's.
+  double reached_s = 0.0;
+  double max_rate = 0.0;
+  for (const TrajectorySample& s : traj.Sample(0.01)) {
+    if (std::abs(std::remainder(s.flat.yaw_rad - M_PI, 2 * M_PI)) > 1e-6) reached_s = s.time_s;
+    max_rate = std::max(max_rate, std::abs(s.flat.yaw_rate_radps));
+  }
+  const double bound_s = M_PI / config.max_yaw_rate_radps * 1.6;
+  std::printf(
+      "180 deg turn on a 5 m hop: heading reached after %.3f s (bound %.3f s), hop %.3f s, "
+      "max yaw rate %.4f rad/s\n",
+      reached_s, bound_s, traj.duration_s(), max_rate);
+  RecordProperty("turn_180_s", std::to_string(reached_s));
+  EXPECT_LE(reached_s, bound_s);
+  EXPECT_LE(max_rate, 1.01 * config.max_yaw_rate_radps);
+  EXPECT_NEAR(plan.yaw_duration_s, reached_s, 0.02);
+  // While translating: the heading is reached before the hop ends.
+  EXPECT_LT(reached_s, traj.end_time_s() - 0.5);
+  EXPECT_GT(traj.Evaluate(reached_s).velocity_mps.norm(), 0.2);
+}
+
+// From velocity and acceleration: the pieces start with them, the jerk is left free (the
+// minimum-snap optimum: nonzero in general), rest at the goal, continuity up to 2k-2 inside.
+TEST(TrajectoryPlanner, MinimumDerivativeFromVelocityAndAcceleration) {
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int k : {3, 4}) {
+    for (int trial = 0; trial < 20; ++trial) {
+      const int n = 1 + trial % 6;
+      std::vector<Eigen::Vector3d> pts;
+      std::vector<double> dur;
+      for (int i = 0; i <= n; ++i) pts.emplace_back(3 * u(rng), 3 * u(rng), 1 + 0.2 * u(rng));
+      for (int i = 0; i < n; ++i) dur.push_back(1.5 + u(rng));
+      const Eigen::Vector3d v0(0.5 * u(rng), 0.5 * u(rng), 0.1 * u(rng));
+      const Eigen::Vector3d a0(0.5 * u(rng), 0.5 * u(rng), 0.1 * u(rng));
+      const auto segs = SolveMinimumDerivative(pts, dur, k, v0, a0);
+      ASSERT_TRUE(segs.has_value()) << "k " << k << " trial " << trial;
+      for (int axis = 0; axis < 3; ++axis) {
+        const auto& first = (*segs)[0].coefficients[static_cast<size_t>(axis)];
+        EXPECT_NEAR(Derivative(first, 0, 0.0), pts[0][axis], 1e-8);
+        EXPECT_NEAR(Derivative(first, 1, 0.0), v0[axis], 1e-8);
+        EXPECT_NEAR(Derivative(first, 2, 0.0), a0[axis], 1e-8);
+        if (k == 4) {
+          EXPECT_GT(std::abs(Derivative(first, 3, 0.0)), 1e-6);  // free, not zero
+        }
+        const auto& last = segs->back().coefficients[static_cast<size_t>(axis)];
+        EXPECT_NEAR(Derivative(last, 0, dur.back()), pts.back()[axis], 1e-8);
+        for (int d = 1; d < k; ++d) EXPECT_NEAR(Derivative(last, d, dur.back()), 0.0, 1e-7);
+        for (int s = 0; s + 1 < n; ++s) {
+          const auto& c = (*segs)[static_cast<size_t>(s)].coefficients[static_cast<size_t>(axis)];
+          const auto& next =
+              (*segs)[static_cast<size_t>(s) + 1].coefficients[static_cast<size_t>(axis)];
+          for (int d = 0; d <= 2 * k - 2; ++d) {
+            const double a = Derivative(c, d, dur[static_cast<size_t>(s)]);
+            const double b = Derivative(next, d, 0.0);
+            EXPECT_NEAR(a, b, 1e-6 * (1.0 + std::abs(a))) << "k " << k << " d " << d;
+          }
+        }
+      }
+    }
+  }
+}
+
+// A replan in flight, end to end: planned from StateAt(old, t_splice) towards another goal and
+// spliced at now < t_splice, the published trajectory equals the old one until t_splice and the
+// new one after, with position, velocity and acceleration continuous at the splice.
+TEST(TrajectoryPlanner, ReplanSplicesWithoutAJump) {
+  const TestMap m = LCorridor();
+  const TrajectoryConfig config = LConfig();
+  const TrajectoryPlan first =
+      PlanTrajectory(m.collision, m.traversable, m.field, m.collision.IndexOf(5, 0),
+                     {0.4, 0.4, 0.75}, Eigen::Vector3d::Zero(), 0.0, 0.0, 0.75, 10.0, config);
+  ASSERT_TRUE(first.trajectory.has_value()) << first.error;
+  const PiecewisePolynomialTrajectory& old = *first.trajectory;
+  const double now_s = 12.0, splice_s = 12.3;  // in the middle of the straight, at speed
+  const TrajectoryStart state = StateAt(old, splice_s);
+  ASSERT_GT(state.velocity_mps.norm(), 0.5);
+  const DistanceField field = ComputeDistanceField(
+      6, 6, m.traversable, *m.collision.CellOf(state.position_m.head<2>()), 0.8);
+  const TrajectoryPlan second = PlanTrajectory(
+      m.collision, m.traversable, field, m.collision.IndexOf(5, 5), state, M_PI / 2, 0.75, config);
+  ASSERT_TRUE(second.trajectory.has_value()) << second.error;
+  EXPECT_TRUE(second.start_matched);
+  const auto spliced = Splice(old, now_s, *second.trajectory);
+  ASSERT_TRUE(spliced.has_value());
+  EXPECT_EQ(spliced->start_time_s(), now_s);
+  for (double t = now_s; t < splice_s; t += 0.01) {
+    const FlatOutput a = spliced->Evaluate(t), b = old.Evaluate(t);
+    EXPECT_NEAR((a.position_m - b.position_m).norm(), 0.0, 1e-9);
+    EXPECT_NEAR((a.velocity_mps - b.velocity_mps).norm(), 0.0, 1e-9);
+  }
+  for (double t = splice_s; t <= spliced->end_time_s(); t += 0.01) {
+    const FlatOutput a = spliced->Evaluate(t), b = second.trajectory->Evaluate(t);
+    EXPECT_NEAR((a.position_m - b.position_m).norm(), 0.0, 1e-9);
+    EXPECT_NEAR(a.yaw_rad, b.yaw_rad, 1e-9);
+  }
+  const FlatOutput before = old.Evaluate(splice_s), after = spliced->Evaluate(splice_s);
+  EXPECT_NEAR((before.position_m - after.position_m).norm(), 0.0, 1e-6);
+  EXPECT_NEAR((before.velocity_mps - after.velocity_mps).norm(), 0.0, 1e-6);
+  EXPECT_NEAR((before.acceleration_mps2 - after.acceleration_mps2).norm(), 0.0, 1e-6);
+  EXPECT_NEAR(before.yaw_rad, after.yaw_rad, 1e-6);
+  EXPECT_NEAR(before.yaw_rate_radps, after.yaw_rate_radps, 1e-6);
 }
 
 }  // namespace
