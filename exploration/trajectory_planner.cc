@@ -138,10 +138,10 @@ double TurnSpeed(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen
                   std::sqrt(config.max_acceleration_mps2 * window_m / sin_half));
 }
 
-// Time to cover length_m from speed v0 to v1 (step 3): accelerate at max_acceleration up to a
-// peak (at most max_speed), cruise, decelerate; where the ends are too far apart for the length
-// (only from a fixed start speed), the constant acceleration between them. At least
-// min_segment_duration_s.
+// Time to cover length_m from speed v0 to v1 (step 3): accelerate at c.max_acceleration (the
+// profile's) up to a peak (at most c.max_speed), cruise, decelerate; where the ends are too far
+// apart for the length (only from a fixed start speed), the constant acceleration between them.
+// At least min_segment_duration_s.
 double PieceTime(double length_m, double v0, double v1, const TrajectoryConfig& c) {
   const double a = c.max_acceleration_mps2;
   double t = 0.0;
@@ -190,7 +190,7 @@ struct YawPiece {
   std::vector<double> coefficients;
 };
 
-// The yaw profile (step 4): from yaw0 at rate rate0, turn by delta (rad) and rest. The rate
+// The yaw profile (step 5): from yaw0 at rate rate0, turn by delta (rad) and rest. The rate
 // ramps from rate0 to a peak (at most max_rate in magnitude), cruises, ramps to 0; each ramp is a
 // cubic smoothstep of the rate (yaw acceleration continuous, at most kYawAccelerationPerRate
 // max_rate), so the duration is the shortest that respects max_rate and that yaw acceleration.
@@ -236,7 +236,7 @@ std::vector<YawPiece> YawProfile(double yaw0, double rate0, double delta, double
   return pieces;
 }
 
-// The final trajectory (step 4): the translation pieces (a hover at the goal appended when the
+// The final trajectory (step 5): the translation pieces (a hover at the goal appended when the
 // turn outlasts them) and the yaw profile, both split at the union of their knots by Taylor
 // shifts. knot_points gets the position at every knot: way3 at the translation's knots.
 std::optional<PiecewisePolynomialTrajectory> WithYaw(
