@@ -263,7 +263,7 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::Finish(
   const RayEntropy e =
       kernel != nullptr
           ? ExpectedEntropy::Evaluate(model, *kernel, prior_.data(), n, config_.weight_mode,
-                                      &scratch_)
+                                      &scratch_, config_.entropy_sum)
           : ExpectedEntropy::Compute(model, entry, exit, distance, prior_.data(), n,
                                      config_.weight_mode, GainMethod::kFast, &scratch_);
   r.bound = e.prior_entropy_nats;

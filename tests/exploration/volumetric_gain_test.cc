@@ -134,7 +134,8 @@ void ExpectGainsEqual(const PoseGains& got, const Brute& want, const std::string
 
 // Every heading's gain equals the brute force (direct method, rays cast at the position) to
 // 1e-9 relative: positions at cell centres (the templates: the second one in a row builds them)
-// and at arbitrary offsets (cast per position), with and without templates, both weightings.
+// and at arbitrary offsets (cast per position), with templates (and the lanes' entropy sums)
+// and without (scalar sums), both weightings.
 TEST(VolumetricGain, EqualsBruteForce) {
   const DenseGrid grid = RandomMap(7);
   const OccupancyGridView view = ViewOf(grid);
@@ -156,6 +157,7 @@ TEST(VolumetricGain, EqualsBruteForce) {
       VolumetricGainConfig config;
       config.weight_mode = mode;
       config.use_templates = templates;
+      config.entropy_sum = templates ? EntropySum::kLanes : EntropySum::kScalar;
       VolumetricGainEvaluator evaluator(config);
       VolumetricGainStats stats, bound_stats;
       for (size_t p = 0; p < positions.size(); ++p) {
