@@ -78,8 +78,33 @@ KESTREL_AVX512_BEGIN
   }
   return _mm512_reduce_add_pd(acc);
 }
+
+// sum_i a[i] b[i], i < n, in eight partial sums.
+[[KESTREL_AVX512]] double DotAvx512(const double* a, const double* b, int n) {
+  __m512d acc = _mm512_setzero_pd();
+  for (int i = 0; i < n; i += 8) {
+    const int left = n - i;
+    const __mmask8 load =
+        left >= 8 ? static_cast<__mmask8>(0xFF) : static_cast<__mmask8>((1u << left) - 1u);
+    acc = _mm512_add_pd(
+        acc, _mm512_mul_pd(_mm512_maskz_loadu_pd(load, a + i), _mm512_maskz_loadu_pd(load, b + i)));
+  }
+  return _mm512_reduce_add_pd(acc);
+}
 KESTREL_AVX512_END
 #endif
+
+// sum_i a[i] b[i], i < n (lanes: eight partial sums on AVX-512).
+double Dot(const double* a, const double* b, int n, bool lanes) {
+#if defined(__x86_64__)
+  if (lanes) return DotAvx512(a, b, n);
+#else
+  (void)lanes;
+#endif
+  double s = 0.0;
+  for (int i = 0; i < n; ++i) s += a[i] * b[i];
+  return s;
+}
 
 // sum_j H(p[j]), j < n, as EntropySum says.
 double SumBinaryEntropy(const double* p, int n, bool lanes) {
@@ -326,7 +351,11 @@ RayEntropy ExpectedEntropy::Evaluate(const SensorModel& model, const RayKernel& 
     double q = h.uniform_q;
     if (mode == WeightMode::kChordProbability) {
       const int i_end = std::min(h.g_first + h.g_count, n);
-      for (int i = h.g_first; i < i_end; ++i) q += pi[i] * g[h.g_offset + (i - h.g_first)];
+      if (lanes) {
+        q += Dot(pi + h.g_first, g + h.g_offset, i_end - h.g_first, true);
+      } else {
+        for (int i = h.g_first; i < i_end; ++i) q += pi[i] * g[h.g_offset + (i - h.g_first)];
+      }
     }
     const int end = std::min(h.end, n);
     const int lo_j = std::min(h.lo, end);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <map>
 #include <utility>
 
 #include "common/check.h"
@@ -191,6 +192,8 @@ void VolumetricGainEvaluator::BuildTemplates(const std::vector<Eigen::Vector3d>&
   const GridGeometry lattice = GridGeometry::Unbounded(origin_m_, resolution_m_);
   const RayCaster caster(lattice);
   const int64_t nx = dims_.x(), nxy = static_cast<int64_t>(dims_.x()) * dims_.y();
+  template_kernels_.clear();
+  std::map<std::vector<int64_t>, std::vector<int>> by_chords;
   for (int s = 0; s < static_cast<int>(config_.sensors.size()); ++s) {
     const VolumetricSensor& sensor = config_.sensors[static_cast<size_t>(s)];
     const SensorModel& model = models_[static_cast<size_t>(s)];
@@ -230,7 +233,28 @@ void VolumetricGainEvaluator::BuildTemplates(const std::vector<Eigen::Vector3d>&
         entry_.resize(static_cast<size_t>(n));
         exit_.resize(static_cast<size_t>(n));
         ChordsOf(cells.distance_m.data(), n, entry_.data(), exit_.data());
-        t.kernel.Build(model, entry_.data(), exit_.data(), cells.distance_m.data(), n);
+        // Share the kernel of a ray with the same chords (to 1e-12 m) and the same model.
+        std::vector<int64_t> key{s, n};
+        for (int k = 0; k < n; ++k) {
+          key.push_back(std::llround(cells.distance_m[static_cast<size_t>(k)] * 1e9));
+        }
+        std::vector<int>& same = by_chords[key];
+        t.kernel = -1;
+        for (int i : same) {
+          const RayKernel& other = template_kernels_[static_cast<size_t>(i)];
+          if (other.size() == n &&
+              other.Matches(entry_.data(), exit_.data(), cells.distance_m.data(), n)) {
+            t.kernel = i;
+            break;
+          }
+        }
+        if (t.kernel < 0) {
+          t.kernel = static_cast<int>(template_kernels_.size());
+          template_kernels_.emplace_back();
+          template_kernels_.back().Build(model, entry_.data(), exit_.data(),
+                                         cells.distance_m.data(), n);
+          same.push_back(t.kernel);
+        }
       }
     }
   }
@@ -306,7 +330,8 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::EvaluateRay(
       bound += CellEntropy(v);
     }
     if (stats != nullptr) ++stats->templated_rays;
-    return Finish(sensor, &t.kernel, nullptr, nullptr, nullptr, n, bound, with_gain, stats);
+    return Finish(sensor, &template_kernels_[static_cast<size_t>(t.kernel)], nullptr, nullptr,
+                  nullptr, n, bound, with_gain, stats);
   }
   // Cast at this position (fragile ray, or an origin at another in-cell offset).
   const SensorModel& model = models_[static_cast<size_t>(sensor)];
@@ -396,7 +421,10 @@ PoseGains VolumetricGainEvaluator::Evaluate(const OccupancyGridView& map,
     } else if (have_miss_ && same(miss_offsets_m_)) {
       // A second position in a row at this offset: rebuild the templates for it.
       BuildTemplates(origins);
-      if (stats != nullptr) ++stats->templates_built;
+      if (stats != nullptr) {
+        ++stats->templates_built;
+        stats->template_kernels = static_cast<long>(template_kernels_.size());
+      }
       use_template = true;
       have_miss_ = false;
     } else {

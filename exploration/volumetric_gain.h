@@ -27,7 +27,7 @@
 /// [yaw + yaw_offset - hfov/2, yaw + yaw_offset + hfov/2] (1e-9 rad tolerance; a full circle
 /// takes each bin once), the rule of GainEvaluator::RayIndices.
 ///
-/// Speed (exact shortcuts, equal to the brute force to rounding, ~1e-15 relative):
+/// Speed (exact shortcuts, equal to the brute force to rounding, ~1e-12 relative at most):
 ///  - Each ray is cast once per position; per-bin sums (over rows) are shared by all headings.
 ///  - Ray templates: a ray's cell offsets from the origin cell and its chords depend only on its
 ///    direction and on the origin's offset inside its cell. For an origin offset (all of the
@@ -41,6 +41,12 @@
 ///    position instead (as are all rays of a position at another in-cell offset), with a per-ray
 ///    RayKernel cache reused only for bit-identical chords. The templates are rebuilt when the map
 ///    geometry changes or when two consecutive positions share an offset other than theirs.
+///    Rays whose chords agree to 1e-12 m (mirror images under the lattice's symmetries, from a
+///    cell centre) share one RayKernel: 90 kernels for the default 720 rays.
+///  - EntropySum::kLanes (entropy_sum): the posterior entropies and chord weights of eq. (7)-(8)
+///    are summed eight cells at a time on AVX-512 (~1e-15 relative to the scalar sums).
+/// Speed in the half-explored paper room (bench/exploration, BM_VolumetricGainPose and
+/// BM_VolumetricBoundPose): docs/exploration.md, section "Volumetric gain".
 ///
 /// Approximation (off by default; test VolumetricGain.ApproximationErrorIsMeasured measures it):
 ///  - min_ray_bound_nats > 0: a ray whose prior entropy sum_j H(P_j) is below it is not
@@ -105,12 +111,13 @@ struct VolumetricGainConfig {
 
 /// Counters of volumetric gain evaluations (accumulated by Evaluate).
 struct VolumetricGainStats {
-  long rays{0};             ///< rays cast or gathered (all bins x rows of every sensor used)
-  long ray_cells{0};        ///< cells over those rays (in-bounds)
-  long rays_evaluated{0};   ///< rays whose E[H] (eq. 7) was evaluated
-  long rays_skipped{0};     ///< rays with no cell, or below min_ray_bound_nats
-  long templated_rays{0};   ///< rays gathered along a template (the rest were cast per position)
-  long templates_built{0};  ///< template sets built (each: every ray's cells and RayKernel)
+  long rays{0};              ///< rays cast or gathered (all bins x rows of every sensor used)
+  long ray_cells{0};         ///< cells over those rays (in-bounds)
+  long rays_evaluated{0};    ///< rays whose E[H] (eq. 7) was evaluated
+  long rays_skipped{0};      ///< rays with no cell, or below min_ray_bound_nats
+  long templated_rays{0};    ///< rays gathered along a template (the rest were cast per position)
+  long templates_built{0};   ///< template sets built (each: every ray's cells and RayKernel)
+  long template_kernels{0};  ///< distinct RayKernels in the last template set built
 };
 
 /// Per-heading results at one position, nats.
@@ -154,7 +161,7 @@ class VolumetricGainEvaluator {
     std::vector<int16_t> offset;  // di, dj, dk per cell (3 per cell)
     int16_t lo[3]{0, 0, 0};       // min of di, dj, dk over the ray
     int16_t hi[3]{0, 0, 0};       // max
-    RayKernel kernel;
+    int kernel{-1};  // index in template_kernels_ (shared by rays with the same chords)
   };
   struct RayResult {
     double gain{0.0};
@@ -194,6 +201,9 @@ class VolumetricGainEvaluator {
   bool have_templates_{false};
   std::vector<Eigen::Vector3d> template_offset_m_;  // per sensor: origin offset inside its cell
   std::vector<Template> templates_;                 // per slot
+  // Kernels of the templates: rays whose chords agree to 1e-12 m (mirror images of one another
+  // under the lattice's symmetries, from a cell centre) share one.
+  std::vector<RayKernel> template_kernels_;
   bool have_miss_{false};
   std::vector<Eigen::Vector3d> miss_offsets_m_;  // per sensor, of the last position that missed
 
