@@ -58,8 +58,9 @@ KESTREL_AVX512_BEGIN
                        _mm512_add_pd(_mm512_mul_pd(k, _mm512_set1_pd(kLn2Lo)), ln_m));
 }
 
-// sum_j H(p[j]), j < n, eight at a time (H = 0 outside (0, 1), as BinaryEntropy).
-[[KESTREL_AVX512]] double SumBinaryEntropyAvx512(const double* p, int n) {
+// sum_j w[j] H(p[j]) (w null: 1), j < n, eight at a time (H = 0 outside (0, 1), as
+// BinaryEntropy).
+[[KESTREL_AVX512]] double SumBinaryEntropyAvx512(const double* p, const double* w, int n) {
   const __m512d zero = _mm512_setzero_pd();
   const __m512d one = _mm512_set1_pd(1.0);
   const __m512d half = _mm512_set1_pd(0.5);
@@ -73,7 +74,8 @@ KESTREL_AVX512_BEGIN
                                                   _mm512_cmp_pd_mask(v, one, _CMP_LT_OQ));
     const __m512d x = _mm512_mask_blend_pd(inside, half, v);  // 0.5 where H is 0 (no log(0))
     const __m512d q = _mm512_sub_pd(one, x);
-    const __m512d h = _mm512_add_pd(_mm512_mul_pd(x, Log8(x)), _mm512_mul_pd(q, Log8(q)));
+    __m512d h = _mm512_add_pd(_mm512_mul_pd(x, Log8(x)), _mm512_mul_pd(q, Log8(q)));
+    if (w != nullptr) h = _mm512_mul_pd(h, _mm512_maskz_loadu_pd(load, w + j));
     acc = _mm512_mask_sub_pd(acc, inside, acc, h);
   }
   return _mm512_reduce_add_pd(acc);
@@ -91,6 +93,25 @@ KESTREL_AVX512_BEGIN
   }
   return _mm512_reduce_add_pd(acc);
 }
+
+// h[j] = H(p[j]), j < n, eight at a time (0 outside (0, 1)).
+[[KESTREL_AVX512]] void BinaryEntropiesAvx512(const double* p, double* h, int n) {
+  const __m512d zero = _mm512_setzero_pd();
+  const __m512d one = _mm512_set1_pd(1.0);
+  const __m512d half = _mm512_set1_pd(0.5);
+  for (int j = 0; j < n; j += 8) {
+    const int left = n - j;
+    const __mmask8 load =
+        left >= 8 ? static_cast<__mmask8>(0xFF) : static_cast<__mmask8>((1u << left) - 1u);
+    const __m512d v = _mm512_maskz_loadu_pd(load, p + j);
+    const __mmask8 inside = static_cast<__mmask8>(load & _mm512_cmp_pd_mask(v, zero, _CMP_GT_OQ) &
+                                                  _mm512_cmp_pd_mask(v, one, _CMP_LT_OQ));
+    const __m512d x = _mm512_mask_blend_pd(inside, half, v);
+    const __m512d q = _mm512_sub_pd(one, x);
+    const __m512d e = _mm512_add_pd(_mm512_mul_pd(x, Log8(x)), _mm512_mul_pd(q, Log8(q)));
+    _mm512_mask_storeu_pd(h + j, load, _mm512_maskz_sub_pd(inside, zero, e));
+  }
+}
 KESTREL_AVX512_END
 #endif
 
@@ -106,15 +127,15 @@ double Dot(const double* a, const double* b, int n, bool lanes) {
   return s;
 }
 
-// sum_j H(p[j]), j < n, as EntropySum says.
-double SumBinaryEntropy(const double* p, int n, bool lanes) {
+// sum_j w[j] H(p[j]) (w null: 1), j < n, as EntropySum says.
+double SumBinaryEntropy(const double* p, const double* w, int n, bool lanes) {
 #if defined(__x86_64__)
-  if (lanes) return SumBinaryEntropyAvx512(p, n);
+  if (lanes) return SumBinaryEntropyAvx512(p, w, n);
 #else
   (void)lanes;
 #endif
   double h = 0.0;
-  for (int j = 0; j < n; ++j) h += BinaryEntropy(p[j]);
+  for (int j = 0; j < n; ++j) h += (w != nullptr ? w[j] : 1.0) * BinaryEntropy(p[j]);
   return h;
 }
 
@@ -333,7 +354,16 @@ RayEntropy ExpectedEntropy::Evaluate(const SensorModel& model, const RayKernel& 
   pi_prefix[n] = pis;
   const double pi_empty = pbar;
   suffix_h[n] = 0.0;
-  for (int j = n - 1; j >= 0; --j) suffix_h[j] = suffix_h[j + 1] + BinaryEntropy(prior[j]);
+#if defined(__x86_64__)
+  if (lanes) {
+    double* const h = scratch->z_.data();
+    BinaryEntropiesAvx512(prior, h, n);
+    for (int j = n - 1; j >= 0; --j) suffix_h[j] = suffix_h[j + 1] + h[j];
+  } else  // NOLINT(readability-misleading-indentation): the #if closes the else's scope
+#endif
+  {
+    for (int j = n - 1; j >= 0; --j) suffix_h[j] = suffix_h[j + 1] + BinaryEntropy(prior[j]);
+  }
 
   RayEntropy out;
   out.prior_entropy_nats = suffix_h[0];
@@ -391,14 +421,20 @@ RayEntropy ExpectedEntropy::Evaluate(const SensorModel& model, const RayKernel& 
     if (lanes) {
       double* const post = scratch->z_.data();
       for (int j = lo_j; j < end; ++j) post[j] = eta * (prior[j] * s_before[j] + term[j]);
-      hk += SumBinaryEntropy(post + lo_j, end - lo_j, true);  // eqs. (2)-(3)
+      hk += SumBinaryEntropy(post + lo_j, nullptr, end - lo_j, true);  // eqs. (2)-(3)
     } else {
       for (int j = lo_j; j < end; ++j) {
         hk += BinaryEntropy(eta * (prior[j] * s_before[j] + term[j]));  // eqs. (2)-(3)
       }
     }
     const double mu = eta * c0;
-    if (use_groups) {
+    if (lanes) {
+      double* const post = scratch->z_.data();
+      const int count = use_groups ? distinct : lo_j;
+      const double* const v = use_groups ? values : prior;
+      for (int j = 0; j < count; ++j) post[j] = mu * v[j];
+      hk += SumBinaryEntropy(post, use_groups ? counts : nullptr, count, true);
+    } else if (use_groups) {
       for (int gi = 0; gi < distinct; ++gi) hk += counts[gi] * BinaryEntropy(mu * values[gi]);
     } else {
       for (int j = 0; j < lo_j; ++j) hk += BinaryEntropy(mu * prior[j]);
@@ -424,7 +460,7 @@ RayEntropy ExpectedEntropy::Evaluate(const SensorModel& model, const RayKernel& 
     if (lanes) {
       double* const post = scratch->z_.data();
       for (int j = near; j < n; ++j) post[j] = eta * (prior[j] * s_before[j] + term[j]);
-      hk += SumBinaryEntropy(post + near, n - near, true);
+      hk += SumBinaryEntropy(post + near, nullptr, n - near, true);
     } else {
       for (int j = near; j < n; ++j) hk += BinaryEntropy(eta * (prior[j] * s_before[j] + term[j]));
     }
