@@ -269,9 +269,10 @@ Eigen::Vector3d VolumetricGainEvaluator::OffsetInCell(const Eigen::Vector3d& o) 
   return f;
 }
 
-VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::Finish(
-    int sensor, const RayKernel* kernel, const double* entry, const double* exit,
-    const double* distance, int n, double bound, bool with_gain, VolumetricGainStats* stats) {
+VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::Finish(int sensor,
+                                                                   const RayKernel& kernel, int n,
+                                                                   double bound, bool with_gain,
+                                                                   VolumetricGainStats* stats) {
   RayResult r;
   r.bound = bound;
   if (stats != nullptr) {
@@ -283,13 +284,9 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::Finish(
     return r;
   }
   if (!with_gain) return r;
-  const SensorModel& model = models_[static_cast<size_t>(sensor)];
   const RayEntropy e =
-      kernel != nullptr
-          ? ExpectedEntropy::Evaluate(model, *kernel, prior_.data(), n, config_.weight_mode,
-                                      &scratch_, config_.entropy_sum)
-          : ExpectedEntropy::Compute(model, entry, exit, distance, prior_.data(), n,
-                                     config_.weight_mode, GainMethod::kFast, &scratch_);
+      ExpectedEntropy::Evaluate(models_[static_cast<size_t>(sensor)], kernel, prior_.data(), n,
+                                config_.weight_mode, &scratch_, config_.entropy_sum);
   r.bound = e.prior_entropy_nats;
   r.gain = e.gain_nats();
   if (stats != nullptr) ++stats->rays_evaluated;
@@ -330,8 +327,8 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::EvaluateRay(
       bound += CellEntropy(v);
     }
     if (stats != nullptr) ++stats->templated_rays;
-    return Finish(sensor, &template_kernels_[static_cast<size_t>(t.kernel)], nullptr, nullptr,
-                  nullptr, n, bound, with_gain, stats);
+    return Finish(sensor, template_kernels_[static_cast<size_t>(t.kernel)], n, bound, with_gain,
+                  stats);
   }
   // Cast at this position (fragile ray, or an origin at another in-cell offset).
   const SensorModel& model = models_[static_cast<size_t>(sensor)];
@@ -345,7 +342,8 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::EvaluateRay(
     prior_[static_cast<size_t>(k)] = static_cast<double>(v);
     bound += CellEntropy(v);
   }
-  if (!with_gain) return Finish(sensor, nullptr, nullptr, nullptr, nullptr, n, bound, false, stats);
+  RayKernel& kernel = cast_kernels_[static_cast<size_t>(slot)];
+  if (!with_gain) return Finish(sensor, kernel, n, bound, false, stats);  // kernel not read
   if (entry_.size() < static_cast<size_t>(n)) {
     entry_.resize(2 * static_cast<size_t>(n) + 16);
     exit_.resize(2 * static_cast<size_t>(n) + 16);
@@ -355,14 +353,13 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::EvaluateRay(
   // sliver chord where it grazes an edge (fragile rays), and kPaperLiteral weighs even a
   // sliver's hypothesis fully (1/eta_k is a density), so RayKernel::Matches's 1e-12 m and its
   // prefixes are not enough here.
-  RayKernel& kernel = cast_kernels_[static_cast<size_t>(slot)];
   std::vector<double>& built_for = cast_distance_m_[static_cast<size_t>(slot)];
   const double* const d = cells_.distance_m.data();
   if (kernel.size() != n || !std::equal(d, d + n, built_for.begin())) {
     kernel.Build(model, entry_.data(), exit_.data(), d, n);
     built_for.assign(d, d + n);
   }
-  return Finish(sensor, &kernel, nullptr, nullptr, nullptr, n, bound, true, stats);
+  return Finish(sensor, kernel, n, bound, true, stats);
 }
 
 PoseGains VolumetricGainEvaluator::Evaluate(const OccupancyGridView& map,

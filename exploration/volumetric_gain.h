@@ -179,9 +179,8 @@ class VolumetricGainEvaluator {
   RayResult EvaluateRay(const OccupancyGridView& map, int sensor, int slot,
                         const Eigen::Vector3d& o, const Eigen::Vector3i& cell, int64_t linear,
                         bool use_template, bool with_gain, VolumetricGainStats* stats);
-  // E[H] of the n cells in prior_ (kernel, or the chords), with the gathered bound.
-  RayResult Finish(int sensor, const RayKernel* kernel, const double* entry, const double* exit,
-                   const double* distance, int n, double bound, bool with_gain,
+  // I_ray of the n cells in prior_ with `kernel` (read only when with_gain), and the bound.
+  RayResult Finish(int sensor, const RayKernel& kernel, int n, double bound, bool with_gain,
                    VolumetricGainStats* stats);
   [[nodiscard]] int Slot(int sensor, int row, int bin) const {
     return (row_base_[static_cast<size_t>(sensor)] + row) * config_.azimuth_bins + bin;
