@@ -216,7 +216,9 @@ void VolumetricGainEvaluator::BuildTemplates(const std::vector<Eigen::Vector3d>&
         const Eigen::Vector3d& u = directions_[static_cast<size_t>(slot)];
         t.delta.clear();
         t.offset.clear();
-        t.fragile = near_boundary || IsFragile(lattice, o, u, length);
+        // (Cell offsets are stored in 16 bits: rays of more than 30000 cells are cast instead.)
+        t.fragile =
+            near_boundary || length / resolution_m_ > 30000.0 || IsFragile(lattice, o, u, length);
         if (t.fragile) continue;
         const int n = caster.Cast(o, u, length, &cells);
         for (int a = 0; a < 3; ++a) t.lo[a] = t.hi[a] = 0;
