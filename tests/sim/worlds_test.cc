@@ -17,6 +17,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -340,6 +341,81 @@ TEST(FreeSpaceCheck, SeesSealedRoomsGapsAndTheFlightBand) {
   World high = w;  // a shelf board across the gap inside the band: closed
   high.boxes.push_back(box("board", {3.6, 1.37, 1.08}, {4.4, 2.47, 1.14}));
   EXPECT_FALSE(ComputeFreeSpace(high).Reachable(6.0, 2.0));
+}
+
+// An opening in a wall: the gap between two consecutive pieces of one straight wall.
+struct Opening {
+  std::string between;  // "piece_a / piece_b"
+  int axis{0};          // the wall runs along W x (0) or y (1)
+  double lo{0}, hi{0};  // the opening's extent along that axis, m
+};
+
+// Openings narrower than 2 m between the wall pieces of a world: axis-aligned boxes at most
+// 0.2 m thick, standing from the floor to above the flight band, that share their line (the
+// same extent across it) and leave a gap along it.
+std::vector<Opening> WallOpenings(const World& w) {
+  struct Piece {
+    const WorldBox* box;
+    int axis;
+    double across_lo, across_hi, lo, hi;
+  };
+  std::vector<Piece> pieces;
+  for (const WorldBox& b : w.boxes) {
+    if (b.q_WO.angularDistance(Eigen::Quaterniond::Identity()) > 1e-9) continue;
+    const Eigen::Vector3d lo = b.center_m - b.half_extents_m;
+    const Eigen::Vector3d hi = b.center_m + b.half_extents_m;
+    if (lo.z() > 0.0 || hi.z() < w.exploration_height_m + kBandHalfM) continue;
+    for (int axis = 0; axis < 2; ++axis) {
+      const int across = 1 - axis;
+      if (hi[across] - lo[across] <= 0.2 + 1e-9 && hi[axis] - lo[axis] > hi[across] - lo[across]) {
+        pieces.push_back({&b, axis, lo[across], hi[across], lo[axis], hi[axis]});
+      }
+    }
+  }
+  std::sort(pieces.begin(), pieces.end(), [](const Piece& a, const Piece& b) {
+    return std::tie(a.axis, a.across_lo, a.across_hi, a.lo) <
+           std::tie(b.axis, b.across_lo, b.across_hi, b.lo);
+  });
+  std::vector<Opening> openings;
+  for (size_t k = 0; k + 1 < pieces.size(); ++k) {
+    const Piece& a = pieces[k];
+    const Piece& b = pieces[k + 1];
+    if (a.axis != b.axis || std::abs(a.across_lo - b.across_lo) > 1e-9 ||
+        std::abs(a.across_hi - b.across_hi) > 1e-9) {
+      continue;
+    }
+    if (b.lo - a.hi > 1e-9 && b.lo - a.hi < 2.0) {
+      openings.push_back({a.box->name + " / " + b.box->name, a.axis, a.hi, b.lo});
+    }
+  }
+  return openings;
+}
+
+// The worlds drawn off the collision map's lattice: every door 1.0..1.4 m wide, both its edges
+// at least 0.1 m off the 0.45 m lattice from the map's lower corner, and none holding a whole
+// cell of the 0.9 m lattice (the collision cell of the paper-sized vehicle, 12 map cells).
+TEST(OffLatticeWorlds, NoDoorHoldsAWholeCollisionCell) {
+  const std::vector<std::pair<std::string, size_t>> worlds = {
+      {"apartment.yaml", 6}, {"cellar.yaml", 4}, {"hall.yaml", 12}, {"ring.yaml", 4}};
+  for (const auto& [file, num_doors] : worlds) {
+    SCOPED_TRACE(file);
+    const World w = LoadWorld(kConfigDir + "/worlds/" + file);
+    const std::vector<Opening> openings = WallOpenings(w);
+    EXPECT_EQ(openings.size(), num_doors);
+    for (const Opening& o : openings) {
+      SCOPED_TRACE(o.between);
+      const double origin = w.map_min_m[o.axis];
+      EXPECT_GE(o.hi - o.lo, 1.0 - 1e-9);
+      EXPECT_LE(o.hi - o.lo, 1.4 + 1e-9);
+      for (double edge : {o.lo, o.hi}) {
+        const double off = std::fmod(edge - origin, 0.45);
+        EXPECT_GE(std::min(off, 0.45 - off), 0.1 - 1e-9) << edge;
+      }
+      const double first_cell = origin + 0.9 * std::ceil((o.lo - origin) / 0.9 - 1e-9);
+      EXPECT_GT(first_cell + 0.9, o.hi) << "[" << o.lo << ", " << o.hi << "] holds the cell ["
+                                        << first_cell << ", " << first_cell + 0.9 << "]";
+    }
+  }
 }
 
 // cellar.yaml: the store room (north-east) is entered only through a 1.1 m gap in its south wall.
