@@ -1,0 +1,258 @@
+#include "exploration/traversability.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "common/check.h"
+
+namespace kestrel {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// One row of the Felzenszwalb-Huttenlocher transform: d[q] = min_p (q - p)^2 + f[p] over n
+// samples. v and z are scratch of size n and n + 1.
+void DistanceTransform1D(const double* f, int n, double* d, std::vector<int>* v_scratch,
+                         std::vector<double>* z_scratch) {
+  std::vector<int>& v = *v_scratch;
+  std::vector<double>& z = *z_scratch;
+  int k = -1;
+  for (int q = 0; q < n; ++q) {
+    if (!std::isfinite(f[q])) continue;
+    if (k < 0) {
+      k = 0;
+      v[0] = q;
+      z[0] = -kInf;
+      z[1] = kInf;
+      continue;
+    }
+    double s = 0.0;
+    while (true) {
+      const int p = v[static_cast<size_t>(k)];
+      s = ((f[q] + static_cast<double>(q) * q) - (f[p] + static_cast<double>(p) * p)) /
+          (2.0 * (q - p));
+      if (s <= z[static_cast<size_t>(k)] && k > 0) {
+        --k;
+        continue;
+      }
+      break;
+    }
+    ++k;
+    v[static_cast<size_t>(k)] = q;
+    z[static_cast<size_t>(k)] = s;
+    z[static_cast<size_t>(k) + 1] = kInf;
+  }
+  if (k < 0) {
+    std::fill(d, d + n, kInf);
+    return;
+  }
+  int j = 0;
+  for (int q = 0; q < n; ++q) {
+    while (z[static_cast<size_t>(j) + 1] < q) ++j;
+    const int p = v[static_cast<size_t>(j)];
+    d[q] = static_cast<double>(q - p) * (q - p) + f[p];
+  }
+}
+
+}  // namespace
+
+void TraversabilityConfig::Validate() const {
+  KESTREL_THROW_UNLESS(std::isfinite(height_m),
+                       "traversability height_m = " << height_m << ", accepted finite");
+  KESTREL_THROW_UNLESS(std::isfinite(band_below_m) && band_below_m > 0.0,
+                       "traversability.band_below_m = " << band_below_m << ", accepted (0, inf)");
+  KESTREL_THROW_UNLESS(std::isfinite(band_above_m) && band_above_m > 0.0,
+                       "traversability.band_above_m = " << band_above_m << ", accepted (0, inf)");
+  KESTREL_THROW_UNLESS(
+      std::isfinite(vehicle_radius_m) && vehicle_radius_m > 0.0,
+      "traversability vehicle_radius_m = " << vehicle_radius_m << ", accepted (0, inf)");
+  KESTREL_THROW_UNLESS(std::isfinite(margin_m) && margin_m >= 0.0,
+                       "traversability.margin_m = " << margin_m << ", accepted [0, inf)");
+  KESTREL_THROW_UNLESS(free_threshold > 0.0 && free_threshold < 1.0,
+                       "traversability free_threshold = " << free_threshold << ", accepted (0, 1)");
+  KESTREL_THROW_UNLESS(p_init > 0.0 && p_init < 1.0,
+                       "traversability p_init = " << p_init << ", accepted (0, 1)");
+}
+
+std::vector<double> SquaredDistanceTransform(int width, int height, const std::vector<bool>& site) {
+  KESTREL_THROW_UNLESS(width >= 0 && height >= 0 &&
+                           site.size() == static_cast<size_t>(width) * static_cast<size_t>(height),
+                       "SquaredDistanceTransform: " << site.size() << " sites for " << width
+                                                    << " x " << height << " cells");
+  const size_t n = site.size();
+  std::vector<double> d(n, kInf);
+  if (n == 0) return d;
+  const int longest = std::max(width, height);
+  std::vector<int> v(static_cast<size_t>(longest));
+  std::vector<double> z(static_cast<size_t>(longest) + 1);
+  std::vector<double> f(static_cast<size_t>(longest));
+  std::vector<double> out(static_cast<size_t>(longest));
+  // Pass 1, along x: f = 0 at sites, +inf elsewhere.
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      f[static_cast<size_t>(x)] = site[static_cast<size_t>(x + width * y)] ? 0.0 : kInf;
+    }
+    DistanceTransform1D(f.data(), width, out.data(), &v, &z);
+    for (int x = 0; x < width; ++x)
+      d[static_cast<size_t>(x + width * y)] = out[static_cast<size_t>(x)];
+  }
+  // Pass 2, along y, on the row results.
+  for (int x = 0; x < width; ++x) {
+    for (int y = 0; y < height; ++y)
+      f[static_cast<size_t>(y)] = d[static_cast<size_t>(x + width * y)];
+    DistanceTransform1D(f.data(), height, out.data(), &v, &z);
+    for (int y = 0; y < height; ++y)
+      d[static_cast<size_t>(x + width * y)] = out[static_cast<size_t>(y)];
+  }
+  return d;
+}
+
+Traversability ComputeTraversability(const OccupancyGridView& map,
+                                     const TraversabilityConfig& config,
+                                     const std::optional<StartupFreeZone>& startup,
+                                     const std::vector<Eigen::Vector2d>* flown) {
+  map.Validate();
+  config.Validate();
+  const double alpha = map.resolution_m;
+  const int w = map.dims.x();
+  const int h = map.dims.y();
+  const Eigen::Vector2d origin = map.origin_m.head<2>();
+  Traversability t;
+  t.band = GridMap2D::Filled(origin, alpha, config.height_m, w, h, 1.0);
+  t.clearance = GridMap2D::Filled(origin, alpha, config.height_m, w, h, 0.0);
+
+  // The band's 3D layers: z extent [z0 + k alpha, z0 + (k+1) alpha) overlapping the open band
+  // (h - below, h + above) by more than 1e-9 m (rounding), as the projections do.
+  const double lo = config.height_m - config.band_below_m;
+  const double hi = config.height_m + config.band_above_m;
+  int k_lo = map.dims.z();
+  int k_hi = -1;
+  for (int k = 0; k < map.dims.z(); ++k) {
+    const double z0 = map.origin_m.z() + k * alpha;
+    if (std::min(z0 + alpha, hi) - std::max(z0, lo) > 1e-9) {
+      k_lo = std::min(k_lo, k);
+      k_hi = std::max(k_hi, k);
+    }
+  }
+  // A band that leaves the map vertically counts as unknown: everything stays blocked.
+  const bool band_inside = k_hi >= 0 && map.origin_m.z() <= lo + 1e-9 &&
+                           map.origin_m.z() + map.dims.z() * alpha >= hi - 1e-9;
+  if (band_inside) {
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        double p_max = 0.0;
+        for (int k = k_lo; k <= k_hi; ++k) p_max = std::max(p_max, map.At(x, y, k));
+        t.band.at(x, y) = p_max;
+      }
+    }
+  }
+
+  std::vector<bool> free(static_cast<size_t>(w) * static_cast<size_t>(h), false);
+  t.unknown.assign(free.size(), false);
+  for (size_t i = 0; i < free.size(); ++i) {
+    const double p = t.band.values[i];
+    free[i] = p <= config.free_threshold;
+    t.unknown[i] = !free[i] && band_inside && p >= 0.5 * config.p_init && p <= 0.5;
+  }
+  if (band_inside && startup) {
+    const double r2 = startup->radius_m * startup->radius_m;
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        const size_t i = static_cast<size_t>(x + w * y);
+        // The map stores floats: P_init as stored is float(p_init), a hair above p_init.
+        if (free[i] || t.band.values[i] > static_cast<double>(static_cast<float>(config.p_init))) {
+          continue;
+        }
+        if ((t.band.CenterOf({x, y}) - startup->center_m).squaredNorm() <= r2) {
+          free[i] = true;
+          t.unknown[i] = false;
+        }
+      }
+    }
+  }
+  // Clearance: distance to the nearest blocked cell, the map's outside included (a ring of
+  // blocked cells around the grid).
+  const int pw = w + 2;
+  const int ph = h + 2;
+  std::vector<bool> site(static_cast<size_t>(pw) * static_cast<size_t>(ph), true);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      site[static_cast<size_t>((x + 1) + pw * (y + 1))] = !free[static_cast<size_t>(x + w * y)];
+    }
+  }
+  const std::vector<double> d2 = SquaredDistanceTransform(pw, ph, site);
+  t.traversable.assign(free.size(), false);
+  const double need = config.required_clearance_m();
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t i = static_cast<size_t>(x + w * y);
+      const double c =
+          free[i]
+              ? std::max(0.0, std::sqrt(d2[static_cast<size_t>((x + 1) + pw * (y + 1))]) * alpha -
+                                  0.5 * alpha)
+              : 0.0;
+      t.clearance.values[i] = c;
+      t.traversable[i] = free[i] && c >= need;
+    }
+  }
+  if (band_inside && flown != nullptr) {
+    // The flown corridor: the vehicle's centre has been along these segments (consecutive points
+    // at most kMaxFlownGap apart), so cells within 1.5 cells of them are traversable unless known
+    // occupied.
+    constexpr double kMaxFlownGap = 1.0;
+    const double near = 1.5 * alpha;
+    const int reach = 2;
+    for (size_t s = 0; s + 1 < flown->size(); ++s) {
+      const Eigen::Vector2d a = (*flown)[s];
+      const Eigen::Vector2d b = (*flown)[s + 1];
+      const double len = (b - a).norm();
+      if (!(len <= kMaxFlownGap)) continue;
+      const int steps = std::max(1, static_cast<int>(std::ceil(len / alpha)));
+      for (int q = 0; q <= steps; ++q) {
+        const Eigen::Vector2d p = a + (b - a) * (static_cast<double>(q) / steps);
+        const std::optional<Cell2> c = t.band.CellOf(p);
+        if (!c) continue;
+        for (int y = std::max(0, c->y - reach); y <= std::min(h - 1, c->y + reach); ++y) {
+          for (int x = std::max(0, c->x - reach); x <= std::min(w - 1, c->x + reach); ++x) {
+            const size_t i = static_cast<size_t>(x + w * y);
+            if (t.traversable[i] || t.band.values[i] > 0.5) continue;
+            const Eigen::Vector2d ab = b - a;
+            const Eigen::Vector2d cp = t.band.CenterOf({x, y});
+            const double u =
+                len > 0 ? std::clamp((cp - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
+            if ((a + u * ab - cp).norm() <= near) {
+              t.traversable[i] = true;
+              t.unknown[i] = false;
+            }
+          }
+        }
+      }
+    }
+  }
+  return t;
+}
+
+int AllowAround(const Traversability& map, const Eigen::Vector2d& p_m, double radius_m,
+                std::vector<bool>* traversable) {
+  KESTREL_THROW_UNLESS(
+      traversable != nullptr && traversable->size() == static_cast<size_t>(map.band.size()),
+      "AllowAround: traversable flags do not match the map");
+  const std::optional<Cell2> c = map.band.CellOf(p_m);
+  if (!c) return 0;
+  const int reach = static_cast<int>(std::ceil(radius_m / map.band.resolution_m)) + 1;
+  int added = 0;
+  for (int y = std::max(0, c->y - reach); y <= std::min(map.band.height - 1, c->y + reach); ++y) {
+    for (int x = std::max(0, c->x - reach); x <= std::min(map.band.width - 1, c->x + reach); ++x) {
+      const size_t i = static_cast<size_t>(map.band.IndexOf(x, y));
+      if ((*traversable)[i] || map.band.values[i] > 0.5) continue;
+      if ((map.band.CenterOf({x, y}) - p_m).norm() <= radius_m) {
+        (*traversable)[i] = true;
+        ++added;
+      }
+    }
+  }
+  return added;
+}
+
+}  // namespace kestrel

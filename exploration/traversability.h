@@ -1,0 +1,88 @@
+#pragma once
+/// @file
+/// Traversability at the 3D map's own resolution (docs/exploration.md, section
+/// "Traversability"), the volumetric mode's replacement for the paper's coarse collision map C
+/// (eqs. 11-13), whose k_C x k_C lattice closes every passage not aligned with it.
+///
+///  1. Band: a 2D grid of the 3D map's cells (edge alpha, aligned to its lower corner) at the
+///     exploration height h. A cell is BLOCKED when any 3D cell of its column whose z extent
+///     overlaps the vehicle's band (h - band_below, h + band_above) has P > free_threshold
+///     (C_thresh of eq. 13). Unknown space (P_init = 0.1 > C_thresh) is blocked, so the vehicle
+///     only ever flies through space the map knows to be free. Cells outside the map are blocked.
+///  2. Clearance: an exact Euclidean distance transform (Felzenszwalb and Huttenlocher 2012) gives
+///     every cell the distance from its centre to the nearest blocked cell's centre; clearance =
+///     that distance - alpha/2, the distance to the blocked cell's near face (exact for a face
+///     straight ahead, within alpha (sqrt(2) - 1)/2 = 0.016 m for the paper's cells otherwise).
+///  3. Traversable: clearance >= vehicle radius + margin. A gap whose mapped free width is w is
+///     passable where w/2 >= radius + margin, wherever it lies: no lattice.
+///
+/// Two exceptions, both for the explorer's view only (the 3D map is never changed):
+///  - the start-up zone (ALGORITHMS.md section 8): band cells with no evidence of occupancy
+///    (P <= P_init) within a radius of the take-off point count as free, since a level camera
+///    with a minimum range cannot see the band next to itself;
+///  - the flown corridor (for the flight home): cells within 1.5 cells of the polyline the
+///    vehicle's centre has flown along are traversable unless known occupied (band P > 0.5): the
+///    vehicle has been there, whatever the sensor noise has done to the map since.
+/// Pure functions; no LCM, no clock.
+
+#include <Eigen/Core>
+#include <optional>
+#include <vector>
+
+#include "exploration/grid_map_2d.h"
+#include "exploration/projected_maps.h"
+
+namespace kestrel {
+
+/// Parameters of the fine traversability.
+struct TraversabilityConfig {
+  double height_m{0.75};          ///< exploration height h, m, W
+  double band_below_m{0.2};       ///< vehicle band below h, m (> 0)
+  double band_above_m{0.2};       ///< vehicle band above h, m (> 0)
+  double vehicle_radius_m{0.44};  ///< disc radius, m (> 0)
+  double margin_m{0.05};          ///< clearance beyond the radius, m (>= 0)
+  double free_threshold{0.05};    ///< a band cell blocks when P > this (C_thresh), in (0, 1)
+  double p_init{0.1};             ///< P_init of the 3D map (the start-up zone's rule), in (0, 1)
+
+  /// @throws std::invalid_argument naming the field, its value and the accepted range.
+  void Validate() const;
+  /// Radius + margin: the clearance a traversable cell needs, m.
+  [[nodiscard]] double required_clearance_m() const { return vehicle_radius_m + margin_m; }
+};
+
+/// The fine traversability of one map.
+struct Traversability {
+  /// Per 2D cell, the largest P over the band (1 where the band leaves the map): what blocks.
+  GridMap2D band;
+  /// Per 2D cell, clearance to the nearest blocked cell (file comment, step 2), m; 0 on blocked
+  /// cells, large where nothing is blocked.
+  GridMap2D clearance;
+  /// clearance >= radius + margin, x fastest.
+  std::vector<bool> traversable;
+  /// Per cell: blocked by unknown space only (band max in [P_init/2, 0.5], not known free, not
+  /// known occupied): what the frontier baseline looks for.
+  std::vector<bool> unknown;
+};
+
+/// Computes the fine traversability (file comment).
+/// @param startup  optional start-up zone (cells with band P <= P_init inside it count as free)
+/// @param flown    optional points (x, y) the vehicle has flown through (flown corridor)
+/// @throws std::invalid_argument if the view or config is invalid.
+[[nodiscard]] Traversability ComputeTraversability(
+    const OccupancyGridView& map, const TraversabilityConfig& config,
+    const std::optional<StartupFreeZone>& startup = std::nullopt,
+    const std::vector<Eigen::Vector2d>* flown = nullptr);
+
+/// Squared Euclidean distance transform on a width x height grid: for every cell, the squared
+/// distance in cells from its centre to the nearest cell with site[i] (+inf if there is none).
+/// Exact (Felzenszwalb and Huttenlocher 2012, two separable passes).
+/// @throws std::invalid_argument on inconsistent sizes.
+[[nodiscard]] std::vector<double> SquaredDistanceTransform(int width, int height,
+                                                           const std::vector<bool>& site);
+
+/// Marks traversable the cells within radius_m of p (centre distance) whose band is not known
+/// occupied (band P <= 0.5): the vehicle is already there. Returns how many cells it added.
+int AllowAround(const Traversability& map, const Eigen::Vector2d& p_m, double radius_m,
+                std::vector<bool>* traversable);
+
+}  // namespace kestrel

@@ -1,0 +1,188 @@
+// Fine traversability (exploration/traversability.h): the distance transform against brute force,
+// gaps passable wherever they lie, unknown space blocked, the band, the start-up zone and the
+// flown corridor.
+#include "exploration/traversability.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "exploration/dijkstra.h"
+
+namespace kestrel {
+namespace {
+
+constexpr double kAlpha = 0.075;
+constexpr float kFree = 1e-4f;
+constexpr float kOccupied = 0.9999f;
+
+// A 3D map of nx x ny x nz cells from (0, 0, 0), every cell `fill`.
+struct TestMap {
+  Eigen::Vector3i dims;
+  std::vector<float> p;
+  TestMap(int nx, int ny, int nz, float fill)
+      : dims(nx, ny, nz), p(static_cast<size_t>(nx) * ny * nz, fill) {}
+  float& at(int i, int j, int k) {
+    return p[static_cast<size_t>(i) + static_cast<size_t>(dims.x()) * (j + dims.y() * k)];
+  }
+  // Sets every cell whose centre lies in the box [lo, hi) (m).
+  void Box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, float value) {
+    for (int k = 0; k < dims.z(); ++k) {
+      for (int j = 0; j < dims.y(); ++j) {
+        for (int i = 0; i < dims.x(); ++i) {
+          const Eigen::Vector3d c((i + 0.5) * kAlpha, (j + 0.5) * kAlpha, (k + 0.5) * kAlpha);
+          if ((c.array() >= lo.array()).all() && (c.array() < hi.array()).all())
+            at(i, j, k) = value;
+        }
+      }
+    }
+  }
+  OccupancyGridView View() const {
+    OccupancyGridView v;
+    v.dims = dims;
+    v.origin_m = Eigen::Vector3d::Zero();
+    v.resolution_m = kAlpha;
+    v.probability = p.data();
+    return v;
+  }
+};
+
+TraversabilityConfig Config(double h) {
+  TraversabilityConfig c;
+  c.height_m = h;
+  c.band_below_m = 0.2;
+  c.band_above_m = 0.2;
+  c.vehicle_radius_m = 0.44;
+  c.margin_m = 0.05;
+  return c;
+}
+
+// Whether `to` is reachable from `from` over the traversable cells.
+bool Reachable(const Traversability& t, const Eigen::Vector2d& from, const Eigen::Vector2d& to) {
+  const auto a = t.band.CellOf(from);
+  const auto b = t.band.CellOf(to);
+  if (!a || !b) return false;
+  const DistanceField f =
+      ComputeDistanceField(t.band.width, t.band.height, t.traversable, *a, t.band.resolution_m);
+  return f.Reachable(t.band.IndexOf(*b)) && t.traversable[static_cast<size_t>(t.band.IndexOf(*b))];
+}
+
+TEST(SquaredDistanceTransform, EqualsBruteForce) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int w = 1 + static_cast<int>(rng() % 23);
+    const int h = 1 + static_cast<int>(rng() % 19);
+    std::vector<bool> site(static_cast<size_t>(w * h));
+    const double density = (trial % 4) * 0.1;
+    for (size_t i = 0; i < site.size(); ++i) {
+      site[i] = std::uniform_real_distribution<double>(0, 1)(rng) < density;
+    }
+    const std::vector<double> d2 = SquaredDistanceTransform(w, h, site);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        double best = std::numeric_limits<double>::infinity();
+        for (int v = 0; v < h; ++v) {
+          for (int u = 0; u < w; ++u) {
+            if (site[static_cast<size_t>(u + w * v)]) {
+              best = std::min(best, static_cast<double>((u - x) * (u - x) + (v - y) * (v - y)));
+            }
+          }
+        }
+        ASSERT_EQ(d2[static_cast<size_t>(x + w * y)], best)
+            << "trial " << trial << " cell " << x << ", " << y;
+      }
+    }
+  }
+}
+
+// A wall across the room with one gap at an arbitrary offset (not on any lattice): 1.1 m passes
+// the 0.88 m vehicle with 0.05 m of margin a side, 0.9 m does not.
+TEST(Traversability, GapPassableWhereverItLies) {
+  for (const double gap : {1.1, 0.9}) {
+    for (const double offset : {1.237, 2.0, 2.561}) {
+      TestMap m(100, 80, 24, kFree);  // 7.5 x 6 x 1.8 m, all known free
+      const double x0 = std::floor(offset / kAlpha) * kAlpha;
+      const double x1 = x0 + std::round(gap / kAlpha) * kAlpha;
+      m.Box({0, 2.95, 0}, {x0, 3.1, 1.8}, kOccupied);
+      m.Box({x1, 2.95, 0}, {7.5, 3.1, 1.8}, kOccupied);
+      const Traversability t = ComputeTraversability(m.View(), Config(1.0));
+      const bool pass = Reachable(t, {0.5 * (x0 + x1), 1.2}, {0.5 * (x0 + x1), 4.8});
+      EXPECT_EQ(pass, gap > 1.0) << "gap " << gap << " at x " << x0;
+    }
+  }
+}
+
+TEST(Traversability, UnknownBlocksAndClearanceIsToTheFace) {
+  TestMap m(80, 80, 24, 0.1f);                   // unknown everywhere
+  m.Box({1.5, 1.5, 0}, {4.5, 4.5, 1.8}, kFree);  // a known-free 3 m square
+  const Traversability t = ComputeTraversability(m.View(), Config(1.0));
+  const auto centre = t.band.CellOf({3.0, 3.0});
+  ASSERT_TRUE(centre.has_value());
+  // Centre cell (centre 3.0375): 4.5 - 3.0375 m to the nearest unknown face.
+  EXPECT_NEAR(t.clearance.at(*centre), 4.5 - 3.0375, 1e-9);
+  EXPECT_TRUE(t.traversable[static_cast<size_t>(t.band.IndexOf(*centre))]);
+  // Within radius + margin of the unknown: not traversable; unknown cells flagged as unknown.
+  const auto edge = t.band.CellOf({1.8, 3.0});
+  EXPECT_FALSE(t.traversable[static_cast<size_t>(t.band.IndexOf(*edge))]);
+  const auto outside = t.band.CellOf({0.5, 3.0});
+  EXPECT_TRUE(t.unknown[static_cast<size_t>(t.band.IndexOf(*outside))]);
+  EXPECT_FALSE(t.unknown[static_cast<size_t>(t.band.IndexOf(*centre))]);
+}
+
+// Clutter below the band does not block; anything reaching into the band does.
+TEST(Traversability, OnlyTheBandCounts) {
+  TestMap m(80, 80, 24, kFree);
+  m.Box({2.0, 2.0, 0}, {3.0, 3.0, 0.6}, kOccupied);   // a crate, top 0.6 m < 1.0 - 0.2
+  m.Box({4.0, 4.0, 0}, {5.0, 5.0, 0.85}, kOccupied);  // a cabinet reaching 0.85 m > 0.8
+  const Traversability t = ComputeTraversability(m.View(), Config(1.0));
+  const auto crate = t.band.CellOf({2.5, 2.5});
+  const auto cabinet = t.band.CellOf({4.5, 4.5});
+  EXPECT_TRUE(t.traversable[static_cast<size_t>(t.band.IndexOf(*crate))]);
+  EXPECT_FALSE(t.traversable[static_cast<size_t>(t.band.IndexOf(*cabinet))]);
+}
+
+TEST(Traversability, StartupZoneFreesOnlyCellsWithoutEvidence) {
+  TestMap m(80, 80, 24, 0.1f);
+  m.Box({2.7, 3.3, 0}, {2.9, 3.5, 1.8}, 0.3f);  // weak evidence of occupancy inside the zone
+  const StartupFreeZone zone{{3.0, 3.0}, 1.5};
+  const Traversability t = ComputeTraversability(m.View(), Config(1.0), zone);
+  const auto c = t.band.CellOf({3.0, 3.0});
+  const auto evidence = t.band.CellOf({2.8, 3.4});
+  const auto far = t.band.CellOf({5.0, 3.0});
+  EXPECT_GT(t.clearance.at(*c), 0.25);  // freed: up to the weak evidence, 0.3 m away
+  EXPECT_EQ(t.clearance.at(*evidence), 0.0);
+  EXPECT_EQ(t.clearance.at(*far), 0.0);
+}
+
+TEST(Traversability, FlownCorridorFreesUncertainNotOccupied) {
+  TestMap m(100, 40, 24, kFree);
+  // Sensor noise has left the corridor's middle uncertain (0.3), and one spot known occupied.
+  m.Box({3.0, 0, 0}, {3.6, 3.0, 1.8}, 0.3f);
+  std::vector<Eigen::Vector2d> flown;
+  for (double x = 0.8; x <= 6.7; x += 0.25) flown.emplace_back(x, 1.5);
+  const Traversability blocked = ComputeTraversability(m.View(), Config(1.0));
+  EXPECT_FALSE(Reachable(blocked, {1.0, 1.5}, {6.5, 1.5}));
+  const Traversability home = ComputeTraversability(m.View(), Config(1.0), std::nullopt, &flown);
+  EXPECT_TRUE(Reachable(home, {1.0, 1.5}, {6.5, 1.5}));
+  m.Box({3.0, 1.2, 0}, {3.6, 1.8, 1.8}, 0.9f);
+  const Traversability occupied =
+      ComputeTraversability(m.View(), Config(1.0), std::nullopt, &flown);
+  EXPECT_FALSE(Reachable(occupied, {1.0, 1.5}, {6.5, 1.5}));
+}
+
+TEST(Traversability, InvalidConfigNamesTheField) {
+  TestMap m(10, 10, 10, kFree);
+  TraversabilityConfig c = Config(0.4);
+  c.band_below_m = 0.0;
+  try {
+    (void)ComputeTraversability(m.View(), c);
+    FAIL() << "no throw";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("band_below_m"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace kestrel
