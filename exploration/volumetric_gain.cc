@@ -89,6 +89,12 @@ VolumetricSensor HokuyoVolumetricSensor() {
 void VolumetricGainConfig::Validate() const {
   KESTREL_THROW_UNLESS(!sensors.empty(),
                        "volumetric gain sensors: empty, accepted at least one sensor");
+  KESTREL_THROW_UNLESS(opaque_probability > 0.5 - 1e-12 && opaque_probability <= 1.0,
+                       "volumetric gain opaque_probability = " << opaque_probability
+                                                               << ", accepted [0.5, 1] (1: off)");
+  KESTREL_THROW_UNLESS(
+      certain_probability >= 0.0 && certain_probability < 0.5,
+      "volumetric gain certain_probability = " << certain_probability << ", accepted [0, 0.5)");
   for (size_t i = 0; i < sensors.size(); ++i) {
     const VolumetricSensor& s = sensors[i];
     s.model.Validate();
@@ -126,6 +132,13 @@ void VolumetricGainConfig::Validate() const {
 VolumetricGainEvaluator::VolumetricGainEvaluator(const VolumetricGainConfig& config)
     : config_(config) {
   config_.Validate();
+  if (config_.certain_probability > 0.0) {
+    certain_low_ = static_cast<float>(config_.certain_probability);
+    certain_high_ = static_cast<float>(1.0 - config_.certain_probability);
+  }
+  if (config_.opaque_probability < 1.0) {
+    certain_high_ = std::min(certain_high_, static_cast<float>(config_.opaque_probability));
+  }
   int rows = 0;
   for (const VolumetricSensor& s : config_.sensors) {
     models_.emplace_back(s.model);
@@ -174,6 +187,12 @@ std::vector<int> VolumetricGainEvaluator::BinsInView(int sensor, double yaw_rad)
   std::vector<int> out;
   for (long m = first; m <= last; ++m) out.push_back(static_cast<int>(((m % r) + r) % r));
   return out;
+}
+
+float VolumetricGainEvaluator::Certain(float p) const {
+  if (p <= certain_low_) return 0.0f;
+  if (p >= certain_high_) return 1.0f;
+  return p;
 }
 
 double VolumetricGainEvaluator::CellEntropy(float p) {
@@ -281,7 +300,10 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::Finish(int sensor,
     ++stats->rays;
     stats->ray_cells += n;
   }
-  if (n == 0 || (config_.min_ray_bound_nats > 0.0 && bound < config_.min_ray_bound_nats)) {
+  // A ray whose cells up to its first certain occupied cell are all certain (bound 0) has gain 0
+  // exactly: every posterior equals its prior (0 or 1 stay, and pi vanishes behind P = 1).
+  if (n == 0 || bound == 0.0 ||
+      (config_.min_ray_bound_nats > 0.0 && bound < config_.min_ray_bound_nats)) {
     if (stats != nullptr) ++stats->rays_skipped;
     return r;
   }
@@ -289,7 +311,6 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::Finish(int sensor,
   const RayEntropy e =
       ExpectedEntropy::Evaluate(models_[static_cast<size_t>(sensor)], kernel, prior_.data(), n,
                                 config_.weight_mode, &scratch_, config_.entropy_sum);
-  r.bound = e.prior_entropy_nats;
   r.gain = e.gain_nats();
   if (stats != nullptr) ++stats->rays_evaluated;
   return r;
@@ -321,12 +342,16 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::EvaluateRay(
     }
     if (prior_.size() < static_cast<size_t>(n)) prior_.resize(2 * static_cast<size_t>(n) + 16);
     double bound = 0.0;
+    bool visible = true;
     const float* const base = p + linear;
     const int32_t* const delta = t.delta.data();
     for (int k = 0; k < n; ++k) {
-      const float v = base[delta[k]];
+      const float v = Certain(base[delta[k]]);
       prior_[static_cast<size_t>(k)] = static_cast<double>(v);
-      bound += CellEntropy(v);
+      if (visible) {  // the bound stops at a certain occupied cell: nothing behind it counts
+        bound += CellEntropy(v);
+        visible = v != 1.0f;
+      }
     }
     if (stats != nullptr) ++stats->templated_rays;
     return Finish(sensor, template_kernels_[static_cast<size_t>(t.kernel)], n, bound, with_gain,
@@ -339,10 +364,14 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::EvaluateRay(
                                            model.config().z_max_m, &cells_);
   if (prior_.size() < static_cast<size_t>(n)) prior_.resize(2 * static_cast<size_t>(n) + 16);
   double bound = 0.0;
+  bool visible = true;
   for (int k = 0; k < n; ++k) {
-    const float v = p[cells_.linear_index[static_cast<size_t>(k)]];
+    const float v = Certain(p[cells_.linear_index[static_cast<size_t>(k)]]);
     prior_[static_cast<size_t>(k)] = static_cast<double>(v);
-    bound += CellEntropy(v);
+    if (visible) {  // the bound stops at a certain occupied cell (see the gathering above)
+      bound += CellEntropy(v);
+      visible = v != 1.0f;
+    }
   }
   RayKernel& kernel = cast_kernels_[static_cast<size_t>(slot)];
   if (!with_gain) return Finish(sensor, kernel, n, bound, false, stats);  // kernel not read

@@ -104,6 +104,23 @@ struct VolumetricGainConfig {
   EntropySum entropy_sum{EntropySum::kLanes};
   /// Approximation (file comment), 0 = off: rays with sum_j H(P_j) below this get I_ray = 0.
   double min_ray_bound_nats{0.0};
+  /// The map's clamp P_min (config/mapper.yaml; 0 = off): a stored probability at or beyond it
+  /// (P <= float(P_min) or P >= float(1 - P_min)) is read as certain, 0 or 1. The mapper never
+  /// writes past its clamp, so such a cell cannot learn anything more, yet its entropy
+  /// H(P_min) = 1e-3 nats over the ~50 cells of each of ~700 rays adds up to several nats of
+  /// predicted gain on a fully explored map (docs/exploration.md, "Volumetric gain"): the
+  /// floor that kept the paper's end rule from firing, in 3D.
+  double certain_probability{1e-4};
+  /// Visibility (docs/exploration.md, "Volumetric gain"; 1 = off): a stored probability at or
+  /// above this is read as certain occupied (1), so the ray's cells behind it keep their priors
+  /// under every hypothesis. Kestrel's sensor models spread a surface over several cells (sigma
+  /// 0.25 m for the Xtion against 7.5 cm cells), so a wall seen a hundred times still stands at
+  /// P = 0.6-0.97, and the exact model keeps predicting a glimpse of the unknown cells behind it
+  /// that the real sensor never gets: a gain that no flight can collect, which kept the end rule
+  /// from firing. Reading a more-likely-occupied-than-not surface as opaque is the one
+  /// approximation of the volumetric gain; its effect is measured in
+  /// tests/exploration/volumetric_gain_test.cc (OpaqueSurfaces).
+  double opaque_probability{0.5};
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
@@ -124,7 +141,9 @@ struct VolumetricGainStats {
 struct PoseGains {
   /// I(X_c) per heading (eq. 10 summed over the heading's rays), empty if only bounds were asked.
   std::vector<double> gain_nats;
-  /// Upper bound per heading: the sum over its rays of sum_j H(P_j) (>= gain, since E[H] >= 0).
+  /// Upper bound per heading: the sum over its rays of sum_j H(P_j) over the cells up to the
+  /// ray's first certain occupied cell (certain_probability) (>= gain: E[H] >= 0, and cells behind
+  /// a certain occupied cell keep their prior under every hypothesis).
   std::vector<double> bound_nats;
 };
 
@@ -175,6 +194,8 @@ class VolumetricGainEvaluator {
   // H(p) of a stored probability, through a direct-mapped memo of exact values (maps hold few
   // distinct values: P_init, the clamps).
   double CellEntropy(float p);
+  // A stored probability at the map's clamp as certain (VolumetricGainConfig::certain_probability).
+  [[nodiscard]] float Certain(float p) const;
   // The ray of `slot` from origin o (cell `cell`, linear index `linear`), by template or cast.
   RayResult EvaluateRay(const OccupancyGridView& map, int sensor, int slot,
                         const Eigen::Vector3d& o, const Eigen::Vector3i& cell, int64_t linear,
@@ -215,6 +236,8 @@ class VolumetricGainEvaluator {
   std::vector<double> bin_gain_, bin_bound_;          // per sensor x bin
   std::vector<char> bin_used_;                        // per sensor x bin
   static constexpr int kEntropyBits = 12;
+  float certain_low_{-1.0f};  // Certain(): P <= this reads 0 (off: below every probability)
+  float certain_high_{2.0f};  // Certain(): P >= this reads 1 (the clamp or opaque_probability)
   int32_t entropy_key_[1 << kEntropyBits];  // float bits
   double entropy_value_[1 << kEntropyBits];
 };

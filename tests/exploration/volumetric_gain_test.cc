@@ -155,6 +155,7 @@ TEST(VolumetricGain, EqualsBruteForce) {
   for (WeightMode mode : {WeightMode::kChordProbability, WeightMode::kPaperLiteral}) {
     for (bool templates : {true, false}) {
       VolumetricGainConfig config;
+      config.certain_probability = 0.0;  // the brute force reads the stored priors as they are
       config.weight_mode = mode;
       config.use_templates = templates;
       config.entropy_sum = templates ? EntropySum::kLanes : EntropySum::kScalar;
@@ -270,26 +271,46 @@ TEST(VolumetricGain, KnownMapGivesLittleUnknownMapALot) {
   for (float& v : known.mutable_values()) v = u(rng) < 0.02 ? 0.9999f : 1e-4f;
   const DenseGrid free_map = MakeGrid({-3.0, -3.0, 0.0}, {3.0, 3.0, 1.5}, 0.075, 1e-4f);
   const DenseGrid unknown = MakeGrid({-3.0, -3.0, 0.0}, {3.0, 3.0, 1.5}, 0.075, 0.1f);
-  VolumetricGainEvaluator evaluator{VolumetricGainConfig{}};
+  // Nearly known, not at the clamp: 1e-3 free, 0.999 occupied.
+  DenseGrid nearly = MakeGrid({-3.0, -3.0, 0.0}, {3.0, 3.0, 1.5}, 0.075, 1e-3f);
+  for (float& v : nearly.mutable_values()) v = u(rng) < 0.02 ? 0.999f : 1e-3f;
   const Eigen::Vector3d position(0.0375, 0.0375, 0.7125);
-  VolumetricGainStats stats;
-  const PoseGains n = evaluator.Evaluate(ViewOf(unknown), position, 8, true);
-  const PoseGains f = evaluator.Evaluate(ViewOf(free_map), position, 8, true);
-  const PoseGains k = evaluator.Evaluate(ViewOf(known), position, 8, true);
-  evaluator.Evaluate(ViewOf(known), position, 1, true, &stats);  // the rays of one heading
-  double worst = 0.0, worst_free = 0.0;
-  for (size_t m = 0; m < k.gain_nats.size(); ++m) {
-    worst = std::max(worst, std::abs(k.gain_nats[m]));
-    worst_free = std::max(worst_free, std::abs(f.gain_nats[m]));
-    EXPECT_LT(std::abs(k.gain_nats[m]), 0.02 * n.gain_nats[m]) << "heading " << m;
-    EXPECT_LT(std::abs(f.gain_nats[m]), 0.02 * n.gain_nats[m]) << "heading " << m;
-    EXPECT_LT(std::abs(k.gain_nats[m]), 0.05 * static_cast<double>(stats.rays)) << "heading " << m;
-    EXPECT_GT(n.gain_nats[m], 50.0) << "heading " << m;
+  VolumetricGainConfig raw_config;
+  raw_config.certain_probability = 0.0;  // the clamp's entropy counted as it is stored
+  for (const VolumetricGainConfig& config : {VolumetricGainConfig{}, raw_config}) {
+    const bool clamp_certain = config.certain_probability > 0.0;
+    VolumetricGainEvaluator evaluator{config};
+    VolumetricGainStats stats;
+    const PoseGains n = evaluator.Evaluate(ViewOf(unknown), position, 8, true);
+    const PoseGains f = evaluator.Evaluate(ViewOf(free_map), position, 8, true);
+    const PoseGains k = evaluator.Evaluate(ViewOf(known), position, 8, true);
+    const PoseGains e = evaluator.Evaluate(ViewOf(nearly), position, 8, true);
+    evaluator.Evaluate(ViewOf(known), position, 1, true, &stats);  // the rays of one heading
+    double worst = 0.0, worst_free = 0.0;
+    for (size_t m = 0; m < k.gain_nats.size(); ++m) {
+      worst = std::max(worst, std::abs(k.gain_nats[m]));
+      worst_free = std::max(worst_free, std::abs(f.gain_nats[m]));
+      EXPECT_GT(n.gain_nats[m], 50.0) << "heading " << m;
+      EXPECT_GT(e.gain_nats[m], 0.5) << "heading " << m;  // 1e-3 is not the clamp: still counts
+      EXPECT_LT(e.gain_nats[m], 0.15 * n.gain_nats[m]) << "heading " << m;
+      if (clamp_certain) {
+        // At the clamp nothing is left to learn: zero up to rounding.
+        EXPECT_NEAR(k.gain_nats[m], 0.0, 1e-9) << "heading " << m;
+        EXPECT_NEAR(f.gain_nats[m], 0.0, 1e-9) << "heading " << m;
+        EXPECT_EQ(k.bound_nats[m], 0.0) << "heading " << m;
+      } else {
+        // The clamp's own entropy: small against unknown, yet several nats per heading.
+        EXPECT_LT(std::abs(k.gain_nats[m]), 0.02 * n.gain_nats[m]) << "heading " << m;
+        EXPECT_LT(std::abs(f.gain_nats[m]), 0.02 * n.gain_nats[m]) << "heading " << m;
+        EXPECT_LT(std::abs(k.gain_nats[m]), 0.05 * static_cast<double>(stats.rays));
+        EXPECT_GT(f.gain_nats[m], 1.0) << "heading " << m;
+      }
+    }
+    std::printf(
+        "certain_probability %g: max |gain| per heading: known map %.4g nats, free map %.4g nats "
+        "(%ld rays); nearly known %.4g nats; unknown map %.4g nats\n",
+        config.certain_probability, worst, worst_free, stats.rays, e.gain_nats[0], n.gain_nats[0]);
   }
-  std::printf(
-      "max |gain| per heading: known map %.4g nats, free map %.4g nats (%ld rays); unknown map "
-      "%.4g nats\n",
-      worst, worst_free, stats.rays, n.gain_nats[0]);
 }
 
 // A map symmetric under rotation by 90 deg about the position: headings 0 and pi/2 see the same
