@@ -574,8 +574,14 @@ double GainEvaluator::EvaluateRay(const GridMap2D& map, int sensor,
 std::vector<double> GainEvaluator::HeadingGains(const GridMap2D& map,
                                                 const Eigen::Vector2d& position_m, int n_yaw,
                                                 double yaw0_rad, GainStats* stats,
-                                                double saturation_p, std::vector<double>* excess) {
+                                                double saturation_p, std::vector<double>* excess,
+                                                const GridMap2D* planar_map) {
   KESTREL_THROW_UNLESS(n_yaw >= 1, "HeadingGains: n_yaw = " << n_yaw << ", accepted >= 1");
+  KESTREL_THROW_UNLESS(
+      planar_map == nullptr ||
+          (planar_map->width == map.width && planar_map->height == map.height &&
+           planar_map->resolution_m == map.resolution_m && planar_map->origin_m == map.origin_m),
+      "HeadingGains: the planar map's lattice differs from the map's");
   KESTREL_THROW_UNLESS(excess == nullptr || (saturation_p > 0.0 && saturation_p < 0.5),
                        "HeadingGains: saturation_p = " << saturation_p << ", accepted (0, 0.5)");
   std::fill(cache_.begin(), cache_.end(), std::numeric_limits<double>::quiet_NaN());
@@ -594,7 +600,9 @@ std::vector<double> GainEvaluator::HeadingGains(const GridMap2D& map,
         if (std::isnan(cached)) {
           const int slot = s * r + idx;
           const long built_before = kernels_built_;
-          cached = EvaluateRay(map, s, position_m, 2.0 * M_PI * idx / r,
+          const bool layer =
+              planar_map != nullptr && config_.sensors[static_cast<size_t>(s)].planar;
+          cached = EvaluateRay(layer ? *planar_map : map, s, position_m, 2.0 * M_PI * idx / r,
                                config_.cache_kernels ? slot : -1, saturation_p,
                                excess != nullptr ? &excess_cache_[at] : nullptr);
           if (stats != nullptr) {

@@ -184,14 +184,18 @@ struct GainSensor {
   SensorModelConfig model;         ///< forward model (sigma, z_min, z_max, p_rand, p_miss, c)
   double horizontal_fov_rad{1.0};  ///< full horizontal field of view, rad, in (0, 2 pi]
   double yaw_offset_rad{0.0};      ///< sensor heading in the body, rad
+  /// A planar scanner (the Hokuyo): it sees one layer, so with a layer map its rays are cast
+  /// there instead of in E, whose columns it cannot see (GainEvaluator::HeadingGains).
+  bool planar{false};
+  double height_offset_m{0.0};  ///< sensor origin above the body origin, m (the layer's height)
 };
 
 /// Parameters of the gain of a candidate pose (eq. 10).
 struct GainConfig {
   /// The sensors: the paper's Xtion (58 deg horizontal) and Hokuyo URG-04LX (240 deg).
   std::vector<GainSensor> sensors{
-      GainSensor{SensorModelConfig::Xtion(), 58.0 * M_PI / 180.0, 0.0},
-      GainSensor{SensorModelConfig::Hokuyo(), 240.0 * M_PI / 180.0, 0.0}};
+      GainSensor{SensorModelConfig::Xtion(), 58.0 * M_PI / 180.0, 0.0, false, 0.05},
+      GainSensor{SensorModelConfig::Hokuyo(), 240.0 * M_PI / 180.0, 0.0, true, 0.12}};
   /// Ray directions are the multiples of 2 pi / rays_per_revolution inside each sensor's field
   /// of view (default 180: one ray per 2 degrees). All headings at one position share them.
   int rays_per_revolution{180};
@@ -230,10 +234,11 @@ class GainEvaluator {
   /// ray whose cells are all saturated has excess 0 without a second evaluation.
   /// @throws std::invalid_argument if n_yaw < 1, or excess is set and saturation_p is not in
   /// (0, 0.5).
+  /// With `planar_map` (same lattice as `map`), the rays of planar sensors are cast there.
   std::vector<double> HeadingGains(const GridMap2D& map, const Eigen::Vector2d& position_m,
                                    int n_yaw, double yaw0_rad = 0.0, GainStats* stats = nullptr,
-                                   double saturation_p = 0.0,
-                                   std::vector<double>* excess = nullptr);
+                                   double saturation_p = 0.0, std::vector<double>* excess = nullptr,
+                                   const GridMap2D* planar_map = nullptr);
 
   /// I(X_c) of one pose, nats (same rays as HeadingGains).
   double PoseGain(const GridMap2D& map, const Eigen::Vector2d& position_m, double yaw_rad);

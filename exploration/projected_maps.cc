@@ -148,6 +148,19 @@ CollisionProjection ProjectCollisionMaps(const OccupancyGridView& map,
   return out;
 }
 
+GridMap2D ProjectLayer(const OccupancyGridView& map, double z_m) {
+  map.Validate();
+  const int k = static_cast<int>(std::floor((z_m - map.origin_m.z()) / map.resolution_m));
+  KESTREL_THROW_UNLESS(std::isfinite(z_m) && k >= 0 && k < map.dims.z(),
+                       "layer height " << z_m << " m lies outside the map");
+  GridMap2D g = GridMap2D::Filled(map.origin_m.head<2>(), map.resolution_m, z_m, map.dims.x(),
+                                  map.dims.y(), 0.0);
+  for (int j = 0; j < map.dims.y(); ++j) {
+    for (int i = 0; i < map.dims.x(); ++i) g.at(i, j) = map.At(i, j, k);
+  }
+  return g;
+}
+
 GridMap2D ProjectEntropyMap(const OccupancyGridView& map, const ProjectionConfig& config) {
   map.Validate();
   config.Validate();

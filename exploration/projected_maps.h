@@ -61,9 +61,11 @@ struct ProjectionConfig {
   /// the ceiling; set it below a ceiling inside the map, or every E column takes the ceiling's
   /// uncertain-occupied cells and blocks every predicted ray).
   double ceiling_height_m{std::numeric_limits<double>::infinity()};
-  double p_min_entropy{0.01};  ///< P_min_E of eq. (15), in (0, 0.5)
-  double p_thresh{0.3};        ///< P_thresh of eq. (16), in (P_init, 1)
-  double p_init{0.1};          ///< P_init of the 3D map (unknown cells), in (0, 1)
+  /// P_min_E of eq. (15), in (0, 0.5): the map's clamp, so that H(P_min_E) ~ 0 as eq. (15) needs
+  /// (with 0.01 a ray over known free cells still predicts about 0.65 nats).
+  double p_min_entropy{1e-4};
+  double p_thresh{0.3};  ///< P_thresh of eq. (16), in (P_init, 1)
+  double p_init{0.1};    ///< P_init of the 3D map (unknown cells), in (0, 1)
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
@@ -107,6 +109,11 @@ struct CollisionProjection {
 /// between floor and ceiling.
 [[nodiscard]] GridMap2D ProjectEntropyMap(const OccupancyGridView& map,
                                           const ProjectionConfig& config);
+
+/// The layer of 3D cells containing height z_m (cells of edge alpha, P of each cell): what a
+/// planar scanner at that height sees, for its rays in the two-map gain.
+/// @throws std::invalid_argument if the view is invalid or z_m lies outside the map.
+[[nodiscard]] GridMap2D ProjectLayer(const OccupancyGridView& map, double z_m);
 
 /// Traversability of a collision cell, eq. (13): P(C_k) <= C_thresh.
 [[nodiscard]] inline bool IsTraversable(double collision_probability, double collision_threshold) {

@@ -383,5 +383,32 @@ TEST(GainEvaluator, HeadingGainsEqualPoseGains) {
   EXPECT_LE(stats.rays_cast, 2 * 180);
 }
 
+// A planar scanner is credited against the layer it sees: E (whole columns) says unknown, the
+// LIDAR's layer is known free, so with the layer the Hokuyo's rays predict almost nothing while
+// the camera's are unchanged.
+TEST(GainEvaluator, PlanarSensorUsesItsLayer) {
+  GainConfig config;
+  ASSERT_TRUE(config.sensors[1].planar);
+  ASSERT_FALSE(config.sensors[0].planar);
+  GainEvaluator eval(config);
+  const GridMap2D e = GridMap2D::Filled({-4.0, -4.0}, 0.075, 0.75, 107, 107, 0.1);
+  const GridMap2D layer = GridMap2D::Filled({-4.0, -4.0}, 0.075, 0.87, 107, 107, 1e-4);
+  const std::vector<double> columns = eval.HeadingGains(e, {0.0, 0.0}, 4);
+  const std::vector<double> seen =
+      eval.HeadingGains(e, {0.0, 0.0}, 4, 0.0, nullptr, 0.0, nullptr, &layer);
+  GainConfig camera_only = config;
+  camera_only.sensors.resize(1);
+  GainEvaluator camera(camera_only);
+  const std::vector<double> camera_gains = camera.HeadingGains(e, {0.0, 0.0}, 4);
+  for (int m = 0; m < 4; ++m) {
+    const size_t i = static_cast<size_t>(m);
+    EXPECT_GT(columns[i] - camera_gains[i], 10.0);  // the LIDAR on E's columns
+    // On its free layer: at most the entropy of the clamp (1e-4) on its 121 rays of <= 54 cells.
+    const double h_clamp = -1e-4 * std::log(1e-4) - (1 - 1e-4) * std::log(1 - 1e-4);
+    EXPECT_GE(seen[i], camera_gains[i]);
+    EXPECT_LT(seen[i] - camera_gains[i], 121 * 54 * h_clamp);
+  }
+}
+
 }  // namespace
 }  // namespace kestrel
