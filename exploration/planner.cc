@@ -72,18 +72,8 @@ void PlanTrajectoryTo(const PlannerConfig& config, const PlannerInput& input,
 }
 
 bool ValidInput(const PlannerInput& input, PlanResult* result) {
-  if (!input.position_m.allFinite() || !input.velocity_mps.allFinite() ||
-      !std::isfinite(input.yaw_rad) || !std::isfinite(input.time_s)) {
-    result->reason = "pose, velocity or time not finite";
-    return false;
-  }
-  try {
-    input.map.Validate();
-  } catch (const std::invalid_argument& e) {
-    result->reason = e.what();
-    return false;
-  }
-  return true;
+  result->reason = CheckPlannerInput(input);
+  return result->reason.empty();
 }
 
 }  // namespace
@@ -96,6 +86,8 @@ const char* ModeName(ExplorationMode mode) {
       return "two_map";
     case ExplorationMode::kFrontier:
       return "frontier";
+    case ExplorationMode::kVolumetric:
+      return "volumetric";
   }
   return "unknown";
 }
@@ -105,6 +97,7 @@ void PlannerConfig::Validate() const {
   gain.Validate();
   candidates.Validate();
   trajectory.Validate();
+  volumetric.Validate();
   KESTREL_THROW_UNLESS(
       frontier.min_distance_m >= 0.0 && std::isfinite(frontier.min_distance_m),
       "frontier.min_distance_m = " << frontier.min_distance_m << ", accepted [0, inf)");
@@ -115,8 +108,9 @@ void PlannerConfig::Validate() const {
 
 EntropyPlanner::EntropyPlanner(const PlannerConfig& config) : config_(config), gains_(config.gain) {
   config_.Validate();
-  KESTREL_THROW_UNLESS(config_.mode != ExplorationMode::kFrontier,
-                       "EntropyPlanner: mode frontier, accepted combined or two_map");
+  KESTREL_THROW_UNLESS(
+      config_.mode == ExplorationMode::kCombined || config_.mode == ExplorationMode::kTwoMap,
+      "EntropyPlanner: mode " << ModeName(config_.mode) << ", accepted combined or two_map");
 }
 
 bool EntropyPlanner::Reached(const PlannerInput& input, const GridMap2D& c, int cell,
@@ -132,8 +126,21 @@ bool EntropyPlanner::Reached(const PlannerInput& input, const GridMap2D& c, int 
   return false;
 }
 
+std::optional<GridMap2D> EntropyPlanner::PlanarLayer(const OccupancyGridView& map) const {
+  for (const GainSensor& s : config_.gain.sensors) {
+    if (!s.planar) continue;
+    try {
+      return ProjectLayer(map, config_.projection.height_m + s.height_offset_m);
+    } catch (const std::invalid_argument&) {
+      return std::nullopt;
+    }
+  }
+  return std::nullopt;
+}
+
 Choice EntropyPlanner::ScoreCandidates(const PlannerInput& input, const GridMap2D& gain_map,
-                                       bool two_map_end_test, PlanResult* result) {
+                                       bool two_map_end_test, PlanResult* result,
+                                       const GridMap2D* planar_map) {
   const GridMap2D& c = result->collision.collision;
   const int n_yaw = config_.candidates.n_yaw;
   result->candidates.clear();
@@ -141,9 +148,9 @@ Choice EntropyPlanner::ScoreCandidates(const PlannerInput& input, const GridMap2
   for (int cell : CandidateCells(result->field, config_.candidates)) {
     const Eigen::Vector2d p = c.CenterOf(c.CellAt(cell));
     std::vector<double> excess;
-    const std::vector<double> gains =
-        gains_.HeadingGains(gain_map, p, n_yaw, 0.0, &result->gain_stats,
-                            config_.projection.p_min_entropy, two_map_end_test ? &excess : nullptr);
+    const std::vector<double> gains = gains_.HeadingGains(
+        gain_map, p, n_yaw, 0.0, &result->gain_stats, config_.projection.p_min_entropy,
+        two_map_end_test ? &excess : nullptr, planar_map);
     for (int m = 0; m < n_yaw; ++m) {
       Candidate cand;
       cand.cell = cell;
@@ -200,8 +207,10 @@ PlanResult EntropyPlanner::Plan(const PlannerInput& input) {
   // Candidates: reachable lattice cells x headings; gains on B (combined) or E (two-map).
   const Clock::time_point t1 = Clock::now();
   const bool two_map = config_.mode == ExplorationMode::kTwoMap;
-  Choice choice = ScoreCandidates(
-      input, two_map ? *result.entropy : result.collision.combined, two_map, &result);
+  // A planar scanner is credited against the layer it sees, not E's whole columns.
+  const std::optional<GridMap2D> layer = PlanarLayer(input.map);
+  Choice choice = ScoreCandidates(input, two_map ? *result.entropy : result.collision.combined,
+                                  two_map, &result, two_map && layer ? &*layer : nullptr);
   if (!two_map) {
     result.end_test_gain_nats = choice.best_unweighted_gain_nats;
     if (choice.exploration_done && config_.candidates.end_check_entropy_map) {
@@ -216,7 +225,8 @@ PlanResult EntropyPlanner::Plan(const PlannerInput& input) {
         result.timings.total_s = SecondsSince(t0);
         return result;
       }
-      const Choice e_choice = ScoreCandidates(input, *on_e.entropy, true, &on_e);
+      const Choice e_choice =
+          ScoreCandidates(input, *on_e.entropy, true, &on_e, layer ? &*layer : nullptr);
       if (!e_choice.exploration_done) {
         result.entropy = std::move(on_e.entropy);
         result.candidates = std::move(on_e.candidates);
@@ -357,13 +367,23 @@ PlanResult FrontierPlanner::Plan(const PlannerInput& input) {
 }
 
 std::unique_ptr<ExplorationPlanner> MakePlanner(const PlannerConfig& config) {
-  if (config.mode == ExplorationMode::kFrontier) return std::make_unique<FrontierPlanner>(config);
+  if (config.mode == ExplorationMode::kVolumetric) {
+    return std::make_unique<VolumetricPlanner>(config);
+  }
+  if (config.mode == ExplorationMode::kFrontier) {
+    if (config.frontier.fine_traversability) return std::make_unique<FineFrontierPlanner>(config);
+    return std::make_unique<FrontierPlanner>(config);
+  }
   return std::make_unique<EntropyPlanner>(config);
 }
 
 PlanResult PlanToPoint(const PlannerConfig& config, const PlannerInput& input,
                        const Eigen::Vector2d& goal_xy, double goal_yaw_rad) {
   config.Validate();
+  if (config.mode == ExplorationMode::kVolumetric ||
+      (config.mode == ExplorationMode::kFrontier && config.frontier.fine_traversability)) {
+    return PlanToPointFine(config, input, goal_xy, goal_yaw_rad);
+  }
   const Clock::time_point t0 = Clock::now();
   PlanResult result;
   std::vector<bool> traversable;

@@ -10,6 +10,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "exploration/candidates.h"
@@ -17,6 +18,8 @@
 #include "exploration/information_gain.h"
 #include "exploration/projected_maps.h"
 #include "exploration/trajectory_planner.h"
+#include "exploration/traversability.h"
+#include "exploration/volumetric_gain.h"
 
 namespace kestrel {
 
@@ -25,9 +28,11 @@ enum class ExplorationMode {
   kCombined,  ///< B for the gain, C for traversability (the paper's experiment)
   kTwoMap,    ///< E for the gain, C for traversability (the paper's simulation)
   kFrontier,  ///< nearest reachable frontier (Yamauchi 1997), the baseline
+  /// 3D expected information gain on the exact map, fine traversability (docs/exploration.md)
+  kVolumetric,
 };
 
-/// "combined", "two_map" or "frontier" (the names of exploration_status_t.mode).
+/// "combined", "two_map", "frontier" or "volumetric" (the names of exploration_status_t.mode).
 [[nodiscard]] const char* ModeName(ExplorationMode mode);
 
 /// Parameters of the frontier baseline.
@@ -35,16 +40,37 @@ struct FrontierConfig {
   /// A frontier cell nearer than this (d_cell, m) is not a goal, so the vehicle does not stay in
   /// place; default 0: any cell but the vehicle's own (d_cell > 0).
   double min_distance_m{0.0};
+  /// true: frontiers on the fine traversability of the volumetric mode (the fair baseline, same
+  /// search and trajectories); false: on the paper's collision map C.
+  bool fine_traversability{true};
+};
+
+/// Parameters of the volumetric mode (docs/exploration.md) beyond those it shares: the height,
+/// C_thresh and P_init come from `projection`, the vehicle radius from `trajectory`, the bump and
+/// switch margin from `candidates`.
+struct VolumetricConfig {
+  double band_below_m{0.2};         ///< vehicle band below h checked for traversability, m (> 0)
+  double band_above_m{0.2};         ///< vehicle band above h, m (> 0)
+  double margin_m{0.05};            ///< clearance beyond the vehicle radius, m (>= 0)
+  double candidate_spacing_m{0.5};  ///< candidate positions every this many m (>= one cell)
+  /// The paper's end rule, working: exploration ends when the best UNWEIGHTED 3D gain of every
+  /// reachable candidate pose is below this, nats (> 0).
+  double end_gain_nats{2.0};
+  VolumetricGainConfig gain;  ///< sensors' 3D rays (gain.sensors' vertical keys), azimuth bins
+
+  /// @throws std::invalid_argument naming the field, its value and the accepted range.
+  void Validate() const;
 };
 
 /// Everything a replan needs to know, validated as a whole.
 struct PlannerConfig {
-  ExplorationMode mode{ExplorationMode::kCombined};  ///< planner and gain map
-  ProjectionConfig projection;                       ///< eqs. (11)-(16)
-  GainConfig gain;                                   ///< eq. (10) sensors, rays, weighting
-  CandidateConfig candidates;                        ///< lattice, headings, bump, end test
-  TrajectoryConfig trajectory;                       ///< limits, order, disc radius
-  FrontierConfig frontier;                           ///< baseline only
+  ExplorationMode mode{ExplorationMode::kVolumetric};  ///< planner and gain map
+  ProjectionConfig projection;                         ///< eqs. (11)-(16)
+  GainConfig gain;                                     ///< eq. (10) sensors, rays, weighting
+  CandidateConfig candidates;                          ///< lattice, headings, bump, end test
+  TrajectoryConfig trajectory;                         ///< limits, order, disc radius
+  FrontierConfig frontier;                             ///< baseline only
+  VolumetricConfig volumetric;                         ///< volumetric mode (and fine frontiers)
   /// Vertical field of view of the camera for the start-up radius of section 8, rad (Xtion 45 deg).
   double startup_vertical_fov_rad{45.0 * M_PI / 180.0};
 
@@ -57,8 +83,11 @@ struct PlannerInput {
   OccupancyGridView map;                                  ///< the 3D map (not owned)
   Eigen::Vector3d position_m{Eigen::Vector3d::Zero()};    ///< vehicle position, m, W
   Eigen::Vector3d velocity_mps{Eigen::Vector3d::Zero()};  ///< vehicle velocity, m/s, W
-  double yaw_rad{0.0};                                    ///< vehicle heading, rad
-  double time_s{0.0};                                     ///< start time of the trajectory, s
+  /// Vehicle acceleration, m/s^2, W (a replan spliced onto the flown trajectory starts from it).
+  Eigen::Vector3d acceleration_mps2{Eigen::Vector3d::Zero()};
+  double yaw_rad{0.0};         ///< vehicle heading, rad
+  double yaw_rate_radps{0.0};  ///< vehicle yaw rate, rad/s
+  double time_s{0.0};          ///< start time of the trajectory, s
   /// If set, the start-up rule of section 8 around this (x, y) (the take-off point), m, W.
   std::optional<Eigen::Vector2d> startup_center_m;
   /// Goal poses (x m, y m, yaw rad; W) the vehicle has reached; with
@@ -68,6 +97,9 @@ struct PlannerInput {
   /// The goal (x m, y m, yaw rad; W) being flown to, if any: kept unless another candidate's
   /// objective exceeds its own by candidates.switch_margin.
   std::optional<Eigen::Vector3d> current_goal;
+  /// Points (x, y; W) the vehicle has flown through: the flight home (PlanToPoint, volumetric
+  /// traversability) may use them even where the map has since grown uncertain.
+  std::vector<Eigen::Vector2d> flown_path;
 };
 
 /// Wall-clock time of each stage of one replan, s.
@@ -103,9 +135,15 @@ struct PlanResult {
   /// Combined mode: B's end test said "done" and E's did not, so the candidates were scored on
   /// E (candidates.end_check_entropy_map).
   bool gains_from_entropy_map{false};
-  TrajectoryPlan trajectory;  ///< to the chosen candidate (status kGoal)
-  GainStats gain_stats;       ///< rays evaluated, rays per candidate
-  PlanTimings timings;        ///< per stage
+  /// Volumetric mode and fine frontiers: the fine traversability (its band is also `collision`).
+  std::optional<Traversability> traversability;
+  /// What ended exploration (status kExplorationDone): "gain rule", "no reachable candidate",
+  /// "no reachable frontier".
+  std::string end_rule;
+  TrajectoryPlan trajectory;             ///< to the chosen candidate (status kGoal)
+  GainStats gain_stats;                  ///< rays evaluated, rays per candidate
+  VolumetricGainStats volumetric_stats;  ///< volumetric mode: 3D rays cast and evaluated
+  PlanTimings timings;                   ///< per stage
 };
 
 /// The planner interface shared by the entropy planner and the frontier baseline.
@@ -137,8 +175,13 @@ class EntropyPlanner final : public ExplorationPlanner {
  private:
   // Scores the candidates' gains on gain_map into result->candidates (without reached goals)
   // and chooses; with two_map_end_test, the end test on the excess over E's P_min_E floor.
+  // With planar_map, planar sensors' rays are cast there (the layer they see).
   Choice ScoreCandidates(const PlannerInput& input, const GridMap2D& gain_map,
-                         bool two_map_end_test, PlanResult* result);
+                         bool two_map_end_test, PlanResult* result,
+                         const GridMap2D* planar_map = nullptr);
+  // The layer a planar sensor sees (ProjectLayer at h + its offset), if there is one inside the
+  // map; nullopt otherwise (its rays then go through E, as in the paper).
+  [[nodiscard]] std::optional<GridMap2D> PlanarLayer(const OccupancyGridView& map) const;
   // True if (cell, yaw) is a reached goal and candidates.skip_reached_goals is on.
   [[nodiscard]] bool Reached(const PlannerInput& input, const GridMap2D& c, int cell,
                              double yaw_rad) const;
@@ -166,12 +209,101 @@ class FrontierPlanner final : public ExplorationPlanner {
   GainEvaluator gains_;  // reports the chosen frontier's gain in nats for comparison
 };
 
+/// The volumetric planner (docs/exploration.md): fine traversability (exploration/traversability.h)
+/// and Dijkstra from the vehicle's cell; candidate positions every candidate_spacing_m on
+/// reachable traversable cells x n_yaw headings; each pose's gain from the sensors' 3D rays
+/// through the exact map (exploration/volumetric_gain.h, eqs. 7-10 per ray); objective gain x
+/// bump(d_cell) (eqs. 9, 17); exploration ends when the best unweighted gain of every reachable
+/// candidate is below volumetric.end_gain_nats.
+///
+/// Exact argmax with less work: a pose's gain is at most the prior entropy of the cells its rays
+/// cross (E[H] >= 0), which costs a cast and a sum. Positions are evaluated exactly in decreasing
+/// order of bound x bump until the best exact objective reaches the next bound x bump, so the
+/// choice is the one evaluating every candidate gives; the end rule likewise evaluates in order of
+/// bound until one exact gain passes the threshold or no bound can. Candidates listed in the
+/// result are those evaluated exactly. Not thread-safe.
+class VolumetricPlanner final : public ExplorationPlanner {
+ public:
+  /// @throws std::invalid_argument if config is invalid.
+  explicit VolumetricPlanner(const PlannerConfig& config);
+  PlanResult Plan(const PlannerInput& input) override;
+  [[nodiscard]] ExplorationMode mode() const override { return ExplorationMode::kVolumetric; }
+
+  /// Positions whose gains were reused from an earlier replan in the last Plan (the map did not
+  /// change within their rays' reach: exact reuse, same numbers).
+  [[nodiscard]] int reused_positions() const { return reused_positions_; }
+
+ private:
+  // A position's bounds and (if evaluated) gains, valid while the map within its reach holds.
+  struct CachedPose {
+    std::vector<double> bounds;
+    std::vector<double> gains;  // empty until evaluated exactly
+  };
+  // Compares the map with the copy of the last Plan in tiles of kTile x kTile columns and marks
+  // the tiles within the rays' reach of a changed one (affected_); copies the map. All tiles are
+  // affected when the lattice changed or on the first call.
+  void UpdateAffectedTiles(const OccupancyGridView& map);
+  [[nodiscard]] bool Affected(const Cell2& cell) const;
+
+  static constexpr int kTile = 8;
+  PlannerConfig config_;
+  VolumetricGainEvaluator gains_;
+  std::vector<float> previous_map_;
+  Eigen::Vector3i previous_dims_{Eigen::Vector3i::Zero()};
+  Eigen::Vector3d previous_origin_m_{Eigen::Vector3d::Zero()};
+  double previous_resolution_m_{0.0};
+  int tiles_x_{0};
+  std::vector<bool> affected_;                 // per tile
+  std::unordered_map<int, CachedPose> cache_;  // by 2D cell index
+  int reused_positions_{0};
+};
+
+/// The frontier baseline on the volumetric mode's fine traversability, search and trajectories
+/// (frontier.fine_traversability): the nearest (d_cell) reachable traversable cell whose
+/// clearance is limited by unknown space (a cell blocked by unknown band cells, not by known
+/// occupied ones, within the required clearance + 2 cells), not within candidate_spacing_m / 2 of
+/// a reached goal (candidates.skip_reached_goals), facing the mean direction of the unknown cells
+/// around it; the current goal is kept while it is still a frontier; done when no frontier is
+/// reachable. Not thread-safe.
+class FineFrontierPlanner final : public ExplorationPlanner {
+ public:
+  /// @throws std::invalid_argument if config is invalid.
+  explicit FineFrontierPlanner(const PlannerConfig& config);
+  PlanResult Plan(const PlannerInput& input) override;
+  [[nodiscard]] ExplorationMode mode() const override { return ExplorationMode::kFrontier; }
+
+ private:
+  PlannerConfig config_;
+  VolumetricGainEvaluator gains_;  // the chosen frontier's 3D gain, for the status
+};
+
+/// The fine traversability parameters of `config` (volumetric keys, height, C_thresh, P_init,
+/// vehicle radius).
+[[nodiscard]] TraversabilityConfig FineTraversabilityConfig(const PlannerConfig& config);
+
+/// Whether the rest of `trajectory` from from_time_s (+ 0.5 s: the vehicle's own place) keeps the
+/// vehicle in allowed space on the current map, by the mode's own rule: the disc over C's
+/// traversable cells (paper modes, coarse frontier), or the centre over fine traversable cells
+/// (volumetric, fine frontier), with the cells around the trajectory's start allowed.
+[[nodiscard]] bool TrajectoryStillClear(const PlannerConfig& config, const PlannerInput& input,
+                                        const PiecewisePolynomialTrajectory& trajectory,
+                                        double from_time_s);
+
 /// The planner for config.mode. @throws std::invalid_argument if config is invalid.
 [[nodiscard]] std::unique_ptr<ExplorationPlanner> MakePlanner(const PlannerConfig& config);
 
+/// "" if the input is usable (finite pose, velocity, acceleration, yaw, time; valid map), else why.
+[[nodiscard]] std::string CheckPlannerInput(const PlannerInput& input);
+
+/// PlanToPoint on the fine traversability, with the flown corridor (input.flown_path) allowed:
+/// the goal's cell, or the reachable cell nearest to it within the vehicle radius.
+[[nodiscard]] PlanResult PlanToPointFine(const PlannerConfig& config, const PlannerInput& input,
+                                         const Eigen::Vector2d& goal_xy, double goal_yaw_rad);
+
 /// A trajectory from the vehicle to the collision cell containing goal_xy with heading
 /// goal_yaw_rad (the flight home at the end of exploration), with the same projection, search
-/// and checks as a replan. Status kGoal on success.
+/// and checks as a replan. Status kGoal on success. In volumetric mode and for fine frontiers:
+/// PlanToPointFine.
 [[nodiscard]] PlanResult PlanToPoint(const PlannerConfig& config, const PlannerInput& input,
                                      const Eigen::Vector2d& goal_xy, double goal_yaw_rad);
 

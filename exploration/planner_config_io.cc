@@ -12,9 +12,18 @@ namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
-void ReadSensor(const ConfigNode& n, GainSensor* s) {
+void ReadSensor(const ConfigNode& n, GainSensor* s, VolumetricSensor* v) {
   std::string name;
   n.Read("name", &name);  // a label for humans
+  v->name = name;
+  // The volumetric mode's 3D rays (docs/exploration.md, "Volumetric gain"): 0 = a planar scanner.
+  double vfov_deg = v->vertical_fov_rad / kDegToRad;
+  n.Read("vertical_fov_deg", &vfov_deg, Range{0.0, 180.0, true, false});
+  v->vertical_fov_rad = vfov_deg * kDegToRad;
+  s->planar = vfov_deg == 0.0;
+  n.Read("rows", &v->rows, Range::Closed(1, 1000));
+  n.Read("height_offset_m", &v->height_offset_m);
+  s->height_offset_m = v->height_offset_m;
   double fov_deg = s->horizontal_fov_rad / kDegToRad;
   double yaw_deg = s->yaw_offset_rad / kDegToRad;
   n.Read("horizontal_fov_deg", &fov_deg, Range{0.0, 360.0, false, true});
@@ -28,6 +37,9 @@ void ReadSensor(const ConfigNode& n, GainSensor* s) {
   n.Read("p_miss", &s->model.p_miss, Range::Open(0.0, 1.0));
   n.Read("cutoff_sigmas", &s->model.cutoff_sigmas, Range::AtLeast(5.0));
   n.Read("interpolated_gaussian", &s->model.interpolated_gaussian);
+  v->model = s->model;
+  v->horizontal_fov_rad = s->horizontal_fov_rad;
+  v->yaw_offset_rad = s->yaw_offset_rad;
 }
 
 }  // namespace
@@ -35,10 +47,12 @@ void ReadSensor(const ConfigNode& n, GainSensor* s) {
 PlannerConfig LoadPlannerConfig(const ConfigNode& node) {
   PlannerConfig c;
   std::string mode = ModeName(c.mode);
-  node.Read("mode", &mode, std::vector<std::string>{"combined", "two_map", "frontier"});
-  c.mode = mode == "two_map"    ? ExplorationMode::kTwoMap
-           : mode == "frontier" ? ExplorationMode::kFrontier
-                                : ExplorationMode::kCombined;
+  node.Read("mode", &mode,
+            std::vector<std::string>{"combined", "two_map", "frontier", "volumetric"});
+  c.mode = mode == "two_map"      ? ExplorationMode::kTwoMap
+           : mode == "frontier"   ? ExplorationMode::kFrontier
+           : mode == "volumetric" ? ExplorationMode::kVolumetric
+                                  : ExplorationMode::kCombined;
   double vfov_deg = c.startup_vertical_fov_rad / kDegToRad;
   node.Read("startup_vertical_fov_deg", &vfov_deg, Range::Open(0.0, 180.0));
   c.startup_vertical_fov_rad = vfov_deg * kDegToRad;
@@ -69,10 +83,13 @@ PlannerConfig LoadPlannerConfig(const ConfigNode& node) {
     const std::vector<ConfigNode> sensors = g.Elements("sensors", false);
     if (!sensors.empty()) {
       c.gain.sensors.clear();
+      c.volumetric.gain.sensors.clear();
       for (const ConfigNode& s : sensors) {
         GainSensor sensor;
-        ReadSensor(s, &sensor);
+        VolumetricSensor rays;
+        ReadSensor(s, &sensor, &rays);
         c.gain.sensors.push_back(sensor);
+        c.volumetric.gain.sensors.push_back(rays);
       }
     }
   }
@@ -111,6 +128,17 @@ PlannerConfig LoadPlannerConfig(const ConfigNode& node) {
   if (node.Has("frontier")) {
     const ConfigNode f = node.Child("frontier");
     f.Read("min_distance_m", &c.frontier.min_distance_m, Range::NonNegative());
+    f.Read("fine_traversability", &c.frontier.fine_traversability);
+  }
+  if (node.Has("volumetric")) {
+    const ConfigNode v = node.Child("volumetric");
+    VolumetricConfig& q = c.volumetric;
+    v.Read("band_below_m", &q.band_below_m, Range::Positive());
+    v.Read("band_above_m", &q.band_above_m, Range::Positive());
+    v.Read("margin_m", &q.margin_m, Range::NonNegative());
+    v.Read("candidate_spacing_m", &q.candidate_spacing_m, Range::Positive());
+    v.Read("end_gain_nats", &q.end_gain_nats, Range::Positive());
+    v.Read("azimuth_bins", &q.gain.azimuth_bins, Range::Closed(4, 36000));
   }
   node.CheckNoUnknownKeys();
   try {

@@ -42,6 +42,30 @@ TEST(PlannerConfigIo, ReferenceFileEqualsDefaults) {
   EXPECT_EQ(c.candidates.switch_margin, d.candidates.switch_margin);
   EXPECT_EQ(c.trajectory.vehicle_radius_m, d.trajectory.vehicle_radius_m);
   EXPECT_NEAR(c.startup_vertical_fov_rad, d.startup_vertical_fov_rad, 1e-12);
+  EXPECT_EQ(c.projection.p_min_entropy, d.projection.p_min_entropy);
+  EXPECT_EQ(c.trajectory.max_speed_mps, d.trajectory.max_speed_mps);
+  EXPECT_EQ(c.trajectory.max_acceleration_mps2, d.trajectory.max_acceleration_mps2);
+  EXPECT_EQ(c.trajectory.max_yaw_rate_radps, d.trajectory.max_yaw_rate_radps);
+  EXPECT_EQ(c.frontier.fine_traversability, d.frontier.fine_traversability);
+  EXPECT_EQ(c.volumetric.band_below_m, d.volumetric.band_below_m);
+  EXPECT_EQ(c.volumetric.band_above_m, d.volumetric.band_above_m);
+  EXPECT_EQ(c.volumetric.margin_m, d.volumetric.margin_m);
+  EXPECT_EQ(c.volumetric.candidate_spacing_m, d.volumetric.candidate_spacing_m);
+  EXPECT_EQ(c.volumetric.end_gain_nats, d.volumetric.end_gain_nats);
+  EXPECT_EQ(c.volumetric.gain.azimuth_bins, d.volumetric.gain.azimuth_bins);
+  ASSERT_EQ(c.volumetric.gain.sensors.size(), d.volumetric.gain.sensors.size());
+  for (size_t i = 0; i < d.volumetric.gain.sensors.size(); ++i) {
+    const VolumetricSensor& a = c.volumetric.gain.sensors[i];
+    const VolumetricSensor& b = d.volumetric.gain.sensors[i];
+    EXPECT_NEAR(a.vertical_fov_rad, b.vertical_fov_rad, 1e-12) << b.name;
+    EXPECT_EQ(a.rows, b.rows) << b.name;
+    EXPECT_EQ(a.height_offset_m, b.height_offset_m) << b.name;
+    EXPECT_NEAR(a.horizontal_fov_rad, b.horizontal_fov_rad, 1e-12) << b.name;
+    EXPECT_EQ(a.model.sigma_m, b.model.sigma_m) << b.name;
+  }
+  EXPECT_EQ(e.nonstop, ed.nonstop);
+  EXPECT_EQ(e.replan_lookahead_s, ed.replan_lookahead_s);
+  EXPECT_EQ(e.max_home_attempts, ed.max_home_attempts);
 }
 
 // Bad values and unknown keys name the file and key.

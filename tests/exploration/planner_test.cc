@@ -11,7 +11,8 @@ namespace {
 
 // A hand-made 3D map over x, y in [-3, 3), z in [-0.15, 1.5) at 0.075 m: outer walls, an inner
 // wall at x = 0.6 for y < 0.9, floor below z = 0. Cells within `known_radius_m` of the origin are
-// observed (free 1e-3, walls and floor 0.999); everything else is P_init 0.1.
+// observed (free 1e-4 and walls and floor 0.9999: the map's clamp, where a well-observed cell
+// ends); everything else is P_init 0.1.
 struct RoomMap {
   Eigen::Vector3i dims{80, 80, 22};
   Eigen::Vector3d origin{-3.0, -3.0, -0.15};
@@ -31,7 +32,7 @@ struct RoomMap {
           if (std::hypot(x, y) < unseen_band_radius_m && (z < 0.4 || z > 1.1)) continue;
           const bool wall = i < 3 || j < 3 || i >= dims.x() - 3 || j >= dims.y() - 3 ||
                             (std::abs(x - 0.6) < 0.1 && y < 0.9) || z < 0.0;
-          at(i, j, k) = wall ? 0.999f : 0.001f;
+          at(i, j, k) = wall ? 0.9999f : 1e-4f;
         }
       }
     }
@@ -117,15 +118,16 @@ TEST(Planner, TwoMapPlans) {
 TEST(Planner, ExploredMapEndsExploration) {
   const RoomMap map(100.0);
   PlannerConfig config;
-  for (ExplorationMode mode :
-       {ExplorationMode::kCombined, ExplorationMode::kTwoMap, ExplorationMode::kFrontier}) {
+  for (ExplorationMode mode : {ExplorationMode::kCombined, ExplorationMode::kTwoMap,
+                               ExplorationMode::kFrontier, ExplorationMode::kVolumetric}) {
     config.mode = mode;
     const PlanResult r = MakePlanner(config)->Plan(InputAt(map, {-1.0, -1.0}));
     EXPECT_EQ(r.status, PlanStatus::kExplorationDone) << ModeName(mode) << " " << r.reason;
     if (mode != ExplorationMode::kFrontier) {
-      EXPECT_LT(r.end_test_gain_nats, mode == ExplorationMode::kTwoMap
-                                          ? config.candidates.end_entropy_gain_nats
-                                          : config.candidates.end_gain_nats);
+      EXPECT_LT(r.end_test_gain_nats,
+                mode == ExplorationMode::kTwoMap       ? config.candidates.end_entropy_gain_nats
+                : mode == ExplorationMode::kVolumetric ? config.volumetric.end_gain_nats
+                                                       : config.candidates.end_gain_nats);
       EXPECT_FALSE(r.candidates.empty());
       std::printf("%s: best gain %.3f nats, end-test gain %.3f nats\n", ModeName(mode),
                   r.best_unweighted_gain_nats, r.end_test_gain_nats);
@@ -133,8 +135,8 @@ TEST(Planner, ExploredMapEndsExploration) {
     if (mode == ExplorationMode::kCombined) {
       EXPECT_EQ(r.end_test_gain_nats, r.best_unweighted_gain_nats);
     }
-    if (mode == ExplorationMode::kTwoMap) {
-      EXPECT_GT(r.best_unweighted_gain_nats, 10.0);  // the P_min_E floor alone
+    if (mode == ExplorationMode::kVolumetric) {
+      EXPECT_EQ(r.end_rule, "gain rule");
     }
   }
 }
@@ -207,6 +209,7 @@ TEST(Planner, ReachedGoalsAreNotChosenAgain) {
 TEST(Planner, CombinedChecksEntropyMapBeforeEnding) {
   const RoomMap map(100.0, 1.0);
   PlannerConfig config;
+  config.mode = ExplorationMode::kCombined;
   PlannerInput in = InputAt(map, {-1.95, -1.95});
   const PlanResult r = EntropyPlanner(config).Plan(in);
   ASSERT_EQ(r.status, PlanStatus::kGoal) << r.reason;
@@ -228,6 +231,7 @@ TEST(Planner, StartupRuleLetsFirstPlanLeaveStartCell) {
   // origin) reaches into every cell it could step to, so without the rule none is traversable.
   const RoomMap map(2.6, 1.7);
   PlannerConfig config;
+  config.mode = ExplorationMode::kCombined;
   EntropyPlanner planner(config);
   PlannerInput in = InputAt(map, {-0.75, -0.75});
   const PlanResult without = planner.Plan(in);
@@ -251,6 +255,50 @@ TEST(Planner, PlanToPointReachesHome) {
   EXPECT_NEAR((r.trajectory.trajectory->Evaluate(1e9).position_m.head<2>() - home).norm(), 0.0,
               1e-8);
   ExpectTrajectoryInside(r, in, config);
+}
+
+// The volumetric planner reuses a position's gains only while the map within its rays' reach is
+// unchanged: after a change, its plan equals a fresh planner's, candidate for candidate.
+TEST(Planner, VolumetricReuseIsExact) {
+  RoomMap map(2.2);
+  PlannerConfig config;
+  config.mode = ExplorationMode::kVolumetric;
+  VolumetricPlanner planner(config);
+  const PlannerInput in = InputAt(map, {-1.0, -1.0});
+  const PlanResult first = planner.Plan(in);
+  ASSERT_EQ(first.status, PlanStatus::kGoal) << first.reason;
+  EXPECT_EQ(planner.reused_positions(), 0);
+  const PlanResult again = planner.Plan(in);
+  EXPECT_GT(planner.reused_positions(), 0);
+  ASSERT_EQ(again.chosen, first.chosen);
+  // New map data near the vehicle: some cells seen free.
+  for (int k = 8; k < 14; ++k) {
+    for (int j = 45; j < 52; ++j) {
+      for (int i = 45; i < 52; ++i) map.at(i, j, k) = 0.02f;
+    }
+  }
+  const PlanResult reused = planner.Plan(in);
+  VolumetricPlanner fresh_planner(config);
+  const PlanResult fresh = fresh_planner.Plan(in);
+  ASSERT_EQ(reused.status, fresh.status);
+  ASSERT_EQ(reused.chosen >= 0, fresh.chosen >= 0);
+  const Candidate& a = reused.candidates[static_cast<size_t>(reused.chosen)];
+  const Candidate& b = fresh.candidates[static_cast<size_t>(fresh.chosen)];
+  EXPECT_EQ(a.cell, b.cell);
+  EXPECT_EQ(a.yaw_rad, b.yaw_rad);
+  EXPECT_EQ(a.gain_nats, b.gain_nats);
+  EXPECT_EQ(reused.best_unweighted_gain_nats, fresh.best_unweighted_gain_nats);
+  // Every candidate both evaluated has the same gain, bit for bit.
+  int compared = 0;
+  for (const Candidate& c : reused.candidates) {
+    for (const Candidate& d : fresh.candidates) {
+      if (c.cell == d.cell && c.yaw_rad == d.yaw_rad) {
+        EXPECT_EQ(c.gain_nats, d.gain_nats) << "cell " << c.cell;
+        ++compared;
+      }
+    }
+  }
+  EXPECT_GT(compared, 8);
 }
 
 }  // namespace

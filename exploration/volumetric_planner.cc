@@ -1,0 +1,583 @@
+// The volumetric planner and the fine frontier baseline (exploration/planner.h;
+// docs/exploration.md, sections "Volumetric gain", "Traversability" and "Choosing the next pose").
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+#include "common/check.h"
+#include "exploration/planner.h"
+
+namespace kestrel {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// The centre of the vehicle is checked against fine traversable cells, whose clearance already
+// holds the radius and the margin: the trajectory planner's disc shrinks to (almost) a point.
+constexpr double kPointRadius = 1e-3;
+
+// One candidate position of the volumetric planner.
+struct Position {
+  int cell{-1};
+  Eigen::Vector2d xy{Eigen::Vector2d::Zero()};
+  double bump{0.0};
+  double distance_m{0.0};
+  double max_bound{0.0};
+  bool evaluated{false};
+  std::vector<double> gains;
+};
+
+// Fine traversability, the escape cells around the vehicle and Dijkstra from its cell. False with
+// result->reason when the map or the vehicle cannot be used.
+bool FineSearch(const PlannerConfig& config, const PlannerInput& input, bool with_flown_path,
+                PlanResult* result, std::vector<bool>* traversable) {
+  const Clock::time_point t0 = Clock::now();
+  const TraversabilityConfig tc = FineTraversabilityConfig(config);
+  std::optional<StartupFreeZone> zone;
+  if (input.startup_center_m) {
+    zone = StartupFreeZone{
+        *input.startup_center_m,
+        StartupFreeRadius(2.0 * tc.required_clearance_m(), config.startup_vertical_fov_rad)};
+  }
+  try {
+    result->traversability =
+        ComputeTraversability(input.map, tc, zone, with_flown_path ? &input.flown_path : nullptr);
+  } catch (const std::invalid_argument& e) {
+    result->reason = std::string("traversability: ") + e.what();
+    return false;
+  }
+  const Traversability& tr = *result->traversability;
+  result->collision.collision = tr.band;
+  result->collision.combined = tr.clearance;
+  result->collision.collision_factor = 1;
+  result->timings.projection_s = SecondsSince(t0);
+
+  const Clock::time_point t1 = Clock::now();
+  const std::optional<Cell2> start = tr.band.CellOf(input.position_m.head<2>());
+  if (!start) {
+    result->reason = "vehicle outside the map";
+    return false;
+  }
+  *traversable = tr.traversable;
+  // The vehicle is where it is: the cells under its disc are usable unless known occupied, so a
+  // vehicle that new map data left short of the required clearance can still move away.
+  AllowAround(tr, input.position_m.head<2>(), config.trajectory.vehicle_radius_m, traversable);
+  result->field = ComputeDistanceField(tr.band.width, tr.band.height, *traversable, *start,
+                                       tr.band.resolution_m);
+  result->timings.dijkstra_s = SecondsSince(t1);
+  return true;
+}
+
+void FineTrajectoryTo(const PlannerConfig& config, const PlannerInput& input,
+                      const std::vector<bool>& traversable, int goal_cell, double goal_yaw,
+                      PlanResult* result) {
+  const Clock::time_point t0 = Clock::now();
+  TrajectoryConfig tc = config.trajectory;
+  tc.vehicle_radius_m = kPointRadius;
+  TrajectoryStart start;
+  start.position_m = input.position_m;
+  start.velocity_mps = input.velocity_mps;
+  start.acceleration_mps2 = input.acceleration_mps2;
+  start.yaw_rad = input.yaw_rad;
+  start.yaw_rate_radps = input.yaw_rate_radps;
+  start.time_s = input.time_s;
+  result->trajectory = PlanTrajectory(result->collision.collision, traversable, result->field,
+                                      goal_cell, start, goal_yaw, config.projection.height_m, tc);
+  result->timings.trajectory_s += SecondsSince(t0);
+  if (result->trajectory.trajectory) {
+    result->status = PlanStatus::kGoal;
+  } else {
+    result->status = PlanStatus::kFailed;
+    result->reason = "trajectory: " + result->trajectory.error;
+  }
+}
+
+// Tries the candidates in decreasing objective (at most kMaxTrajectoryAttempts distinct cells),
+// the chosen one first.
+void TrajectoryToBest(const PlannerConfig& config, const PlannerInput& input,
+                      const std::vector<bool>& traversable, int chosen, PlanResult* result) {
+  std::vector<int> order(result->candidates.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return result->candidates[static_cast<size_t>(a)].objective() >
+           result->candidates[static_cast<size_t>(b)].objective();
+  });
+  std::swap(*std::find(order.begin(), order.end(), chosen), order.front());
+  constexpr int kMaxTrajectoryAttempts = 5;
+  std::vector<int> tried_cells;
+  for (int index : order) {
+    const Candidate& goal = result->candidates[static_cast<size_t>(index)];
+    if (std::find(tried_cells.begin(), tried_cells.end(), goal.cell) != tried_cells.end()) continue;
+    if (static_cast<int>(tried_cells.size()) == kMaxTrajectoryAttempts) break;
+    tried_cells.push_back(goal.cell);
+    result->chosen = index;
+    FineTrajectoryTo(config, input, traversable, goal.cell, goal.yaw_rad, result);
+    if (result->status == PlanStatus::kGoal) return;
+  }
+  result->chosen = -1;
+}
+
+}  // namespace
+
+std::string CheckPlannerInput(const PlannerInput& input) {
+  if (!input.position_m.allFinite() || !input.velocity_mps.allFinite() ||
+      !input.acceleration_mps2.allFinite() || !std::isfinite(input.yaw_rad) ||
+      !std::isfinite(input.yaw_rate_radps) || !std::isfinite(input.time_s)) {
+    return "pose, velocity or time not finite";
+  }
+  try {
+    input.map.Validate();
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+void VolumetricConfig::Validate() const {
+  KESTREL_THROW_UNLESS(std::isfinite(band_below_m) && band_below_m > 0.0,
+                       "volumetric.band_below_m = " << band_below_m << ", accepted (0, inf)");
+  KESTREL_THROW_UNLESS(std::isfinite(band_above_m) && band_above_m > 0.0,
+                       "volumetric.band_above_m = " << band_above_m << ", accepted (0, inf)");
+  KESTREL_THROW_UNLESS(std::isfinite(margin_m) && margin_m >= 0.0,
+                       "volumetric.margin_m = " << margin_m << ", accepted [0, inf)");
+  KESTREL_THROW_UNLESS(
+      std::isfinite(candidate_spacing_m) && candidate_spacing_m > 0.0,
+      "volumetric.candidate_spacing_m = " << candidate_spacing_m << ", accepted (0, inf)");
+  KESTREL_THROW_UNLESS(std::isfinite(end_gain_nats) && end_gain_nats > 0.0,
+                       "volumetric.end_gain_nats = " << end_gain_nats << ", accepted (0, inf)");
+  gain.Validate();
+}
+
+TraversabilityConfig FineTraversabilityConfig(const PlannerConfig& config) {
+  TraversabilityConfig t;
+  t.height_m = config.projection.height_m;
+  t.band_below_m = config.volumetric.band_below_m;
+  t.band_above_m = config.volumetric.band_above_m;
+  t.vehicle_radius_m = config.trajectory.vehicle_radius_m;
+  t.margin_m = config.volumetric.margin_m;
+  t.free_threshold = config.projection.collision_threshold;
+  t.p_init = config.projection.p_init;
+  return t;
+}
+
+VolumetricPlanner::VolumetricPlanner(const PlannerConfig& config)
+    : config_(config), gains_(config.volumetric.gain) {
+  config_.mode = ExplorationMode::kVolumetric;
+  config_.Validate();
+}
+
+void VolumetricPlanner::UpdateAffectedTiles(const OccupancyGridView& map) {
+  const Eigen::Vector3i d = map.dims;
+  const size_t n = static_cast<size_t>(d.prod());
+  tiles_x_ = (d.x() + kTile - 1) / kTile;
+  const int tiles_y = (d.y() + kTile - 1) / kTile;
+  const bool same_lattice = previous_map_.size() == n && previous_dims_ == d &&
+                            previous_origin_m_ == map.origin_m &&
+                            previous_resolution_m_ == map.resolution_m;
+  std::vector<bool> changed(static_cast<size_t>(tiles_x_) * static_cast<size_t>(tiles_y),
+                            !same_lattice);
+  if (same_lattice) {
+    for (int k = 0; k < d.z(); ++k) {
+      for (int j = 0; j < d.y(); ++j) {
+        const size_t row =
+            static_cast<size_t>(d.x()) * (static_cast<size_t>(j) + static_cast<size_t>(d.y()) * k);
+        for (int t = 0; t < tiles_x_; ++t) {
+          const size_t tile = static_cast<size_t>(t + tiles_x_ * (j / kTile));
+          if (changed[tile]) continue;
+          const int x0 = t * kTile;
+          const int count = std::min(kTile, d.x() - x0);
+          changed[tile] = std::memcmp(&previous_map_[row + static_cast<size_t>(x0)],
+                                      map.probability + row + static_cast<size_t>(x0),
+                                      sizeof(float) * static_cast<size_t>(count)) != 0;
+        }
+      }
+    }
+  } else {
+    cache_.clear();
+  }
+  previous_map_.assign(map.probability, map.probability + n);
+  previous_dims_ = d;
+  previous_origin_m_ = map.origin_m;
+  previous_resolution_m_ = map.resolution_m;
+  // A position's rays reach z_max (plus the sensor's height and a cell) around it.
+  double reach = 0.0;
+  for (const VolumetricSensor& s : config_.volumetric.gain.sensors) {
+    reach = std::max(reach, std::hypot(s.model.z_max_m, s.height_offset_m));
+  }
+  const int r =
+      static_cast<int>(std::ceil((reach + 2.0 * map.resolution_m) / (kTile * map.resolution_m))) +
+      1;
+  affected_.assign(changed.size(), false);
+  for (int ty = 0; ty < tiles_y; ++ty) {
+    for (int tx = 0; tx < tiles_x_; ++tx) {
+      if (!changed[static_cast<size_t>(tx + tiles_x_ * ty)]) continue;
+      for (int y = std::max(0, ty - r); y <= std::min(tiles_y - 1, ty + r); ++y) {
+        for (int x = std::max(0, tx - r); x <= std::min(tiles_x_ - 1, tx + r); ++x) {
+          affected_[static_cast<size_t>(x + tiles_x_ * y)] = true;
+        }
+      }
+    }
+  }
+}
+
+bool VolumetricPlanner::Affected(const Cell2& cell) const {
+  return affected_[static_cast<size_t>(cell.x / kTile + tiles_x_ * (cell.y / kTile))];
+}
+
+PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
+  const Clock::time_point t0 = Clock::now();
+  PlanResult result;
+  result.reason = CheckPlannerInput(input);
+  std::vector<bool> traversable;
+  if (!result.reason.empty() || !FineSearch(config_, input, false, &result, &traversable)) {
+    result.timings.total_s = SecondsSince(t0);
+    return result;
+  }
+  const Clock::time_point t1 = Clock::now();
+  const Traversability& tr = *result.traversability;
+  const GridMap2D& grid = tr.band;
+  const int n_yaw = config_.candidates.n_yaw;
+  UpdateAffectedTiles(input.map);
+  reused_positions_ = 0;
+  CandidateConfig cc = config_.candidates;
+  cc.lattice_step = std::max(
+      1, static_cast<int>(std::lround(config_.volumetric.candidate_spacing_m / grid.resolution_m)));
+  cc.exclude_vehicle_cell = true;
+  const double d_max = DMax(cc, result.field.MaxDistance());
+
+  // Positions: reachable cells of the lattice with the full clearance (escape cells are for
+  // leaving, not for goals); the bound of each first.
+  std::vector<Position> positions;
+  for (int cell : CandidateCells(result.field, cc)) {
+    if (!tr.traversable[static_cast<size_t>(cell)]) continue;
+    Position p;
+    p.cell = cell;
+    p.xy = grid.CenterOf(grid.CellAt(cell));
+    p.distance_m = result.field.distance_m[static_cast<size_t>(cell)];
+    p.bump = Bump(p.distance_m, d_max);
+    // Exact reuse: nothing changed within the rays' reach since the cache entry was made.
+    auto cached = cache_.find(cell);
+    if (cached != cache_.end() && !Affected(grid.CellAt(cell)) &&
+        static_cast<int>(cached->second.bounds.size()) == n_yaw) {
+      ++reused_positions_;
+    } else {
+      const PoseGains b = gains_.Evaluate(
+          input.map, Eigen::Vector3d(p.xy.x(), p.xy.y(), config_.projection.height_m), n_yaw, false,
+          &result.volumetric_stats);
+      cached = cache_.insert_or_assign(cell, CachedPose{b.bound_nats, {}}).first;
+    }
+    const CachedPose& c = cached->second;
+    p.max_bound = *std::max_element(c.bounds.begin(), c.bounds.end());
+    if (!c.gains.empty()) {
+      p.gains = c.gains;
+      p.evaluated = true;
+    }
+    positions.push_back(std::move(p));
+  }
+  auto evaluate = [&](Position* p) {
+    if (p->evaluated) return;
+    const PoseGains g = gains_.Evaluate(
+        input.map, Eigen::Vector3d(p->xy.x(), p->xy.y(), config_.projection.height_m), n_yaw, true,
+        &result.volumetric_stats);
+    p->gains = g.gain_nats;
+    p->evaluated = true;
+    cache_.insert_or_assign(p->cell, CachedPose{g.bound_nats, g.gain_nats});
+  };
+  // Exact argmax of gain x bump, in decreasing bound x bump.
+  std::vector<size_t> order(positions.size());
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return positions[a].max_bound * positions[a].bump > positions[b].max_bound * positions[b].bump;
+  });
+  double best_objective = -1.0;
+  double best_gain = 0.0;
+  for (size_t i : order) {
+    Position& p = positions[i];
+    if (p.max_bound * p.bump <= best_objective) break;
+    evaluate(&p);
+    for (double g : p.gains) {
+      best_objective = std::max(best_objective, g * p.bump);
+      best_gain = std::max(best_gain, g);
+    }
+  }
+  for (const Position& p : positions) {  // reused exact gains count too
+    for (double g : p.gains) best_gain = std::max(best_gain, g);
+  }
+  // The end rule: does ANY reachable candidate keep end_gain_nats of gain?
+  const double end_gain = config_.volumetric.end_gain_nats;
+  if (best_gain < end_gain) {
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+      return positions[a].max_bound > positions[b].max_bound;
+    });
+    for (size_t i : order) {
+      Position& p = positions[i];
+      if (p.max_bound < end_gain || best_gain >= end_gain) break;
+      evaluate(&p);
+      for (double g : p.gains) best_gain = std::max(best_gain, g);
+    }
+  }
+  // The evaluated poses become the candidates.
+  for (const Position& p : positions) {
+    if (!p.evaluated) continue;
+    for (int m = 0; m < n_yaw; ++m) {
+      Candidate c;
+      c.cell = p.cell;
+      c.position_m = p.xy;
+      c.yaw_rad = 2.0 * M_PI * m / n_yaw;
+      c.gain_nats = p.gains[static_cast<size_t>(m)];
+      c.distance_m = p.distance_m;
+      c.bump = p.bump;
+      result.candidates.push_back(c);
+    }
+  }
+  int chosen = -1;
+  for (size_t i = 0; i < result.candidates.size(); ++i) {
+    if (chosen < 0 || result.candidates[i].objective() >
+                          result.candidates[static_cast<size_t>(chosen)].objective()) {
+      chosen = static_cast<int>(i);
+    }
+  }
+  // Hysteresis (candidates.switch_margin): keep the goal being flown to unless beaten by the
+  // margin. Its pose is evaluated if the pruning skipped it.
+  if (input.current_goal && chosen >= 0) {
+    const std::optional<Cell2> gc = grid.CellOf(input.current_goal->head<2>());
+    const double half = 0.5 * config_.volumetric.candidate_spacing_m;
+    for (Position& p : positions) {
+      if (!gc || (p.xy - input.current_goal->head<2>()).norm() > half) continue;
+      const int m =
+          static_cast<int>(std::lround(input.current_goal->z() / (2.0 * M_PI / n_yaw))) % n_yaw;
+      const int mm = (m + n_yaw) % n_yaw;
+      const bool was_evaluated = p.evaluated;
+      evaluate(&p);
+      const double objective = p.gains[static_cast<size_t>(mm)] * p.bump;
+      const double best = result.candidates[static_cast<size_t>(chosen)].objective();
+      if (objective > 0.0 && best <= (1.0 + config_.candidates.switch_margin) * objective) {
+        if (!was_evaluated) {
+          for (int k = 0; k < n_yaw; ++k) {
+            Candidate c;
+            c.cell = p.cell;
+            c.position_m = p.xy;
+            c.yaw_rad = 2.0 * M_PI * k / n_yaw;
+            c.gain_nats = p.gains[static_cast<size_t>(k)];
+            c.distance_m = p.distance_m;
+            c.bump = p.bump;
+            result.candidates.push_back(c);
+          }
+        }
+        for (size_t i = 0; i < result.candidates.size(); ++i) {
+          const Candidate& c = result.candidates[i];
+          if (c.cell == p.cell &&
+              std::abs(std::remainder(c.yaw_rad - 2.0 * M_PI * mm / n_yaw, 2.0 * M_PI)) < 1e-9) {
+            chosen = static_cast<int>(i);
+          }
+        }
+      }
+      break;
+    }
+  }
+  result.best_unweighted_gain_nats = best_gain;
+  result.end_test_gain_nats = best_gain;
+  result.timings.gain_s = SecondsSince(t1);
+  if (positions.empty()) {
+    result.status = PlanStatus::kExplorationDone;
+    result.end_rule = "no reachable candidate";
+    result.reason = "no reachable candidate position";
+  } else if (best_gain < end_gain) {
+    result.status = PlanStatus::kExplorationDone;
+    result.end_rule = "gain rule";
+    result.reason = "best unweighted gain " + std::to_string(best_gain) + " nats below " +
+                    std::to_string(end_gain) + " nats over " + std::to_string(positions.size()) +
+                    " reachable positions";
+  } else {
+    TrajectoryToBest(config_, input, traversable, chosen, &result);
+  }
+  result.timings.total_s = SecondsSince(t0);
+  return result;
+}
+
+FineFrontierPlanner::FineFrontierPlanner(const PlannerConfig& config)
+    : config_(config), gains_(config.volumetric.gain) {
+  config_.mode = ExplorationMode::kFrontier;
+  config_.Validate();
+}
+
+PlanResult FineFrontierPlanner::Plan(const PlannerInput& input) {
+  const Clock::time_point t0 = Clock::now();
+  PlanResult result;
+  result.reason = CheckPlannerInput(input);
+  std::vector<bool> traversable;
+  if (!result.reason.empty() || !FineSearch(config_, input, false, &result, &traversable)) {
+    result.timings.total_s = SecondsSince(t0);
+    return result;
+  }
+  const Clock::time_point t1 = Clock::now();
+  const Traversability& tr = *result.traversability;
+  const GridMap2D& grid = tr.band;
+  const double alpha = grid.resolution_m;
+  // Distance to the nearest unknown band cell: a traversable cell within the required clearance
+  // + 2 cells of one is a frontier (its clearance is limited by unknown space).
+  const std::vector<double> d2 = SquaredDistanceTransform(grid.width, grid.height, tr.unknown);
+  const double reach = FineTraversabilityConfig(config_).required_clearance_m() + 2.0 * alpha;
+  const double reach_cells2 = (reach / alpha + 0.5) * (reach / alpha + 0.5);
+  const double skip = 0.5 * config_.volumetric.candidate_spacing_m;
+  int best = -1;
+  int keep = -1;
+  for (int i = 0; i < grid.size(); ++i) {
+    if (!tr.traversable[static_cast<size_t>(i)] || !result.field.Reachable(i)) continue;
+    if (i == result.field.start) continue;
+    const double d = result.field.distance_m[static_cast<size_t>(i)];
+    if (d < config_.frontier.min_distance_m) continue;
+    if (d2[static_cast<size_t>(i)] > reach_cells2) continue;
+    const Eigen::Vector2d xy = grid.CenterOf(grid.CellAt(i));
+    bool reached = false;
+    if (config_.candidates.skip_reached_goals) {
+      for (const Eigen::Vector3d& g : input.reached_goals) {
+        reached = reached || (g.head<2>() - xy).norm() < skip;
+      }
+    }
+    if (reached) continue;
+    Candidate c;
+    c.cell = i;
+    c.position_m = xy;
+    c.distance_m = d;
+    c.bump = 1.0;
+    result.candidates.push_back(c);
+    const int index = static_cast<int>(result.candidates.size()) - 1;
+    if (best < 0 || d < result.candidates[static_cast<size_t>(best)].distance_m) best = index;
+    if (input.current_goal && (input.current_goal->head<2>() - xy).norm() < skip) keep = index;
+  }
+  result.timings.gain_s = SecondsSince(t1);
+  if (best < 0) {
+    result.status = PlanStatus::kExplorationDone;
+    result.end_rule = "no reachable frontier";
+    result.reason = "no reachable frontier";
+    result.timings.total_s = SecondsSince(t0);
+    return result;
+  }
+  if (keep >= 0) best = keep;
+  Candidate& goal = result.candidates[static_cast<size_t>(best)];
+  // Face the unknown cells around the goal (their mean direction within reach + 1 m).
+  const Cell2 gc = grid.CellAt(goal.cell);
+  const int r = static_cast<int>(std::ceil((reach + 1.0) / alpha));
+  Eigen::Vector2d towards = Eigen::Vector2d::Zero();
+  for (int y = std::max(0, gc.y - r); y <= std::min(grid.height - 1, gc.y + r); ++y) {
+    for (int x = std::max(0, gc.x - r); x <= std::min(grid.width - 1, gc.x + r); ++x) {
+      if (!tr.unknown[static_cast<size_t>(grid.IndexOf(x, y))]) continue;
+      const Eigen::Vector2d v(x - gc.x, y - gc.y);
+      if (v.squaredNorm() > 0.0 && v.squaredNorm() <= static_cast<double>(r) * r) {
+        towards += v.normalized();
+      }
+    }
+  }
+  goal.yaw_rad = towards.squaredNorm() > 0.0 ? std::atan2(towards.y(), towards.x()) : input.yaw_rad;
+  const PoseGains g = gains_.Evaluate(
+      input.map,
+      Eigen::Vector3d(goal.position_m.x(), goal.position_m.y(), config_.projection.height_m), 1,
+      true, &result.volumetric_stats);
+  goal.gain_nats = g.gain_nats.empty() ? 0.0 : g.gain_nats[0];  // heading 0: for the status only
+  result.best_unweighted_gain_nats = goal.gain_nats;
+  result.chosen = best;
+  FineTrajectoryTo(config_, input, traversable, goal.cell, goal.yaw_rad, &result);
+  if (result.status != PlanStatus::kGoal) result.chosen = -1;
+  result.timings.total_s = SecondsSince(t0);
+  return result;
+}
+
+PlanResult PlanToPointFine(const PlannerConfig& config, const PlannerInput& input,
+                           const Eigen::Vector2d& goal_xy, double goal_yaw_rad) {
+  const Clock::time_point t0 = Clock::now();
+  PlanResult result;
+  result.reason = CheckPlannerInput(input);
+  std::vector<bool> traversable;
+  if (!result.reason.empty() || !FineSearch(config, input, true, &result, &traversable)) {
+    result.timings.total_s = SecondsSince(t0);
+    return result;
+  }
+  const GridMap2D& grid = result.traversability->band;
+  std::optional<Cell2> goal = grid.CellOf(goal_xy);
+  if (!goal) {
+    result.reason = "goal outside the map";
+  } else {
+    // The goal's cell, or the reachable cell nearest to it within the vehicle radius.
+    int goal_cell = grid.IndexOf(*goal);
+    if (!result.field.Reachable(goal_cell)) {
+      double best = config.trajectory.vehicle_radius_m;
+      goal_cell = -1;
+      const int r = static_cast<int>(std::ceil(best / grid.resolution_m));
+      for (int y = std::max(0, goal->y - r); y <= std::min(grid.height - 1, goal->y + r); ++y) {
+        for (int x = std::max(0, goal->x - r); x <= std::min(grid.width - 1, goal->x + r); ++x) {
+          const int i = grid.IndexOf(x, y);
+          const double d = (grid.CenterOf({x, y}) - goal_xy).norm();
+          if (result.field.Reachable(i) && d <= best) {
+            best = d;
+            goal_cell = i;
+          }
+        }
+      }
+    }
+    if (goal_cell < 0) {
+      result.reason = "goal unreachable: no path over known-free or flown space";
+    } else {
+      FineTrajectoryTo(config, input, traversable, goal_cell, goal_yaw_rad, &result);
+    }
+  }
+  result.timings.total_s = SecondsSince(t0);
+  return result;
+}
+
+bool TrajectoryStillClear(const PlannerConfig& config, const PlannerInput& input,
+                          const PiecewisePolynomialTrajectory& trajectory, double from_time_s) {
+  const bool fine =
+      config.mode == ExplorationMode::kVolumetric ||
+      (config.mode == ExplorationMode::kFrontier && config.frontier.fine_traversability);
+  const Eigen::Vector2d start_xy =
+      trajectory.Evaluate(trajectory.start_time_s()).position_m.head<2>();
+  GridMap2D grid;
+  std::vector<bool> allowed;
+  double radius = config.trajectory.vehicle_radius_m;
+  if (fine) {
+    const TraversabilityConfig tc = FineTraversabilityConfig(config);
+    std::optional<StartupFreeZone> zone;
+    if (input.startup_center_m) {
+      zone = StartupFreeZone{
+          *input.startup_center_m,
+          StartupFreeRadius(2.0 * tc.required_clearance_m(), config.startup_vertical_fov_rad)};
+    }
+    Traversability tr = ComputeTraversability(input.map, tc, zone);
+    allowed = tr.traversable;
+    AllowAround(tr, start_xy, config.trajectory.vehicle_radius_m, &allowed);
+    AllowAround(tr, input.position_m.head<2>(), config.trajectory.vehicle_radius_m, &allowed);
+    grid = std::move(tr.band);
+    radius = kPointRadius;
+  } else {
+    const int k = CollisionFactor(config.projection, input.map.resolution_m);
+    std::optional<StartupFreeZone> zone;
+    if (input.startup_center_m) {
+      zone = StartupFreeZone{
+          *input.startup_center_m,
+          StartupFreeRadius(k * input.map.resolution_m, config.startup_vertical_fov_rad)};
+    }
+    CollisionProjection c = ProjectCollisionMaps(input.map, config.projection, zone);
+    const std::vector<bool> traversable =
+        TraversableCells(c.collision, config.projection.collision_threshold);
+    allowed = AllowedCells(c.collision, traversable, start_xy, radius);
+    grid = std::move(c.collision);
+  }
+  // From half a second ahead (the vehicle's own place) to the end, every 0.05 s.
+  for (double s = from_time_s + 0.5; s <= trajectory.end_time_s(); s += 0.05) {
+    if (!DiscClear(grid, allowed, trajectory.Evaluate(s).position_m.head<2>(), radius)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace kestrel
