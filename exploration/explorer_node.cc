@@ -29,6 +29,11 @@ void ExplorerConfig::Validate() const {
       "explorer.end_stall_window_s = " << end_stall_window_s
                                        << " (accepted >= 0), end_stall_min_growth = "
                                        << end_stall_min_growth << " (accepted [0, 1))");
+  KESTREL_THROW_UNLESS(
+      replan_lookahead_s > 0 && flown_path_spacing_m > 0 && max_home_attempts >= 1,
+      "explorer.replan_lookahead_s = "
+          << replan_lookahead_s << ", flown_path_spacing_m = " << flown_path_spacing_m
+          << " (accepted > 0), max_home_attempts = " << max_home_attempts << " (accepted >= 1)");
   KESTREL_THROW_UNLESS(max_failed_plans >= 1,
                        "explorer.max_failed_plans = " << max_failed_plans << " must be >= 1");
   KESTREL_THROW_UNLESS(max_status_candidates >= 1, "explorer.max_status_candidates = "
@@ -62,6 +67,10 @@ ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
     e.Read("end_stall_min_growth", &c.end_stall_min_growth, Range{0.0, 1.0, true, false});
     e.Read("safety_check_period_s", &c.safety_check_period_s, Range::Positive());
     e.Read("retry_period_s", &c.retry_period_s, Range::Positive());
+    e.Read("nonstop", &c.nonstop);
+    e.Read("replan_lookahead_s", &c.replan_lookahead_s, Range::Positive());
+    e.Read("max_home_attempts", &c.max_home_attempts, Range::Closed(1, 1000));
+    e.Read("flown_path_spacing_m", &c.flown_path_spacing_m, Range::Positive());
     e.Read("max_failed_plans", &c.max_failed_plans, Range::Closed(1, 1000));
     e.Read("return_home", &c.return_home);
     e.Read("land_at_end", &c.land_at_end);
@@ -142,6 +151,11 @@ void ExplorerNode::OnPose(const pose_t& msg) {
   X_WB.p = Eigen::Vector3d(msg.position_m[0], msg.position_m[1], msg.position_m[2]);
   pose_ = X_WB;
   have_pose_ = true;
+  if (state_ != exploration_status_t::STATE_WAITING && state_ != exploration_status_t::STATE_DONE &&
+      (flown_path_.empty() ||
+       (flown_path_.back() - X_WB.p.head<2>()).norm() >= config_.flown_path_spacing_m)) {
+    flown_path_.push_back(X_WB.p.head<2>());
+  }
 }
 
 PlannerInput ExplorerNode::Input() const {
@@ -156,6 +170,7 @@ PlannerInput ExplorerNode::Input() const {
   in.time_s = now_s();
   in.startup_center_m = home_xy_;
   in.reached_goals = reached_goals_;
+  in.flown_path = flown_path_;
   // The goal being flown to (its trajectory has not ended): hysteresis for period replans.
   if (state_ == exploration_status_t::STATE_EXPLORING && trajectory_.has_value() &&
       now_s() < trajectory_->end_time_s() && last_plan_ &&
@@ -164,6 +179,38 @@ PlannerInput ExplorerNode::Input() const {
     in.current_goal = Eigen::Vector3d(goal.position_m.x(), goal.position_m.y(), goal.yaw_rad);
   }
   return in;
+}
+
+bool ExplorerNode::Splicing(double now) const {
+  return config_.nonstop && trajectory_.has_value() && now < trajectory_->end_time_s();
+}
+
+PlannerInput ExplorerNode::PlanningInput() const {
+  PlannerInput in = Input();
+  const double now = now_s();
+  if (!Splicing(now)) return in;
+  // The state the flown trajectory predicts at the splice time: the new trajectory starts there.
+  const double t = std::min(now + config_.replan_lookahead_s, trajectory_->end_time_s());
+  const TrajectoryStart s = StateAt(*trajectory_, t);
+  in.position_m = s.position_m;
+  in.velocity_mps = s.velocity_mps;
+  in.acceleration_mps2 = s.acceleration_mps2;
+  in.yaw_rad = s.yaw_rad;
+  in.yaw_rate_radps = s.yaw_rate_radps;
+  in.time_s = t;
+  return in;
+}
+
+void ExplorerNode::PublishFrom(const PiecewisePolynomialTrajectory& next) {
+  const double now = now_s();
+  if (trajectory_.has_value() && next.start_time_s() > now) {
+    if (std::optional<PiecewisePolynomialTrajectory> spliced = Splice(*trajectory_, now, next)) {
+      Publish(*spliced);
+      return;
+    }
+    drops_.Count("splice_failed", "could not splice the replan onto the flown trajectory");
+  }
+  Publish(next);
 }
 
 void ExplorerNode::Publish(const PiecewisePolynomialTrajectory& trajectory) {
@@ -203,28 +250,35 @@ void ExplorerNode::StartTurn() {
 
 void ExplorerNode::Plan(const std::string& reason) {
   const auto t0 = std::chrono::steady_clock::now();
-  PlanResult result = planner_->Plan(Input());
+  PlanResult result = planner_->Plan(PlanningInput());
   if (result.status == PlanStatus::kGoal && ProgressStalled()) {
     result.status = PlanStatus::kExplorationDone;
+    result.end_rule = "progress stall";
     result.reason = "progress stalled: known cells grew by less than " +
                     std::to_string(100.0 * config_.end_stall_min_growth) + "% in " +
                     std::to_string(config_.end_stall_window_s) + " s";
   }
-  total_planning_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double plan_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  total_planning_s_ += plan_s;
+  plan_times_s_.push_back(plan_s);
   last_plan_s_ = now_s();
   ++plan_seq_;
   if (result.status == PlanStatus::kGoal && result.trajectory.trajectory.has_value()) {
     failed_plans_ = 0;
-    Publish(*result.trajectory.trajectory);
+    PublishFrom(*result.trajectory.trajectory);
   } else if (result.status == PlanStatus::kExplorationDone) {
-    Log(LogLevel::kInfo, "exploration done: " + result.reason);
+    end_rule_ = result.end_rule.empty() ? "gain rule" : result.end_rule;
+    Log(LogLevel::kInfo, "exploration ended by the " + end_rule_ + ": " + result.reason);
     state_ = exploration_status_t::STATE_RETURNING;
   } else {
     ++failed_plans_;
     drops_.Count("plan_failed", result.reason);
     next_attempt_s_ = now_s() + config_.retry_period_s;
     if (failed_plans_ >= config_.max_failed_plans) {
-      Log(LogLevel::kWarning, std::to_string(failed_plans_) + " plans failed in a row: returning");
+      end_rule_ = "planning failures";
+      Log(LogLevel::kWarning, std::to_string(failed_plans_) + " plans failed in a row (last: " +
+                                  result.reason + "): returning");
       state_ = exploration_status_t::STATE_RETURNING;
     }
   }
@@ -256,18 +310,35 @@ bool ExplorerNode::ProgressStalled() {
 
 void ExplorerNode::PlanHome(const std::string& reason) {
   if (!config_.return_home) {
+    landing_ = "landed where exploration ended (return_home off)";
     SendLand();
     return;
   }
-  PlanResult home = PlanToPoint(config_.planner, Input(), home_xy_, home_yaw_rad_);
+  PlanResult home = PlanToPoint(config_.planner, PlanningInput(), home_xy_, home_yaw_rad_);
   ++plan_seq_;
+  ++home_attempts_;
   if (home.status == PlanStatus::kGoal && home.trajectory.trajectory.has_value()) {
-    Publish(*home.trajectory.trajectory);
-  } else {
-    Log(LogLevel::kWarning, "no path home (" + home.reason + "): landing here");
-    SendLand();
+    home_trajectory_ = true;
+    PublishFrom(*home.trajectory.trajectory);
+    PublishStatus(home, reason + " (" + end_rule_ + "): flying home");
+    return;
   }
-  PublishStatus(home, reason);
+  // No path home yet: hover (the trajectory being flown ends and the controller holds) and try
+  // again, max_home_attempts times in all; then land where the vehicle is, and say why.
+  next_attempt_s_ = now_s() + config_.retry_period_s;
+  if (home_attempts_ < config_.max_home_attempts) {
+    Log(LogLevel::kWarning, "no path home (" + home.reason + "), attempt " +
+                                std::to_string(home_attempts_) + " of " +
+                                std::to_string(config_.max_home_attempts));
+    PublishStatus(home, reason + " (" + end_rule_ + "): no path home yet");
+    return;
+  }
+  landing_ = "landed elsewhere: no path home after " + std::to_string(home_attempts_) +
+             " attempts (" + home.reason + "), " +
+             std::to_string((pose_.p.head<2>() - home_xy_).norm()) + " m from the take-off point";
+  Log(LogLevel::kWarning, landing_);
+  SendLand();
+  PublishStatus(home, reason + " (" + end_rule_ + "): " + landing_);
 }
 
 void ExplorerNode::SendLand() {
@@ -286,33 +357,8 @@ bool ExplorerNode::RemainingPathSafe() {
   if (!trajectory_.has_value()) return true;
   const double t = now_s();
   if (t >= trajectory_->end_time_s()) return true;
-  const OccupancyGridView view = Input().map;
-  const int k = CollisionFactor(config_.planner.projection, view.resolution_m);
-  const StartupFreeZone zone{
-      home_xy_, StartupFreeRadius(k * view.resolution_m, config_.planner.startup_vertical_fov_rad)};
-  const CollisionProjection c = ProjectCollisionMaps(view, config_.planner.projection, zone);
-  std::vector<bool> traversable(c.collision.values.size());
-  for (size_t i = 0; i < traversable.size(); ++i) {
-    traversable[i] =
-        IsTraversable(c.collision.values[i], config_.planner.projection.collision_threshold);
-  }
-  // The planner's own rule: cells under the vehicle's disc where the trajectory starts are allowed
-  // (the vehicle is already there).
-  const double r = config_.planner.trajectory.vehicle_radius_m;
-  const Eigen::Vector2d start_xy =
-      trajectory_->Evaluate(trajectory_->start_time_s()).position_m.head<2>();
-  const std::vector<bool> allowed = AllowedCells(c.collision, traversable, start_xy, r);
-  // From half a second ahead (the vehicle's own disc is where it is) to the end.
-  // Sample times by repeated addition (the same times as before this was a while loop).
-  double s = t + 0.5;
-  while (s <= trajectory_->end_time_s()) {
-    const Eigen::Vector3d p = trajectory_->Evaluate(s).position_m;
-    if (!DiscClear(c.collision, allowed, p.head<2>(), r)) {
-      return false;
-    }
-    s += 0.05;
-  }
-  return true;
+  // The planner's own rule for the mode (exploration/planner.h, TrajectoryStillClear).
+  return TrajectoryStillClear(config_.planner, Input(), *trajectory_, t);
 }
 
 void ExplorerNode::Step() {
@@ -346,11 +392,18 @@ void ExplorerNode::Step() {
       break;
     case exploration_status_t::STATE_EXPLORING: {
       if (t < next_attempt_s_) break;
-      if (!trajectory_.has_value() || t >= trajectory_->end_time_s()) {
-        if (last_plan_ && last_plan_->status == PlanStatus::kGoal && last_plan_->chosen >= 0) {
-          const Candidate& goal = last_plan_->candidates[static_cast<size_t>(last_plan_->chosen)];
-          reached_goals_.emplace_back(goal.position_m.x(), goal.position_m.y(), goal.yaw_rad);
+      const bool ended = !trajectory_.has_value() || t >= trajectory_->end_time_s();
+      if (last_plan_ && last_plan_->status == PlanStatus::kGoal && last_plan_->chosen >= 0) {
+        // A goal counts as reached when its trajectory ends or, in non-stop flight (where
+        // trajectories are replaced before they end), when the vehicle passes within 0.3 m of it.
+        const Candidate& goal = last_plan_->candidates[static_cast<size_t>(last_plan_->chosen)];
+        const Eigen::Vector3d g(goal.position_m.x(), goal.position_m.y(), goal.yaw_rad);
+        const bool near = (pose_.p.head<2>() - goal.position_m).norm() < 0.3;
+        if ((ended || near) && (reached_goals_.empty() || reached_goals_.back() != g)) {
+          reached_goals_.push_back(g);
         }
+      }
+      if (ended) {
         Plan("trajectory ended");
       } else if (t - last_plan_s_ >= config_.replan_period_s &&
                  trajectory_->end_time_s() - t > config_.replan_min_remaining_s) {
@@ -364,16 +417,21 @@ void ExplorerNode::Step() {
       break;
     }
     case exploration_status_t::STATE_RETURNING:
-      // The flight home ends in the collision cell holding the take-off point (up to half a
-      // collision cell away from it): land there.
+      if (!home_trajectory_) {
+        if (t >= next_attempt_s_) PlanHome("retrying the flight home");
+        break;
+      }
+      // The flight home ends in the cell holding the take-off point (or the reachable one nearest
+      // to it): land there.
       if (trajectory_.has_value() && t >= trajectory_->end_time_s() + 0.5) {
-        Log(LogLevel::kInfo, "home (" + std::to_string((pose_.p.head<2>() - home_xy_).norm()) +
-                                 " m from the take-off point)");
+        landing_ = "returned home (" + std::to_string((pose_.p.head<2>() - home_xy_).norm()) +
+                   " m from the take-off point)";
+        Log(LogLevel::kInfo, landing_);
         SendLand();
         // The status says DONE too: processes watching EXPLORATION_STATUS (flight_check, the
         // viewer, an operator) learn that exploration is over from it.
         ++plan_seq_;
-        PublishStatus(PlanResult{}, "home: land sent");
+        PublishStatus(PlanResult{}, "home: land sent (" + end_rule_ + ", " + landing_ + ")");
       }
       break;
     default:

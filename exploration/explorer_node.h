@@ -59,24 +59,32 @@ struct ExplorerConfig {
 
   double startup_yaw_rate_radps{0.8};  ///< peak yaw rate of the start-up full circle, rad/s
   double height_tolerance_m{0.25};     ///< hovering within this of h counts as "at height", m
-  double replan_period_s{10.0};        ///< replan at least this often while flying, s...
+  double replan_period_s{1.0};         ///< replan at least this often while flying, s...
   /// ...unless the trajectory ends within this, s: a replan near the goal (often while the
   /// vehicle turns to the goal's heading in the goal's cell, which is no candidate) would pick
   /// another goal before this one is reached, again and again.
-  double replan_min_remaining_s{3.0};
+  double replan_min_remaining_s{0.0};
   /// Progress stall (Kestrel's addition; 0 disables): exploration also ends when the number of
   /// known 3D cells (P < P_init / 2 or P > 0.5, ALGORITHMS.md section 10's rule on the
   /// explorer's own map) grew by less than end_stall_min_growth of itself over this window, s.
   /// The gain-based tests alone may never end in a cluttered world: cells no sensor can see keep
   /// a little predicted gain that the vehicle chases round the rooms.
   double end_stall_window_s{120.0};
-  double end_stall_min_growth{0.005}; ///< see end_stall_window_s, fraction in [0, 1)
+  double end_stall_min_growth{0.005};  ///< see end_stall_window_s, fraction in [0, 1)
   double safety_check_period_s{0.5};   ///< how often the remaining path is re-checked, s
-  double retry_period_s{1.0};          ///< wait after a failed plan, s
-  int max_failed_plans{5};             ///< consecutive failures before returning home
-  bool return_home{true};              ///< fly back to the take-off point at the end
-  bool land_at_end{true};              ///< then send a land command
-  int max_status_candidates{512};      ///< candidates listed in EXPLORATION_STATUS (best first)
+  /// Non-stop flight (docs/exploration.md, "Non-stop flight"): a replan while a trajectory is
+  /// flown starts from the state the trajectory predicts replan_lookahead_s ahead, and the
+  /// published trajectory is the flown one up to then, spliced to the new one (continuous in
+  /// position, velocity and acceleration): the vehicle never stops to replan.
+  bool nonstop{true};
+  double replan_lookahead_s{1.0};     ///< s (> 0; longer than the slowest replan)
+  int max_home_attempts{5};           ///< failed plans home before landing where the vehicle is
+  double flown_path_spacing_m{0.25};  ///< the flown corridor keeps a point every this many m
+  double retry_period_s{1.0};         ///< wait after a failed plan, s
+  int max_failed_plans{5};            ///< consecutive failures before returning home
+  bool return_home{true};             ///< fly back to the take-off point at the end
+  bool land_at_end{true};             ///< then send a land command
+  int max_status_candidates{512};     ///< candidates listed in EXPLORATION_STATUS (best first)
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
@@ -104,6 +112,13 @@ class ExplorerNode {
   [[nodiscard]] const DropCounter& drops() const { return drops_; }
   /// Sum of planning wall time over all plans, s.
   [[nodiscard]] double total_planning_s() const { return total_planning_s_; }
+  /// Wall time of every exploration replan, s (not the flights home).
+  [[nodiscard]] const std::vector<double>& plan_times_s() const { return plan_times_s_; }
+  /// What ended exploration ("" while exploring): "gain rule", "progress stall", "planning
+  /// failures", "no reachable candidate", "no reachable frontier".
+  [[nodiscard]] const std::string& end_rule() const { return end_rule_; }
+  /// How the flight ended ("" until the land command): "returned home" or "landed elsewhere: ...".
+  [[nodiscard]] const std::string& landing() const { return landing_; }
 
  private:
   void OnPose(const pose_t& msg);
@@ -116,6 +131,10 @@ class ExplorerNode {
   void PublishMaps(const PlanResult& result);
   void SendLand();
   [[nodiscard]] PlannerInput Input() const;
+  // Input() from the state predicted at now + lookahead on the flown trajectory, when splicing.
+  [[nodiscard]] PlannerInput PlanningInput() const;
+  // Publishes `next`, spliced onto the flown trajectory when it starts later than now.
+  void PublishFrom(const PiecewisePolynomialTrajectory& next);
   [[nodiscard]] double now_s() const { return UtimeToSeconds(clock_.NowUtime()); }
 
   lcm::LCM& lcm_;
@@ -151,6 +170,15 @@ class ExplorerNode {
   std::vector<Eigen::Vector3d> reached_goals_;
   // (time s, known cells) at each plan while exploring: the progress-stall test.
   std::vector<std::pair<double, int64_t>> known_history_;
+  // The flown corridor (PlannerInput::flown_path), a point every flown_path_spacing_m.
+  std::vector<Eigen::Vector2d> flown_path_;
+  std::vector<double> plan_times_s_;
+  std::string end_rule_;
+  std::string landing_;
+  int home_attempts_{0};
+  bool home_trajectory_{false};  // the trajectory being flown goes home
+  // Starts a spliced replan from `trajectory_` at now + lookahead, if one is being flown.
+  [[nodiscard]] bool Splicing(double now) const;
   // True when the known cells grew by less than end_stall_min_growth over the stall window.
   bool ProgressStalled();
 };

@@ -1,5 +1,6 @@
 #include "tests/system/mission.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -326,7 +327,8 @@ MissionResult RunMission(const MissionConfig& mc) {
     }
     if (land_utime >= 0 && controller.flight().supervisor().mode() == FlightMode::kIdle) {
       r.landed = true;
-      r.end_reason = "explored, returned and landed";
+      r.end_reason = "exploration ended by the " + explorer.end_rule() + "; " + explorer.landing() +
+                     "; landed";
       break;
     }
     if (t >= mc.max_time_s) {
@@ -341,6 +343,14 @@ MissionResult RunMission(const MissionConfig& mc) {
   r.last_collision = sim.simulator().vehicle().last_collision();
   r.plans = static_cast<int>(explorer.plans());
   r.planning_wall_s = explorer.total_planning_s();
+  r.end_rule = explorer.end_rule();
+  r.landing = explorer.landing();
+  if (!explorer.plan_times_s().empty()) {
+    std::vector<double> times = explorer.plan_times_s();
+    std::sort(times.begin(), times.end());
+    r.plan_median_s = times[times.size() / 2];
+    r.plan_max_s = times.back();
+  }
   r.scans_applied = mapper.scans_applied();
   r.mapper_applied_every_message = mapper.applied_every_message();
   r.map_hash = mapper.map_hash();
@@ -375,8 +385,11 @@ std::string MissionSummary(const MissionResult& r) {
     << "collisions: " << r.collisions
     << (r.collisions > 0 ? " (last with " + r.last_collision + ")" : std::string()) << "\n"
     << "path length: " << r.path_length_m << " m\n"
+    << "ended by: " << (r.end_rule.empty() ? "-" : r.end_rule) << "\n"
+    << "landing: " << (r.landing.empty() ? "-" : r.landing) << "\n"
     << "plans: " << r.plans << ", planning wall time " << r.planning_wall_s << " s ("
-    << (r.plans > 0 ? 1000.0 * r.planning_wall_s / r.plans : 0) << " ms per plan)\n"
+    << (r.plans > 0 ? 1000.0 * r.planning_wall_s / r.plans : 0) << " ms per plan; replan median "
+    << 1000.0 * r.plan_median_s << " ms, max " << 1000.0 * r.plan_max_s << " ms)\n"
     << "scans applied: " << r.scans_applied
     << ", every message applied: " << (r.mapper_applied_every_message ? "yes" : "no") << "\n"
     << "map entropy: " << r.final_entropy_nats << " nats, map hash " << std::hex << r.map_hash

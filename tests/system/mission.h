@@ -68,6 +68,10 @@ struct MissionResult {
   double time_to_95_s{-1};  ///< first sample with known fraction >= 0.95 (-1: never)
   std::vector<MissionSample> samples;
   std::string end_reason;
+  std::string end_rule;                ///< what ended exploration (ExplorerNode::end_rule)
+  std::string landing;                 ///< "returned home (...)" or "landed elsewhere: ..."
+  double plan_median_s{0};             ///< median wall time of an exploration replan
+  double plan_max_s{0};                ///< slowest exploration replan
   int64_t sensor_messages_dropped{0};  ///< by the fault injection
   int64_t poses_dropped{0};            ///< by the motion-capture outage
   bool tracked_after_outage{false};    ///< the controller was in TRACK after the outage
