@@ -70,7 +70,7 @@ VolumetricSensor XtionVolumetricSensor() {
   s.model = SensorModelConfig::Xtion();
   s.horizontal_fov_rad = 58.0 * M_PI / 180.0;
   s.vertical_fov_rad = 45.0 * M_PI / 180.0;
-  s.rows = 5;
+  s.rows = 3;
   s.height_offset_m = 0.05;
   return s;
 }

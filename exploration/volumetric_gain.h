@@ -85,7 +85,7 @@ struct VolumetricSensor {
   double height_offset_m{0.0};
 };
 
-/// The paper's Asus Xtion: 58 x 45 deg, 5 rows, 0.05 m above the body origin.
+/// The paper's Asus Xtion: 58 x 45 deg, 3 rows, 0.05 m above the body origin.
 [[nodiscard]] VolumetricSensor XtionVolumetricSensor();
 /// The paper's Hokuyo URG-04LX: 240 deg planar scan, 0.12 m above the body origin.
 [[nodiscard]] VolumetricSensor HokuyoVolumetricSensor();
@@ -95,7 +95,7 @@ struct VolumetricGainConfig {
   /// Default: the paper's Xtion and Hokuyo (XtionVolumetricSensor, HokuyoVolumetricSensor).
   std::vector<VolumetricSensor> sensors{XtionVolumetricSensor(), HokuyoVolumetricSensor()};
   /// Ray azimuths 2 pi b / azimuth_bins, b = 0..bins-1, shared by all headings; [1, 36000].
-  int azimuth_bins{120};
+  int azimuth_bins{60};
   WeightMode weight_mode{WeightMode::kChordProbability};  ///< eq. (8) cleaned or literal
   /// Ray templates (file comment); off: every ray of every position is cast (same numbers).
   bool use_templates{true};
