@@ -141,9 +141,9 @@ struct VolumetricGainStats {
 struct PoseGains {
   /// I(X_c) per heading (eq. 10 summed over the heading's rays), empty if only bounds were asked.
   std::vector<double> gain_nats;
-  /// Upper bound per heading: the sum over its rays of sum_j H(P_j) over the cells up to the
-  /// ray's first certain occupied cell (certain_probability) (>= gain: E[H] >= 0, and cells behind
-  /// a certain occupied cell keep their prior under every hypothesis).
+  /// Upper bound per heading: the sum over its rays of min(sum_j H(P_j) over the cells up to the
+  /// ray's first certain occupied cell, ln(n + 1)) (>= gain: E[H] >= 0, cells behind a certain
+  /// occupied cell keep their prior under every hypothesis, and I_ray <= H(z) <= ln(n + 1)).
   std::vector<double> bound_nats;
 };
 

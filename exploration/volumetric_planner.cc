@@ -24,6 +24,9 @@ double SecondsSince(Clock::time_point t0) {
 // holds the radius and the margin: the trajectory planner's disc shrinks to (almost) a point.
 constexpr double kPointRadius = 1e-3;
 
+// How far the escape from a place short of clearance may lead (AllowEscape), m.
+constexpr double kEscapeRadius = 2.0;
+
 // One candidate position of the volumetric planner.
 struct Position {
   int cell{-1};
@@ -70,6 +73,7 @@ bool FineSearch(const PlannerConfig& config, const PlannerInput& input, bool wit
   // The vehicle is where it is: the cells under its disc are usable unless known occupied, so a
   // vehicle that new map data left short of the required clearance can still move away.
   AllowAround(tr, input.position_m.head<2>(), config.trajectory.vehicle_radius_m, traversable);
+  AllowEscape(tr, tc, input.position_m.head<2>(), kEscapeRadius, traversable);
   result->field = ComputeDistanceField(tr.band.width, tr.band.height, *traversable, *start,
                                        tr.band.resolution_m);
   result->timings.dijkstra_s = SecondsSince(t1);
@@ -123,6 +127,18 @@ void TrajectoryToBest(const PlannerConfig& config, const PlannerInput& input,
     if (result->status == PlanStatus::kGoal) return;
   }
   result->chosen = -1;
+}
+
+// The height at which poses' gains are predicted: h, or h + 1 mm when a sensor's origin would lie
+// on a cell boundary (within 1e-6 m), where every ray's first crossing ties with its start and
+// has to be cast at each position instead of following a shared template.
+double GainHeight(const PlannerConfig& config, const OccupancyGridView& map) {
+  const double h = config.projection.height_m;
+  for (const VolumetricSensor& s : config.volumetric.gain.sensors) {
+    const double cells = (h + s.height_offset_m - map.origin_m.z()) / map.resolution_m;
+    if (std::abs(cells - std::round(cells)) * map.resolution_m < 1e-6) return h + 1e-3;
+  }
+  return h;
 }
 
 }  // namespace
@@ -247,6 +263,7 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
   const int n_yaw = config_.candidates.n_yaw;
   UpdateAffectedTiles(input.map);
   reused_positions_ = 0;
+  const double z = GainHeight(config_, input.map);
   CandidateConfig cc = config_.candidates;
   cc.lattice_step = std::max(
       1, static_cast<int>(std::lround(config_.volumetric.candidate_spacing_m / grid.resolution_m)));
@@ -269,9 +286,8 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
         static_cast<int>(cached->second.bounds.size()) == n_yaw) {
       ++reused_positions_;
     } else {
-      const PoseGains b = gains_.Evaluate(
-          input.map, Eigen::Vector3d(p.xy.x(), p.xy.y(), config_.projection.height_m), n_yaw, false,
-          &result.volumetric_stats);
+      const PoseGains b = gains_.Evaluate(input.map, Eigen::Vector3d(p.xy.x(), p.xy.y(), z), n_yaw,
+                                          false, &result.volumetric_stats);
       cached = cache_.insert_or_assign(cell, CachedPose{b.bound_nats, {}}).first;
     }
     const CachedPose& c = cached->second;
@@ -284,9 +300,8 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
   }
   auto evaluate = [&](Position* p) {
     if (p->evaluated) return;
-    const PoseGains g = gains_.Evaluate(
-        input.map, Eigen::Vector3d(p->xy.x(), p->xy.y(), config_.projection.height_m), n_yaw, true,
-        &result.volumetric_stats);
+    const PoseGains g = gains_.Evaluate(input.map, Eigen::Vector3d(p->xy.x(), p->xy.y(), z), n_yaw,
+                                        true, &result.volumetric_stats);
     p->gains = g.gain_nats;
     p->evaluated = true;
     cache_.insert_or_assign(p->cell, CachedPose{g.bound_nats, g.gain_nats});
@@ -480,7 +495,7 @@ PlanResult FineFrontierPlanner::Plan(const PlannerInput& input) {
   goal.yaw_rad = towards.squaredNorm() > 0.0 ? std::atan2(towards.y(), towards.x()) : input.yaw_rad;
   const PoseGains g = gains_.Evaluate(
       input.map,
-      Eigen::Vector3d(goal.position_m.x(), goal.position_m.y(), config_.projection.height_m), 1,
+      Eigen::Vector3d(goal.position_m.x(), goal.position_m.y(), GainHeight(config_, input.map)), 1,
       true, &result.volumetric_stats);
   goal.gain_nats = g.gain_nats.empty() ? 0.0 : g.gain_nats[0];  // heading 0: for the status only
   result.best_unweighted_gain_nats = goal.gain_nats;
@@ -555,6 +570,8 @@ bool TrajectoryStillClear(const PlannerConfig& config, const PlannerInput& input
     allowed = tr.traversable;
     AllowAround(tr, start_xy, config.trajectory.vehicle_radius_m, &allowed);
     AllowAround(tr, input.position_m.head<2>(), config.trajectory.vehicle_radius_m, &allowed);
+    AllowEscape(tr, tc, start_xy, kEscapeRadius, &allowed);
+    AllowEscape(tr, tc, input.position_m.head<2>(), kEscapeRadius, &allowed);
     grid = std::move(tr.band);
     radius = kPointRadius;
   } else {

@@ -87,7 +87,12 @@ Brute BruteForce(const DenseGrid& grid, const VolumetricGainConfig& config,
             model, entry.data(), exit.data(), cells.distance_m.data(), prior.data(), n,
             config.weight_mode, GainMethod::kDirect, &scratch);
         bin_gain[static_cast<size_t>(b)] += r.gain_nats();
-        bin_bound[static_cast<size_t>(b)] += r.prior_entropy_nats;
+        // The bound: the prior entropy, and with chord-probability weights at most ln(n + 1)
+        // (H of the hypotheses; the evaluator's header).
+        bin_bound[static_cast<size_t>(b)] +=
+            config.weight_mode == WeightMode::kChordProbability
+                ? std::min(r.prior_entropy_nats, std::log(static_cast<double>(n) + 1.0))
+                : r.prior_entropy_nats;
       }
     }
     for (int m = 0; m < n_yaw; ++m) {
@@ -366,10 +371,10 @@ TEST(VolumetricGain, RotationSymmetricMapGivesEqualHeadings) {
 }
 
 // Visibility of fuzzy surfaces (VolumetricGainConfig::opaque_probability): a one-cell wall that
-// the sensor model has left at P = 0.6 in front of an unknown block. Read as it is stored, the exact
-// model still predicts a glimpse behind it, a gain no flight collects (the sensor keeps hitting
-// the wall); read as opaque, the block adds nothing: the gain equals that of the same room with
-// the block already known, bit for bit. A wall at 0.3 (less likely occupied than not) stays
+// the sensor model has left at P = 0.6 in front of an unknown block. Read as it is stored, the
+// exact model still predicts a glimpse behind it, a gain no flight collects (the sensor keeps
+// hitting the wall); read as opaque, the block adds nothing: the gain equals that of the same room
+// with the block already known, bit for bit. A wall at 0.3 (less likely occupied than not) stays
 // transparent.
 TEST(VolumetricGain, OpaqueSurfaces) {
   auto room = [](float wall_p, bool block_known) {
