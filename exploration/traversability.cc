@@ -255,4 +255,33 @@ int AllowAround(const Traversability& map, const Eigen::Vector2d& p_m, double ra
   return added;
 }
 
+int AllowEscape(const Traversability& map, const TraversabilityConfig& config,
+                const Eigen::Vector2d& p_m, double escape_radius_m,
+                std::vector<bool>* traversable) {
+  KESTREL_THROW_UNLESS(
+      traversable != nullptr && traversable->size() == static_cast<size_t>(map.band.size()),
+      "AllowEscape: traversable flags do not match the map");
+  const std::optional<Cell2> c = map.band.CellOf(p_m);
+  if (!c) return 0;
+  const size_t own = static_cast<size_t>(map.band.IndexOf(*c));
+  if (map.traversable[own]) return 0;
+  const double alpha = map.band.resolution_m;
+  const double floor = std::min(map.clearance.values[own], config.required_clearance_m()) - alpha;
+  const int reach = static_cast<int>(std::ceil(escape_radius_m / alpha));
+  int added = 0;
+  for (int y = std::max(0, c->y - reach); y <= std::min(map.band.height - 1, c->y + reach); ++y) {
+    for (int x = std::max(0, c->x - reach); x <= std::min(map.band.width - 1, c->x + reach); ++x) {
+      const size_t i = static_cast<size_t>(map.band.IndexOf(x, y));
+      if ((*traversable)[i] || map.clearance.values[i] <= 0.0 || map.clearance.values[i] < floor) {
+        continue;
+      }
+      if ((map.band.CenterOf({x, y}) - p_m).norm() <= escape_radius_m) {
+        (*traversable)[i] = true;
+        ++added;
+      }
+    }
+  }
+  return added;
+}
+
 }  // namespace kestrel

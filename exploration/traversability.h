@@ -85,4 +85,13 @@ struct Traversability {
 int AllowAround(const Traversability& map, const Eigen::Vector2d& p_m, double radius_m,
                 std::vector<bool>* traversable);
 
+/// Escape from a place short of clearance (new map data can leave the vehicle there, e.g. a table
+/// top or sensor noise that blurs into the band): marks traversable the free cells within
+/// escape_radius_m of p whose clearance is at least the clearance at p's own cell (minus one cell)
+/// or the required clearance, whichever is smaller, so the vehicle can move along space no
+/// tighter than where it is until it reaches fully traversable space. Nothing when p's cell is
+/// traversable. Returns how many cells it added.
+int AllowEscape(const Traversability& map, const TraversabilityConfig& config,
+                const Eigen::Vector2d& p_m, double escape_radius_m, std::vector<bool>* traversable);
+
 }  // namespace kestrel
