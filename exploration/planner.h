@@ -55,7 +55,7 @@ struct VolumetricConfig {
   double candidate_spacing_m{0.75};  ///< candidate positions every this many m (>= one cell)
   /// The paper's end rule, working: exploration ends when the best UNWEIGHTED 3D gain of every
   /// reachable candidate pose is below this, nats (> 0).
-  double end_gain_nats{2.0};
+  double end_gain_nats{4.0};
   VolumetricGainConfig gain;  ///< sensors' 3D rays (gain.sensors' vertical keys), azimuth bins
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.

@@ -4,6 +4,7 @@
 // Usage: gain_probe MAP_FILE X Y Z YAW [RAYS [OPAQUE_P]]
 //        gain_probe --plan MAP_FILE X Y Z [REPEAT [BINS XTION_ROWS SPACING_M]]
 //        (one volumetric replan, timed by stage)
+//        gain_probe --traversability MAP_FILE X Y Z   (the fine traversability around X Y)
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -52,10 +53,38 @@ int PlanOnce(int argc, char** argv) {
   return 0;
 }
 
+// ASCII picture of the fine traversability around (x, y): '#' blocked by a known occupied cell,
+// '?' blocked by unknown space, '-' free but short of clearance, '.' traversable, 'V' (x, y).
+int Traversable(char** argv) {
+  const LoadedMap<DenseOccupancyMap> loaded = LoadDenseMap(argv[2]);
+  PlannerConfig config;
+  config.projection.height_m = std::atof(argv[5]);
+  const Eigen::Vector2d xy(std::atof(argv[3]), std::atof(argv[4]));
+  const Traversability t =
+      ComputeTraversability(ViewOf(loaded.map->grid()), FineTraversabilityConfig(config));
+  const auto c = t.band.CellOf(xy);
+  if (!c) return 1;
+  for (int y = c->y + 30; y >= c->y - 30; y -= 1) {
+    for (int x = c->x - 40; x <= c->x + 40; ++x) {
+      if (!t.band.Contains(x, y)) {
+        std::putchar(' ');
+        continue;
+      }
+      const size_t i = static_cast<size_t>(t.band.IndexOf(x, y));
+      char ch = t.traversable[i] ? '.' : t.clearance.values[i] > 0 ? '-' : t.unknown[i] ? '?' : '#';
+      if (x == c->x && y == c->y) ch = 'V';
+      std::putchar(ch);
+    }
+    std::putchar('\n');
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc >= 6 && std::string(argv[1]) == "--plan") return PlanOnce(argc, argv);
+  if (argc >= 6 && std::string(argv[1]) == "--traversability") return Traversable(argv);
   if (argc < 6) {
     std::fprintf(stderr, "usage: gain_probe MAP_FILE X Y Z YAW [RAYS [OPAQUE_P]]\n");
     return 2;

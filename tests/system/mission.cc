@@ -297,6 +297,11 @@ MissionResult RunMission(const MissionConfig& mc) {
           ((p.head<2>() - world.map_min_m.head<2>()) / alpha_c).array().floor();
       r.left_start_collision_cell = cell_now != start_cell;
     }
+    if (explorer.state() == exploration_status_t::STATE_EXPLORING ||
+        explorer.state() == exploration_status_t::STATE_RETURNING) {
+      r.max_height_error_m = std::max(
+          r.max_height_error_m, std::abs(p.z() - explorer_config.planner.projection.height_m));
+    }
     r.path_length_m += (p - last_position).norm();
     last_position = p;
     if (land_utime < 0 && explorer.state() == exploration_status_t::STATE_DONE) {
@@ -385,6 +390,7 @@ std::string MissionSummary(const MissionResult& r) {
     << "collisions: " << r.collisions
     << (r.collisions > 0 ? " (last with " + r.last_collision + ")" : std::string()) << "\n"
     << "path length: " << r.path_length_m << " m\n"
+    << "largest height error while exploring: " << r.max_height_error_m << " m\n"
     << "ended by: " << (r.end_rule.empty() ? "-" : r.end_rule) << "\n"
     << "landing: " << (r.landing.empty() ? "-" : r.landing) << "\n"
     << "plans: " << r.plans << ", planning wall time " << r.planning_wall_s << " s ("

@@ -72,6 +72,9 @@ struct MissionResult {
   std::string landing;                 ///< "returned home (...)" or "landed elsewhere: ..."
   double plan_median_s{0};             ///< median wall time of an exploration replan
   double plan_max_s{0};                ///< slowest exploration replan
+  /// Largest |z - h| of the true vehicle while exploring or flying home, m (h: the exploration
+  /// height): trajectories stay in the plane their checks assume.
+  double max_height_error_m{0};
   int64_t sensor_messages_dropped{0};  ///< by the fault injection
   int64_t poses_dropped{0};            ///< by the motion-capture outage
   bool tracked_after_outage{false};    ///< the controller was in TRACK after the outage
