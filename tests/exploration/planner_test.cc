@@ -301,5 +301,90 @@ TEST(Planner, VolumetricReuseIsExact) {
   EXPECT_GT(compared, 8);
 }
 
+// Bad input and edge cases of the volumetric mode: each gives a clear status, never a crash.
+TEST(Planner, VolumetricEdgeCases) {
+  PlannerConfig config;
+  config.mode = ExplorationMode::kVolumetric;
+  {  // Outside the map: a failed plan that says so, and no way home from there.
+    RoomMap map(100.0);
+    const PlanResult r = MakePlanner(config)->Plan(InputAt(map, {10.0, 10.0}));
+    EXPECT_EQ(r.status, PlanStatus::kFailed);
+    EXPECT_EQ(r.reason, "vehicle outside the map");
+    EXPECT_EQ(PlanToPoint(config, InputAt(map, {10.0, 10.0}), {0.0, 0.0}, 0.0).status,
+              PlanStatus::kFailed);
+  }
+  {  // A NaN pose.
+    RoomMap map(100.0);
+    PlannerInput in = InputAt(map, {0.0, 0.0});
+    in.velocity_mps.x() = std::nan("");
+    const PlanResult r = MakePlanner(config)->Plan(in);
+    EXPECT_EQ(r.status, PlanStatus::kFailed);
+    EXPECT_NE(r.reason.find("not finite"), std::string::npos) << r.reason;
+  }
+  {  // Inside an obstacle (a solid 1 m block of furniture around the vehicle): nothing
+     // reachable, exploration ends with the reason, and the flight home fails with its own.
+    RoomMap map(100.0);
+    for (int k = 0; k < map.dims.z(); ++k) {
+      for (int j = 0; j < map.dims.y(); ++j) {
+        for (int i = 0; i < map.dims.x(); ++i) {
+          const double x = map.origin.x() + (i + 0.5) * map.alpha + 1.5;
+          const double y = map.origin.y() + (j + 0.5) * map.alpha - 1.5;
+          if (std::abs(x) < 0.5 && std::abs(y) < 0.5) map.at(i, j, k) = 0.9999f;
+        }
+      }
+    }
+    const PlanResult r = MakePlanner(config)->Plan(InputAt(map, {-1.5, 1.5}));
+    EXPECT_EQ(r.status, PlanStatus::kExplorationDone);
+    EXPECT_EQ(r.end_rule, "no reachable candidate");
+    const PlanResult home = PlanToPoint(config, InputAt(map, {-1.5, 1.5}), {-2.0, -2.0}, 0.0);
+    EXPECT_EQ(home.status, PlanStatus::kFailed);
+    EXPECT_FALSE(home.reason.empty());
+  }
+  {  // Boxed in by new obstacles: a ring of occupied cells 0.6 m around the vehicle.
+    RoomMap map(100.0);
+    for (int k = 0; k < map.dims.z(); ++k) {
+      for (int j = 0; j < map.dims.y(); ++j) {
+        for (int i = 0; i < map.dims.x(); ++i) {
+          const double x = map.origin.x() + (i + 0.5) * map.alpha + 1.5;
+          const double y = map.origin.y() + (j + 0.5) * map.alpha + 1.5;
+          const double d = std::hypot(x, y);
+          if (d > 0.55 && d < 0.7) map.at(i, j, k) = 0.9999f;
+        }
+      }
+    }
+    const PlanResult r = MakePlanner(config)->Plan(InputAt(map, {-1.5, -1.5}));
+    EXPECT_EQ(r.status, PlanStatus::kExplorationDone) << r.reason;
+    EXPECT_EQ(r.end_rule, "no reachable candidate");
+    EXPECT_EQ(PlanToPoint(config, InputAt(map, {-1.5, -1.5}), {1.5, 1.5}, 0.0).status,
+              PlanStatus::kFailed);
+  }
+  {  // A fully known closed room: nothing left to learn, the gain rule ends it.
+    RoomMap map(100.0);
+    const PlanResult r = MakePlanner(config)->Plan(InputAt(map, {-1.5, -1.5}));
+    EXPECT_EQ(r.status, PlanStatus::kExplorationDone);
+    EXPECT_EQ(r.end_rule, "gain rule");
+  }
+}
+
+// New map data can leave the vehicle short of clearance (0.25 m from a wall, 0.49 m needed): it
+// escapes along space no tighter than where it is, and the plan flies it away.
+TEST(Planner, VolumetricEscapesFromNearAWall) {
+  RoomMap map(2.2);
+  PlannerConfig config;
+  config.mode = ExplorationMode::kVolumetric;
+  // The inner wall's face is at x = 0.5 (cells with |x - 0.6| < 0.1): stand 0.25 m west of it.
+  const PlannerInput in = InputAt(map, {0.25, -0.5});
+  const PlanResult r = MakePlanner(config)->Plan(in);
+  ASSERT_EQ(r.status, PlanStatus::kGoal) << r.reason;
+  ASSERT_TRUE(r.traversability.has_value());
+  const auto start = r.traversability->band.CellOf(in.position_m.head<2>());
+  EXPECT_FALSE(
+      r.traversability->traversable[static_cast<size_t>(r.traversability->band.IndexOf(*start))]);
+  // The trajectory never comes closer to the wall than the start.
+  for (const TrajectorySample& smp : r.trajectory.trajectory->Sample(0.05)) {
+    EXPECT_LT(smp.flat.position_m.x(), 0.25 + 0.075) << "t " << smp.time_s;
+  }
+}
+
 }  // namespace
 }  // namespace kestrel
