@@ -196,10 +196,23 @@ Traversability ComputeTraversability(const OccupancyGridView& map,
       t.traversable[i] = free[i] && c >= need;
     }
   }
-  if (band_inside && flown != nullptr) {
+  if (band_inside && flown != nullptr && flown->size() >= 2) {
     // The flown corridor: the vehicle's centre has been along these segments (consecutive points
-    // at most kMaxFlownGap apart), so cells within 1.5 cells of them are traversable unless known
-    // occupied.
+    // at most kMaxFlownGap apart), so cells within 1.5 cells of them are traversable where known
+    // occupied cells (P > 0.5, and the map's outside) leave the full clearance: uncertain cells
+    // (sensor noise since) are ignored there, known obstacles are not.
+    std::vector<bool> occupied(static_cast<size_t>(pw) * static_cast<size_t>(ph), true);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        occupied[static_cast<size_t>((x + 1) + pw * (y + 1))] =
+            t.band.values[static_cast<size_t>(x + w * y)] > 0.5;
+      }
+    }
+    const std::vector<double> o2 = SquaredDistanceTransform(pw, ph, occupied);
+    const auto clear_of_known = [&](int x, int y) {
+      return std::sqrt(o2[static_cast<size_t>((x + 1) + pw * (y + 1))]) * alpha - 0.5 * alpha >=
+             need;
+    };
     constexpr double kMaxFlownGap = 1.0;
     const double near = 1.5 * alpha;
     const int reach = 2;
@@ -216,7 +229,7 @@ Traversability ComputeTraversability(const OccupancyGridView& map,
         for (int y = std::max(0, c->y - reach); y <= std::min(h - 1, c->y + reach); ++y) {
           for (int x = std::max(0, c->x - reach); x <= std::min(w - 1, c->x + reach); ++x) {
             const size_t i = static_cast<size_t>(x + w * y);
-            if (t.traversable[i] || t.band.values[i] > 0.5) continue;
+            if (t.traversable[i] || t.band.values[i] > 0.5 || !clear_of_known(x, y)) continue;
             const Eigen::Vector2d ab = b - a;
             const Eigen::Vector2d cp = t.band.CenterOf({x, y});
             const double u =
@@ -266,7 +279,9 @@ int AllowEscape(const Traversability& map, const TraversabilityConfig& config,
   const size_t own = static_cast<size_t>(map.band.IndexOf(*c));
   if (map.traversable[own]) return 0;
   const double alpha = map.band.resolution_m;
-  const double floor = std::min(map.clearance.values[own], config.required_clearance_m()) - alpha;
+  // Never tighter than here: a floor below the vehicle's own clearance would let each replan
+  // take it a little closer to the obstacle, plan after plan.
+  const double floor = std::min(map.clearance.values[own], config.required_clearance_m());
   const int reach = static_cast<int>(std::ceil(escape_radius_m / alpha));
   int added = 0;
   for (int y = std::max(0, c->y - reach); y <= std::min(map.band.height - 1, c->y + reach); ++y) {

@@ -20,9 +20,10 @@
 ///  - the start-up zone (ALGORITHMS.md section 8): band cells with no evidence of occupancy
 ///    (P <= P_init) within a radius of the take-off point count as free, since a level camera
 ///    with a minimum range cannot see the band next to itself;
-///  - the flown corridor (for the flight home): cells within 1.5 cells of the polyline the
-///    vehicle's centre has flown along are traversable unless known occupied (band P > 0.5): the
-///    vehicle has been there, whatever the sensor noise has done to the map since.
+///  - the flown corridor: cells within 1.5 cells of the polyline the vehicle's centre has flown
+///    along are traversable where the known occupied cells alone (band P > 0.5) leave the full
+///    clearance: the vehicle has been there, whatever uncertain cells sensor noise has added since,
+///    but a known obstacle keeps its margin.
 /// Pure functions; no LCM, no clock.
 
 #include <Eigen/Core>
@@ -87,8 +88,8 @@ int AllowAround(const Traversability& map, const Eigen::Vector2d& p_m, double ra
 
 /// Escape from a place short of clearance (new map data can leave the vehicle there, e.g. a table
 /// top or sensor noise that blurs into the band): marks traversable the free cells within
-/// escape_radius_m of p whose clearance is at least the clearance at p's own cell (minus one cell)
-/// or the required clearance, whichever is smaller, so the vehicle can move along space no
+/// escape_radius_m of p whose clearance is at least the clearance at p's own cell or the required
+/// clearance, whichever is smaller, so the vehicle can move along space no
 /// tighter than where it is until it reaches fully traversable space. Nothing when p's cell is
 /// traversable. Returns how many cells it added.
 int AllowEscape(const Traversability& map, const TraversabilityConfig& config,

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -70,9 +71,8 @@ bool FineSearch(const PlannerConfig& config, const PlannerInput& input, bool wit
     return false;
   }
   *traversable = tr.traversable;
-  // The vehicle is where it is: the cells under its disc are usable unless known occupied, so a
-  // vehicle that new map data left short of the required clearance can still move away.
-  AllowAround(tr, input.position_m.head<2>(), config.trajectory.vehicle_radius_m, traversable);
+  // A vehicle that new map data left short of the required clearance moves away along space no
+  // tighter than where it is (Dijkstra always starts from its own cell).
   AllowEscape(tr, tc, input.position_m.head<2>(), kEscapeRadius, traversable);
   result->field = ComputeDistanceField(tr.band.width, tr.band.height, *traversable, *start,
                                        tr.band.resolution_m);
@@ -253,7 +253,7 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
   PlanResult result;
   result.reason = CheckPlannerInput(input);
   std::vector<bool> traversable;
-  if (!result.reason.empty() || !FineSearch(config_, input, false, &result, &traversable)) {
+  if (!result.reason.empty() || !FineSearch(config_, input, true, &result, &traversable)) {
     result.timings.total_s = SecondsSince(t0);
     return result;
   }
@@ -270,11 +270,15 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
   cc.exclude_vehicle_cell = true;
   const double d_max = DMax(cc, result.field.MaxDistance());
 
-  // Positions: reachable cells of the lattice with the full clearance (escape cells are for
-  // leaving, not for goals); the bound of each first.
+  // Positions and the bound of each first.
   std::vector<Position> positions;
-  for (int cell : CandidateCells(result.field, cc)) {
-    if (!tr.traversable[static_cast<size_t>(cell)]) continue;
+  // Goals need the full clearance (escape cells are for leaving, not for goals): each block's
+  // candidate is its traversable reachable cell nearest to the block's corner.
+  DistanceField goals = result.field;
+  for (size_t i = 0; i < goals.distance_m.size(); ++i) {
+    if (!tr.traversable[i]) goals.distance_m[i] = std::numeric_limits<double>::infinity();
+  }
+  for (int cell : CandidateCells(goals, cc)) {
     Position p;
     p.cell = cell;
     p.xy = grid.CenterOf(grid.CellAt(cell));
@@ -429,7 +433,7 @@ PlanResult FineFrontierPlanner::Plan(const PlannerInput& input) {
   PlanResult result;
   result.reason = CheckPlannerInput(input);
   std::vector<bool> traversable;
-  if (!result.reason.empty() || !FineSearch(config_, input, false, &result, &traversable)) {
+  if (!result.reason.empty() || !FineSearch(config_, input, true, &result, &traversable)) {
     result.timings.total_s = SecondsSince(t0);
     return result;
   }
@@ -566,12 +570,15 @@ bool TrajectoryStillClear(const PlannerConfig& config, const PlannerInput& input
           *input.startup_center_m,
           StartupFreeRadius(2.0 * tc.required_clearance_m(), config.startup_vertical_fov_rad)};
     }
-    Traversability tr = ComputeTraversability(input.map, tc, zone);
+    Traversability tr = ComputeTraversability(input.map, tc, zone, &input.flown_path);
     allowed = tr.traversable;
-    AllowAround(tr, start_xy, config.trajectory.vehicle_radius_m, &allowed);
-    AllowAround(tr, input.position_m.head<2>(), config.trajectory.vehicle_radius_m, &allowed);
     AllowEscape(tr, tc, start_xy, kEscapeRadius, &allowed);
     AllowEscape(tr, tc, input.position_m.head<2>(), kEscapeRadius, &allowed);
+    for (const Eigen::Vector2d& p : {start_xy, Eigen::Vector2d(input.position_m.head<2>())}) {
+      if (const std::optional<Cell2> c = tr.band.CellOf(p)) {
+        allowed[static_cast<size_t>(tr.band.IndexOf(*c))] = true;  // where it is
+      }
+    }
     grid = std::move(tr.band);
     radius = kPointRadius;
   } else {

@@ -4,7 +4,7 @@
 // Usage: gain_probe MAP_FILE X Y Z YAW [RAYS [OPAQUE_P]]
 //        gain_probe --plan MAP_FILE X Y Z [REPEAT [BINS XTION_ROWS SPACING_M]]
 //        (one volumetric replan, timed by stage)
-//        gain_probe --traversability MAP_FILE X Y Z   (the fine traversability around X Y)
+//        gain_probe --traversability MAP_FILE X Y Z [whole [BAND_M]]   (fine traversability)
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -55,17 +55,25 @@ int PlanOnce(int argc, char** argv) {
 
 // ASCII picture of the fine traversability around (x, y): '#' blocked by a known occupied cell,
 // '?' blocked by unknown space, '-' free but short of clearance, '.' traversable, 'V' (x, y).
-int Traversable(char** argv) {
+int Traversable(int argc, char** argv) {
   const LoadedMap<DenseOccupancyMap> loaded = LoadDenseMap(argv[2]);
   PlannerConfig config;
   config.projection.height_m = std::atof(argv[5]);
   const Eigen::Vector2d xy(std::atof(argv[3]), std::atof(argv[4]));
+  if (argc > 7) {
+    config.volumetric.band_below_m = std::atof(argv[7]);
+    config.volumetric.band_above_m = std::atof(argv[7]);
+  }
   const Traversability t =
       ComputeTraversability(ViewOf(loaded.map->grid()), FineTraversabilityConfig(config));
   const auto c = t.band.CellOf(xy);
   if (!c) return 1;
-  for (int y = c->y + 30; y >= c->y - 30; y -= 1) {
-    for (int x = c->x - 40; x <= c->x + 40; ++x) {
+  const bool whole = argc > 6;  // the whole map, every second cell
+  const int step = whole ? 2 : 1;
+  const int y0 = whole ? t.band.height - 1 : c->y + 30, y1 = whole ? 0 : c->y - 30;
+  const int x0 = whole ? 0 : c->x - 40, x1 = whole ? t.band.width - 1 : c->x + 40;
+  for (int y = y0; y >= y1; y -= step) {
+    for (int x = x0; x <= x1; x += step) {
       if (!t.band.Contains(x, y)) {
         std::putchar(' ');
         continue;
@@ -84,7 +92,7 @@ int Traversable(char** argv) {
 
 int main(int argc, char** argv) {
   if (argc >= 6 && std::string(argv[1]) == "--plan") return PlanOnce(argc, argv);
-  if (argc >= 6 && std::string(argv[1]) == "--traversability") return Traversable(argv);
+  if (argc >= 6 && std::string(argv[1]) == "--traversability") return Traversable(argc, argv);
   if (argc < 6) {
     std::fprintf(stderr, "usage: gain_probe MAP_FILE X Y Z YAW [RAYS [OPAQUE_P]]\n");
     return 2;

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -170,6 +171,23 @@ TEST(Traversability, FlownCorridorFreesUncertainNotOccupied) {
   const Traversability occupied =
       ComputeTraversability(m.View(), Config(1.0), std::nullopt, &flown);
   EXPECT_FALSE(Reachable(occupied, {1.0, 1.5}, {6.5, 1.5}));
+  // A flight that once passed 0.3 m from a known wall does not make that place traversable.
+  TestMap walled(100, 40, 24, kFree);
+  walled.Box({3.0, 0, 0}, {3.6, 3.0, 1.8}, 0.3f);
+  walled.Box({3.2, 1.8, 0}, {3.4, 3.0, 1.8}, kOccupied);  // face 0.3 m from the flown line
+  const Traversability near =
+      ComputeTraversability(walled.View(), Config(1.0), std::nullopt, &flown);
+  EXPECT_FALSE(Reachable(near, {1.0, 1.5}, {6.5, 1.5}));
+  for (size_t i = 0; i < near.traversable.size(); ++i) {
+    if (near.traversable[i]) {
+      const Eigen::Vector2d c = near.band.CenterOf(near.band.CellAt(static_cast<int>(i)));
+      const double dx = std::max({3.2 - c.x(), 0.0, c.x() - 3.4});
+      const double dy = std::max({1.8 - c.y(), 0.0, c.y() - 3.0});
+      // Closer to the wall's face than the clearance, less the half-cell of the transform.
+      const bool beside_wall = std::hypot(dx, dy) < 0.49 - 0.5 * kAlpha;
+      EXPECT_FALSE(beside_wall) << c.transpose();
+    }
+  }
 }
 
 TEST(Traversability, InvalidConfigNamesTheField) {
