@@ -510,10 +510,10 @@ void ExplorerNode::PublishMaps(const PlanResult& result) {
     std::transform(channel.begin(), channel.end(), channel.begin(), ::toupper);
     lcm_.publish(config_.map2d_prefix + channel, &msg);
   };
-  if (result.collision.collision.size() > 0) {
-    publish(result.collision.collision, "collision");
-    publish(result.collision.combined, "combined");
-  }
+  // The volumetric mode and the fine frontiers publish their fine band as "collision" (P, the
+  // largest over the vehicle's band) and have no combined map B.
+  if (result.collision.collision.size() > 0) publish(result.collision.collision, "collision");
+  if (result.collision.combined.size() > 0) publish(result.collision.combined, "combined");
   if (result.entropy.has_value()) publish(*result.entropy, "entropy");
 }
 

@@ -60,7 +60,7 @@ bool FineSearch(const PlannerConfig& config, const PlannerInput& input, bool wit
   }
   const Traversability& tr = *result->traversability;
   result->collision.collision = tr.band;
-  result->collision.combined = tr.clearance;
+  result->collision.combined = GridMap2D{};  // no B in these modes (nothing is published)
   result->collision.collision_factor = 1;
   result->timings.projection_s = SecondsSince(t0);
 
