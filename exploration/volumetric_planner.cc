@@ -43,6 +43,8 @@ struct Position {
 // result->reason when the map or the vehicle cannot be used.
 bool FineSearch(const PlannerConfig& config, const PlannerInput& input, bool with_flown_path,
                 PlanResult* result, std::vector<bool>* traversable) {
+  result->reason = CheckPlannerInput(input);
+  if (!result->reason.empty()) return false;
   const Clock::time_point t0 = Clock::now();
   const TraversabilityConfig tc = FineTraversabilityConfig(config);
   std::optional<StartupFreeZone> zone;
@@ -251,9 +253,8 @@ bool VolumetricPlanner::Affected(const Cell2& cell) const {
 PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
   const Clock::time_point t0 = Clock::now();
   PlanResult result;
-  result.reason = CheckPlannerInput(input);
   std::vector<bool> traversable;
-  if (!result.reason.empty() || !FineSearch(config_, input, true, &result, &traversable)) {
+  if (!FineSearch(config_, input, true, &result, &traversable)) {
     result.timings.total_s = SecondsSince(t0);
     return result;
   }
@@ -431,9 +432,8 @@ FineFrontierPlanner::FineFrontierPlanner(const PlannerConfig& config)
 PlanResult FineFrontierPlanner::Plan(const PlannerInput& input) {
   const Clock::time_point t0 = Clock::now();
   PlanResult result;
-  result.reason = CheckPlannerInput(input);
   std::vector<bool> traversable;
-  if (!result.reason.empty() || !FineSearch(config_, input, true, &result, &traversable)) {
+  if (!FineSearch(config_, input, true, &result, &traversable)) {
     result.timings.total_s = SecondsSince(t0);
     return result;
   }
@@ -514,9 +514,8 @@ PlanResult PlanToPointFine(const PlannerConfig& config, const PlannerInput& inpu
                            const Eigen::Vector2d& goal_xy, double goal_yaw_rad) {
   const Clock::time_point t0 = Clock::now();
   PlanResult result;
-  result.reason = CheckPlannerInput(input);
   std::vector<bool> traversable;
-  if (!result.reason.empty() || !FineSearch(config, input, true, &result, &traversable)) {
+  if (!FineSearch(config, input, true, &result, &traversable)) {
     result.timings.total_s = SecondsSince(t0);
     return result;
   }
