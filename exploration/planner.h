@@ -51,7 +51,7 @@ struct FrontierConfig {
 struct VolumetricConfig {
   double band_below_m{0.15};        ///< vehicle band below h checked for traversability, m (> 0)
   double band_above_m{0.15};        ///< vehicle band above h, m (> 0)
-  double margin_m{0.05};            ///< clearance beyond the vehicle radius, m (>= 0)
+  double margin_m{0.08};            ///< clearance beyond the vehicle radius, m (>= 0)
   double candidate_spacing_m{0.75};  ///< candidate positions every this many m (>= one cell)
   /// The paper's end rule, working: exploration ends when the best UNWEIGHTED 3D gain of every
   /// reachable candidate pose is below this, nats (> 0).
