@@ -68,10 +68,10 @@ struct MissionResult {
   double time_to_95_s{-1};  ///< first sample with known fraction >= 0.95 (-1: never)
   std::vector<MissionSample> samples;
   std::string end_reason;
-  std::string end_rule;                ///< what ended exploration (ExplorerNode::end_rule)
-  std::string landing;                 ///< "returned home (...)" or "landed elsewhere: ..."
-  double plan_median_s{0};             ///< median wall time of an exploration replan
-  double plan_max_s{0};                ///< slowest exploration replan
+  std::string end_rule;     ///< what ended exploration (ExplorerNode::end_rule)
+  std::string landing;      ///< "returned home (...)" or "landed elsewhere: ..."
+  double plan_median_s{0};  ///< median wall time of an exploration replan
+  double plan_max_s{0};     ///< slowest exploration replan
   /// Largest |z - h| of the true vehicle while exploring or flying home, m (h: the exploration
   /// height): trajectories stay in the plane their checks assume.
   double max_height_error_m{0};
