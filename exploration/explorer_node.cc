@@ -191,13 +191,7 @@ PlannerInput ExplorerNode::PlanningInput() const {
   if (!Splicing(now)) return in;
   // The state the flown trajectory predicts at the splice time: the new trajectory starts there.
   const double t = std::min(now + config_.replan_lookahead_s, trajectory_->end_time_s());
-  const TrajectoryStart s = StateAt(*trajectory_, t);
-  in.position_m = s.position_m;
-  in.velocity_mps = s.velocity_mps;
-  in.acceleration_mps2 = s.acceleration_mps2;
-  in.yaw_rad = s.yaw_rad;
-  in.yaw_rate_radps = s.yaw_rate_radps;
-  in.time_s = t;
+  in.SetStart(StateAt(*trajectory_, t));
   return in;
 }
 

@@ -78,6 +78,26 @@ bool ValidInput(const PlannerInput& input, PlanResult* result) {
 
 }  // namespace
 
+TrajectoryStart PlannerInput::Start() const {
+  TrajectoryStart s;
+  s.position_m = position_m;
+  s.velocity_mps = velocity_mps;
+  s.acceleration_mps2 = acceleration_mps2;
+  s.yaw_rad = yaw_rad;
+  s.yaw_rate_radps = yaw_rate_radps;
+  s.time_s = time_s;
+  return s;
+}
+
+void PlannerInput::SetStart(const TrajectoryStart& start) {
+  position_m = start.position_m;
+  velocity_mps = start.velocity_mps;
+  acceleration_mps2 = start.acceleration_mps2;
+  yaw_rad = start.yaw_rad;
+  yaw_rate_radps = start.yaw_rate_radps;
+  time_s = start.time_s;
+}
+
 const char* ModeName(ExplorationMode mode) {
   switch (mode) {
     case ExplorationMode::kCombined:

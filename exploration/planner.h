@@ -100,6 +100,11 @@ struct PlannerInput {
   /// Points (x, y; W) the vehicle has flown through: the flight home (PlanToPoint, volumetric
   /// traversability) may use them even where the map has since grown uncertain.
   std::vector<Eigen::Vector2d> flown_path;
+
+  /// The start state this input describes (position, velocity, acceleration, yaw, yaw rate, time).
+  [[nodiscard]] TrajectoryStart Start() const;
+  /// Sets the start state (a point of the flown trajectory, for a spliced replan).
+  void SetStart(const TrajectoryStart& start);
 };
 
 /// Wall-clock time of each stage of one replan, s.

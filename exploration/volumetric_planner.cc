@@ -88,15 +88,9 @@ void FineTrajectoryTo(const PlannerConfig& config, const PlannerInput& input,
   const Clock::time_point t0 = Clock::now();
   TrajectoryConfig tc = config.trajectory;
   tc.vehicle_radius_m = kPointRadius;
-  TrajectoryStart start;
-  start.position_m = input.position_m;
-  start.velocity_mps = input.velocity_mps;
-  start.acceleration_mps2 = input.acceleration_mps2;
-  start.yaw_rad = input.yaw_rad;
-  start.yaw_rate_radps = input.yaw_rate_radps;
-  start.time_s = input.time_s;
-  result->trajectory = PlanTrajectory(result->collision.collision, traversable, result->field,
-                                      goal_cell, start, goal_yaw, config.projection.height_m, tc);
+  result->trajectory =
+      PlanTrajectory(result->collision.collision, traversable, result->field, goal_cell,
+                     input.Start(), goal_yaw, config.projection.height_m, tc);
   result->timings.trajectory_s += SecondsSince(t0);
   if (result->trajectory.trajectory) {
     result->status = PlanStatus::kGoal;
