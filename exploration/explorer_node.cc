@@ -75,6 +75,7 @@ ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
     e.Read("return_home", &c.return_home);
     e.Read("land_at_end", &c.land_at_end);
     e.Read("max_status_candidates", &c.max_status_candidates, Range::Closed(1, 100000));
+    e.Read("map2d_period_s", &c.map2d_period_s, Range::NonNegative());
   }
   // Last: the planner's reader also checks that no key of the file is left unread.
   c.planner = LoadPlannerConfig(node);
@@ -277,7 +278,10 @@ void ExplorerNode::Plan(const std::string& reason) {
     }
   }
   PublishStatus(result, reason);
-  PublishMaps(result);
+  if (now_s() - last_map2d_s_ >= config_.map2d_period_s) {
+    last_map2d_s_ = now_s();
+    PublishMaps(result);
+  }
   const bool returning = state_ == exploration_status_t::STATE_RETURNING;
   last_plan_ = std::move(result);
   if (returning) PlanHome("exploration ended");

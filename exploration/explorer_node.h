@@ -85,6 +85,10 @@ struct ExplorerConfig {
   bool return_home{true};             ///< fly back to the take-off point at the end
   bool land_at_end{true};             ///< then send a land command
   int max_status_candidates{512};     ///< candidates listed in EXPLORATION_STATUS (best first)
+  /// The 2D maps go out at most this often, s (0: with every plan). The volumetric mode's band is
+  /// at the map's resolution (lasr: 165 kB per message); at 1 Hz replans that traffic crowded the
+  /// receive buffers of every process on the multicast group.
+  double map2d_period_s{5.0};
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
@@ -165,6 +169,7 @@ class ExplorerNode {
   int64_t safety_checked_map_seq_{-1};
   double last_heartbeat_s_{-1e300};
   double total_planning_s_{0.0};
+  double last_map2d_s_{-1e300};
   std::optional<PlanResult> last_plan_;
   // Goals (x, y, yaw) whose trajectory ran to its end (PlannerInput::reached_goals).
   std::vector<Eigen::Vector3d> reached_goals_;
