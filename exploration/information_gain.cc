@@ -58,23 +58,30 @@ KESTREL_AVX512_BEGIN
                        _mm512_add_pd(_mm512_mul_pd(k, _mm512_set1_pd(kLn2Lo)), ln_m));
 }
 
+// The lanes of eight that lie below the end of an array with `left` elements still to go.
+inline __mmask8 TailMask(int left) {
+  return left >= 8 ? static_cast<__mmask8>(0xFF) : static_cast<__mmask8>((1u << left) - 1u);
+}
+
+// p ln p + (1 - p) ln(1 - p) = -H(p) in eight lanes; *inside: the lanes of `load` with p in
+// (0, 1), where H is not 0 (the others compute at 0.5: no log(0)).
+[[KESTREL_AVX512]] inline __m512d MinusEntropy8(__m512d v, __mmask8 load, __mmask8* inside) {
+  const __m512d one = _mm512_set1_pd(1.0);
+  *inside = static_cast<__mmask8>(load & _mm512_cmp_pd_mask(v, _mm512_setzero_pd(), _CMP_GT_OQ) &
+                                  _mm512_cmp_pd_mask(v, one, _CMP_LT_OQ));
+  const __m512d x = _mm512_mask_blend_pd(*inside, _mm512_set1_pd(0.5), v);
+  const __m512d q = _mm512_sub_pd(one, x);
+  return _mm512_add_pd(_mm512_mul_pd(x, Log8(x)), _mm512_mul_pd(q, Log8(q)));
+}
+
 // sum_j w[j] H(p[j]) (w null: 1), j < n, eight at a time (H = 0 outside (0, 1), as
 // BinaryEntropy).
 [[KESTREL_AVX512]] double SumBinaryEntropyAvx512(const double* p, const double* w, int n) {
-  const __m512d zero = _mm512_setzero_pd();
-  const __m512d one = _mm512_set1_pd(1.0);
-  const __m512d half = _mm512_set1_pd(0.5);
-  __m512d acc = zero;
+  __m512d acc = _mm512_setzero_pd();
   for (int j = 0; j < n; j += 8) {
-    const int left = n - j;
-    const __mmask8 load =
-        left >= 8 ? static_cast<__mmask8>(0xFF) : static_cast<__mmask8>((1u << left) - 1u);
-    const __m512d v = _mm512_maskz_loadu_pd(load, p + j);
-    const __mmask8 inside = static_cast<__mmask8>(load & _mm512_cmp_pd_mask(v, zero, _CMP_GT_OQ) &
-                                                  _mm512_cmp_pd_mask(v, one, _CMP_LT_OQ));
-    const __m512d x = _mm512_mask_blend_pd(inside, half, v);  // 0.5 where H is 0 (no log(0))
-    const __m512d q = _mm512_sub_pd(one, x);
-    __m512d h = _mm512_add_pd(_mm512_mul_pd(x, Log8(x)), _mm512_mul_pd(q, Log8(q)));
+    const __mmask8 load = TailMask(n - j);
+    __mmask8 inside = 0;
+    __m512d h = MinusEntropy8(_mm512_maskz_loadu_pd(load, p + j), load, &inside);
     if (w != nullptr) h = _mm512_mul_pd(h, _mm512_maskz_loadu_pd(load, w + j));
     acc = _mm512_mask_sub_pd(acc, inside, acc, h);
   }
@@ -85,9 +92,7 @@ KESTREL_AVX512_BEGIN
 [[KESTREL_AVX512]] double DotAvx512(const double* a, const double* b, int n) {
   __m512d acc = _mm512_setzero_pd();
   for (int i = 0; i < n; i += 8) {
-    const int left = n - i;
-    const __mmask8 load =
-        left >= 8 ? static_cast<__mmask8>(0xFF) : static_cast<__mmask8>((1u << left) - 1u);
+    const __mmask8 load = TailMask(n - i);
     acc = _mm512_add_pd(
         acc, _mm512_mul_pd(_mm512_maskz_loadu_pd(load, a + i), _mm512_maskz_loadu_pd(load, b + i)));
   }
@@ -97,18 +102,10 @@ KESTREL_AVX512_BEGIN
 // h[j] = H(p[j]), j < n, eight at a time (0 outside (0, 1)).
 [[KESTREL_AVX512]] void BinaryEntropiesAvx512(const double* p, double* h, int n) {
   const __m512d zero = _mm512_setzero_pd();
-  const __m512d one = _mm512_set1_pd(1.0);
-  const __m512d half = _mm512_set1_pd(0.5);
   for (int j = 0; j < n; j += 8) {
-    const int left = n - j;
-    const __mmask8 load =
-        left >= 8 ? static_cast<__mmask8>(0xFF) : static_cast<__mmask8>((1u << left) - 1u);
-    const __m512d v = _mm512_maskz_loadu_pd(load, p + j);
-    const __mmask8 inside = static_cast<__mmask8>(load & _mm512_cmp_pd_mask(v, zero, _CMP_GT_OQ) &
-                                                  _mm512_cmp_pd_mask(v, one, _CMP_LT_OQ));
-    const __m512d x = _mm512_mask_blend_pd(inside, half, v);
-    const __m512d q = _mm512_sub_pd(one, x);
-    const __m512d e = _mm512_add_pd(_mm512_mul_pd(x, Log8(x)), _mm512_mul_pd(q, Log8(q)));
+    const __mmask8 load = TailMask(n - j);
+    __mmask8 inside = 0;
+    const __m512d e = MinusEntropy8(_mm512_maskz_loadu_pd(load, p + j), load, &inside);
     _mm512_mask_storeu_pd(h + j, load, _mm512_maskz_sub_pd(inside, zero, e));
   }
 }
