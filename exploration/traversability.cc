@@ -246,28 +246,6 @@ Traversability ComputeTraversability(const OccupancyGridView& map,
   return t;
 }
 
-int AllowAround(const Traversability& map, const Eigen::Vector2d& p_m, double radius_m,
-                std::vector<bool>* traversable) {
-  KESTREL_THROW_UNLESS(
-      traversable != nullptr && traversable->size() == static_cast<size_t>(map.band.size()),
-      "AllowAround: traversable flags do not match the map");
-  const std::optional<Cell2> c = map.band.CellOf(p_m);
-  if (!c) return 0;
-  const int reach = static_cast<int>(std::ceil(radius_m / map.band.resolution_m)) + 1;
-  int added = 0;
-  for (int y = std::max(0, c->y - reach); y <= std::min(map.band.height - 1, c->y + reach); ++y) {
-    for (int x = std::max(0, c->x - reach); x <= std::min(map.band.width - 1, c->x + reach); ++x) {
-      const size_t i = static_cast<size_t>(map.band.IndexOf(x, y));
-      if ((*traversable)[i] || map.band.values[i] > 0.5) continue;
-      if ((map.band.CenterOf({x, y}) - p_m).norm() <= radius_m) {
-        (*traversable)[i] = true;
-        ++added;
-      }
-    }
-  }
-  return added;
-}
-
 int AllowEscape(const Traversability& map, const TraversabilityConfig& config,
                 const Eigen::Vector2d& p_m, double escape_radius_m,
                 std::vector<bool>* traversable) {

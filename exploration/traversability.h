@@ -81,11 +81,6 @@ struct Traversability {
 [[nodiscard]] std::vector<double> SquaredDistanceTransform(int width, int height,
                                                            const std::vector<bool>& site);
 
-/// Marks traversable the cells within radius_m of p (centre distance) whose band is not known
-/// occupied (band P <= 0.5): the vehicle is already there. Returns how many cells it added.
-int AllowAround(const Traversability& map, const Eigen::Vector2d& p_m, double radius_m,
-                std::vector<bool>* traversable);
-
 /// Escape from a place short of clearance (new map data can leave the vehicle there, e.g. a table
 /// top or sensor noise that blurs into the band): marks traversable the free cells within
 /// escape_radius_m of p whose clearance is at least the clearance at p's own cell or the required
