@@ -636,13 +636,40 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
                                            : 0.0);
     base_leaving.push_back(leaving[i]);
   }
-  // The start: exactly the given state first; should the limits or the disc check fail with it,
-  // its velocity's component along the first leg (no faster than 0.9 max_speed, zero
-  // acceleration: a minimum-snap piece that starts against or across its leg overshoots by
-  // several times the start speed whatever its duration), then rest (the controller absorbs the
-  // step in velocity).
-  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> starts{
-      {start.velocity_mps, start.acceleration_mps2}};
+  // The start: exactly the given state first. Should the limits or the disc check fail with it
+  // (typically a velocity pointing away from the new path), the same state with a run-out: the
+  // vehicle first comes to rest on a straight line along its velocity (the distance of a stop at
+  // the profile's deceleration, if that segment is clear), then follows the path from there, so
+  // the set point stays continuous in position, velocity and acceleration. Then its velocity's
+  // component along the first leg (no faster than 0.9 max_speed, zero acceleration: a
+  // minimum-snap piece that starts against or across its leg overshoots by several times the
+  // start speed whatever its duration), then rest (the controller absorbs the step in velocity:
+  // a hard manoeuvre, the last resort).
+  struct StartTry {
+    Eigen::Vector3d velocity;
+    Eigen::Vector3d acceleration;
+    std::vector<Eigen::Vector2d> run_out;  // rest points ahead of base_way[1..]; empty: none
+  };
+  std::vector<StartTry> starts{{start.velocity_mps, start.acceleration_mps2, {}}};
+  {
+    const Eigen::Vector2d v = start.velocity_mps.head<2>();
+    const double speed = v.norm();
+    // The stop at the profile's deceleration, then longer ones: an acceleration at the start
+    // that still pushes forward (or sideways) needs more room to turn around.
+    const double base_m =
+        speed * speed / (2.0 * kProfileAcceleration * config.max_acceleration_mps2) + 0.05;
+    for (const double scale : {1.0, 1.6, 2.5}) {
+      if (speed <= 0.05) break;
+      const Eigen::Vector2d stop = start_xy + scale * base_m * (v / speed);
+      if (!SegmentClear(collision, allowed, start_xy, stop, r)) break;
+      StartTry run_out{start.velocity_mps, start.acceleration_mps2, {stop}};
+      // Back to the start of the path when the straight line from the stop to it is not clear.
+      if (base_way.size() > 1 && !SegmentClear(collision, allowed, stop, base_way[1], r)) {
+        run_out.run_out.push_back(start_xy);
+      }
+      starts.push_back(run_out);
+    }
+  }
   {
     Eigen::Vector3d along = Eigen::Vector3d::Zero();
     const Eigen::Vector2d leg = base_way[1] - base_way[0];
@@ -651,19 +678,27 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
       along.head<2>() = std::clamp(start.velocity_mps.head<2>().dot(d), 0.0, 0.9 * v_max) * d;
     }
     for (const Eigen::Vector3d& v : {along, Eigen::Vector3d(Eigen::Vector3d::Zero())}) {
-      if (v != starts.back().first || !starts.back().second.isZero()) {
-        starts.emplace_back(v, Eigen::Vector3d::Zero());
+      if (v != starts.back().velocity || !starts.back().acceleration.isZero()) {
+        starts.push_back({v, Eigen::Vector3d::Zero(), {}});
       }
     }
   }
   std::string error = "no start state tried";
   for (size_t attempt = 0; attempt < starts.size(); ++attempt) {
-    const Eigen::Vector3d& v0 = starts[attempt].first;
-    const Eigen::Vector3d& a0 = starts[attempt].second;
+    const Eigen::Vector3d& v0 = starts[attempt].velocity;
+    const Eigen::Vector3d& a0 = starts[attempt].acceleration;
     way2 = base_way;
     std::vector<double> caps = base_cap;
     leaving = base_leaving;
     std::vector<bool> stop_at(way2.size(), false);  // knots where the vehicle rests
+    const std::vector<Eigen::Vector2d>& run_out = starts[attempt].run_out;
+    if (!run_out.empty()) {  // rests at the run-out's points, checked without leaving
+      way2.insert(way2.begin() + 1, run_out.begin(), run_out.end());
+      caps.insert(caps.begin() + 1, run_out.size(), 0.0);
+      leaving.insert(leaving.begin(), run_out.size(), false);
+      stop_at.assign(way2.size(), false);
+      for (size_t i = 1; i <= run_out.size(); ++i) stop_at[i] = true;
+    }
     plan.repair_rounds = 0;
     for (;;) {
       std::vector<Eigen::Vector3d> way3;
@@ -688,6 +723,7 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
       // Stretching time lowers speed and acceleration as 1/T and 1/T^2 from rest, but not with a
       // start velocity (the piece overshoots by about v0 T): past this bound on the total
       // duration (and before sampling a huge trajectory) give up on this start state.
+      std::string solve_error;
       double unscaled_total_s = 0.0;
       for (double t : durations) unscaled_total_s += t;
       const double max_total_s = 16.0 * unscaled_total_s + 60.0;
@@ -698,14 +734,14 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
         if (total > max_total_s) break;  // not converging
         segs = SolveMinimumDerivative(way3, durations, k, v0, a0, stop_at);
         if (!segs) {
-          plan.error = "KKT system could not be solved";
-          return plan;
+          solve_error = "KKT system could not be solved";
+          break;  // the next start state
         }
         std::string reason;
         traj = PiecewisePolynomialTrajectory::Create(start.time_s, *segs, &reason);
         if (!traj) {
-          plan.error = "invalid trajectory: " + reason;
-          return plan;
+          solve_error = "invalid trajectory: " + reason;
+          break;  // the next start state
         }
         double v_max_sampled = 0.0, a_max_sampled = 0.0;
         for (const TrajectorySample& s : traj->Sample(config.sample_period_s)) {
@@ -727,7 +763,9 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
         for (double& t : durations) t *= factor * 1.01;             // v ~ 1/T, a ~ 1/T^2
       }
       if (!traj.has_value()) {
-        error = "time allocation did not meet the speed and acceleration limits";
+        error = !solve_error.empty()
+                    ? solve_error
+                    : "time allocation did not meet the speed and acceleration limits";
         break;  // the next start state
       }
       // Check the disc at every sample; collect the pieces that leave the allowed cells.
@@ -746,7 +784,7 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
       }
       if (!any_bad) {
         plan.stop_waypoints = static_cast<int>(std::count(stop_at.begin(), stop_at.end(), true));
-        plan.start_matched = attempt == 0;
+        plan.start_matched = attempt == 0 || !run_out.empty();
         plan.trajectory = WithYaw(*segs, way3, start, goal_yaw_rad, config, &plan.waypoints,
                                   &plan.yaw_duration_s);
         if (!plan.trajectory) plan.error = "invalid trajectory after adding the yaw";

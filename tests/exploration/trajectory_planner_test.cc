@@ -519,6 +519,52 @@ TEST(TrajectoryPlanner, StartsWithTheStartState) {
   }
 }
 
+// Replans in flight from states the old trajectory predicts: speeds 0.3-0.9 m/s in five
+// directions, accelerations pushing forward, none or back, goals from the next cell to 0.45 m
+// ahead and behind, on an open map of 0.075 m cells. When the exact start state cannot reach the
+// goal within the limits directly (a goal inside the stopping distance, or behind), the vehicle
+// first runs out along its velocity to rest. Every plan must start from the exact state (no step
+// in the set point, which the controller answers with a hard tilt: 15 deg in the ring world
+// before this rule) and keep the limits. Without the run-out, 35 of these 420 plans did not.
+TEST(TrajectoryPlanner, RunsOutInsteadOfSteppingTheSetPoint) {
+  const TrajectoryConfig config = NonStopConfig();
+  const TestMap m = MakeMap(80, 80, 0.075, {40, 40}, [](int, int) { return true; });
+  int plans = 0;
+  for (const double speed : {0.3, 0.5, 0.7, 0.9}) {
+    for (const double direction : {0.0, 0.5, 1.0, 2.0, 3.0}) {
+      for (const double push : {-0.5, 0.0, 0.5}) {
+        for (const int goal_x : {41, 42, 43, 44, 46, 38, 36}) {
+          TrajectoryStart start;
+          start.position_m = Eigen::Vector3d(40 * 0.075 + 0.03, 40 * 0.075 + 0.04, 0.75);
+          start.velocity_mps =
+              speed * Eigen::Vector3d(std::cos(direction), std::sin(direction), 0.0);
+          start.acceleration_mps2 = Eigen::Vector3d(push, -push, 0.0);
+          start.time_s = 7.0;
+          const TrajectoryPlan plan =
+              PlanTrajectory(m.collision, m.traversable, m.field, m.collision.IndexOf(goal_x, 41),
+                             start, 0.0, 0.75, config);
+          const std::string where = "speed " + std::to_string(speed) + ", direction " +
+                                    std::to_string(direction) + ", push " + std::to_string(push) +
+                                    ", goal cell " + std::to_string(goal_x);
+          ASSERT_TRUE(plan.trajectory.has_value()) << where << ": " << plan.error;
+          EXPECT_TRUE(plan.start_matched) << where;
+          const FlatOutput f = plan.trajectory->Evaluate(start.time_s);
+          EXPECT_NEAR((f.velocity_mps - start.velocity_mps).norm(), 0.0, 1e-6) << where;
+          EXPECT_NEAR((f.acceleration_mps2 - start.acceleration_mps2).norm(), 0.0, 1e-6) << where;
+          const LimitRatios r = SampledLimitRatios(*plan.trajectory, config);
+          EXPECT_LE(r.speed, 1.0 + 1e-9) << where;
+          EXPECT_LE(r.acceleration, 1.0 + 1e-9) << where;
+          const Eigen::Vector2d goal = m.collision.CenterOf({goal_x, 41});
+          const FlatOutput end = plan.trajectory->Evaluate(plan.trajectory->end_time_s());
+          EXPECT_NEAR((end.position_m.head<2>() - goal).norm(), 0.0, 1e-6) << where;
+          ++plans;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(plans, 420);
+}
+
 // A 180 deg heading change during a 5 m hop: the yaw turns while the vehicle flies and reaches
 // the goal's heading within 1.6 pi / max_yaw_rate (the former rest-to-rest smoothstep over the
 // whole hop needed 35/16 pi / max_yaw_rate at least), never faster than the limit.
