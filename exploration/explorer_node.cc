@@ -14,6 +14,12 @@
 #include "mapping/mapping_config.h"
 
 namespace kestrel {
+namespace {
+
+// Plan()'s reason for the periodic replan while a trajectory is flown.
+constexpr const char* kReplanPeriod = "replan period";
+
+}  // namespace
 
 void ExplorerConfig::Validate() const {
   planner.Validate();
@@ -261,7 +267,19 @@ void ExplorerNode::Plan(const std::string& reason) {
   ++plan_seq_;
   if (result.status == PlanStatus::kGoal && result.trajectory.trajectory.has_value()) {
     failed_plans_ = 0;
-    PublishFrom(*result.trajectory.trajectory);
+    if (!result.trajectory.start_matched && reason == kReplanPeriod && RemainingPathSafe()) {
+      // The replan could not start from the flown state (e.g. too close to its goal to stop
+      // there at the acceleration limit): its set point would step in velocity, a hard
+      // manoeuvre. The flown trajectory is still clear, so keep it; the next replan starts
+      // where it ends, at rest, if nothing better comes first.
+      drops_.Count("replan_kept", "the replan could not start from the flown state");
+    } else {
+      if (!result.trajectory.start_matched) {
+        drops_.Count("start_not_matched",
+                     "the new trajectory starts from a simplified state: a step in the set point");
+      }
+      PublishFrom(*result.trajectory.trajectory);
+    }
   } else if (result.status == PlanStatus::kExplorationDone) {
     end_rule_ = result.end_rule.empty() ? "gain rule" : result.end_rule;
     Log(LogLevel::kInfo, "exploration ended by the " + end_rule_ + ": " + result.reason);
@@ -271,7 +289,7 @@ void ExplorerNode::Plan(const std::string& reason) {
     drops_.Count("plan_failed", result.reason);
     next_attempt_s_ = now_s() + config_.retry_period_s;
     if (failed_plans_ >= config_.max_failed_plans) {
-      end_rule_ = "planning failures";
+      end_rule_ = result.end_rule.empty() ? "planning failures" : result.end_rule;
       Log(LogLevel::kWarning, std::to_string(failed_plans_) + " plans failed in a row (last: " +
                                   result.reason + "): returning");
       state_ = exploration_status_t::STATE_RETURNING;
@@ -312,13 +330,25 @@ void ExplorerNode::PlanHome(const std::string& reason) {
     SendLand();
     return;
   }
-  PlanResult home = PlanToPoint(config_.planner, PlanningInput(), home_xy_, home_yaw_rad_);
+  // After a first failure, the retries ask for the vehicle's radius only, without the margin
+  // (docs/exploration.md, "Ending and the flight home"): new map data (noise at a door jamb or
+  // over furniture) can close a way the vehicle flew, and a slow, careful flight home beats
+  // landing in an unknown place.
+  PlannerConfig planner = config_.planner;
+  const bool squeeze = home_attempts_ > 0;
+  if (squeeze) planner.volumetric.margin_m = 0.0;
+  PlanResult home = PlanToPoint(planner, PlanningInput(), home_xy_, home_yaw_rad_);
   ++plan_seq_;
   ++home_attempts_;
   if (home.status == PlanStatus::kGoal && home.trajectory.trajectory.has_value()) {
     home_trajectory_ = true;
+    if (squeeze) {
+      Log(LogLevel::kWarning, "path home found without the clearance margin (attempt " +
+                                  std::to_string(home_attempts_) + ")");
+    }
     PublishFrom(*home.trajectory.trajectory);
-    PublishStatus(home, reason + " (" + end_rule_ + "): flying home");
+    PublishStatus(home, reason + " (" + end_rule_ + "): flying home" +
+                            (squeeze ? " without the margin" : ""));
     return;
   }
   // No path home yet: hover (the trajectory being flown ends and the controller holds) and try
@@ -405,7 +435,7 @@ void ExplorerNode::Step() {
         Plan("trajectory ended");
       } else if (t - last_plan_s_ >= config_.replan_period_s &&
                  trajectory_->end_time_s() - t > config_.replan_min_remaining_s) {
-        Plan("replan period");
+        Plan(kReplanPeriod);
       } else if (t - last_safety_check_s_ >= config_.safety_check_period_s &&
                  replica_.seq() != safety_checked_map_seq_) {
         last_safety_check_s_ = t;

@@ -289,8 +289,15 @@ MissionResult RunMission(const MissionConfig& mc) {
     vehicle_position = p;
     if (mc.verbose && sim.simulator().vehicle().collision_count() != reported_collisions) {
       reported_collisions = sim.simulator().vehicle().collision_count();
-      std::fprintf(stderr, "COLLISION at t %.2f s with %s, vehicle at %.2f %.2f %.2f\n", t,
-                   sim.simulator().vehicle().last_collision().c_str(), p.x(), p.y(), p.z());
+      const auto& state = sim.simulator().vehicle().state();
+      const double tilt_deg =
+          std::acos(std::clamp((state.q_WB * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0)) * 180.0 /
+          M_PI;
+      std::fprintf(stderr,
+                   "COLLISION at t %.2f s with %s, vehicle at %.2f %.2f %.2f, velocity %.2f %.2f "
+                   "%.2f m/s, tilt %.1f deg\n",
+                   t, sim.simulator().vehicle().last_collision().c_str(), p.x(), p.y(), p.z(),
+                   state.v_W.x(), state.v_W.y(), state.v_W.z(), tilt_deg);
     }
     if (!r.left_start_collision_cell) {
       const Eigen::Vector2d cell_now =
