@@ -197,48 +197,61 @@ Traversability ComputeTraversability(const OccupancyGridView& map,
     }
   }
   if (band_inside && flown != nullptr && flown->size() >= 2) {
-    // The flown corridor: the vehicle's centre has been along these segments (consecutive points
-    // at most kMaxFlownGap apart), so cells within 1.5 cells of them are traversable where known
-    // occupied cells (P > 0.5, and the map's outside) leave the full clearance: uncertain cells
-    // (sensor noise since) are ignored there, known obstacles are not.
-    std::vector<bool> occupied(static_cast<size_t>(pw) * static_cast<size_t>(ph), true);
-    for (int y = 0; y < h; ++y) {
-      for (int x = 0; x < w; ++x) {
-        occupied[static_cast<size_t>((x + 1) + pw * (y + 1))] =
-            t.band.values[static_cast<size_t>(x + w * y)] > 0.5;
-      }
-    }
-    const std::vector<double> o2 = SquaredDistanceTransform(pw, ph, occupied);
-    const auto clear_of_known = [&](int x, int y) {
-      return std::sqrt(o2[static_cast<size_t>((x + 1) + pw * (y + 1))]) * alpha - 0.5 * alpha >=
-             need;
-    };
+    // The flown corridor (file comment): the vehicle's centre has been along these segments
+    // (consecutive points at most kMaxFlownGap apart).
     constexpr double kMaxFlownGap = 1.0;
-    const double near = 1.5 * alpha;
-    const int reach = 2;
+    // Pose and tracking error allowed between the flown points and where the body really was, m.
+    constexpr double kCarveTolerance = 0.02;
+    // Cells whose whole square lay inside the vehicle's disc somewhere along the flown path:
+    // the body has been there, so whatever occupied cells the map holds there are noise.
+    const double carve = config.vehicle_radius_m - alpha * std::sqrt(0.5) - kCarveTolerance;
+    const double near = 1.5 * alpha;  // the corridor: cells this close to the flown path
+    std::vector<double> flown_distance(free.size(), kInf);
+    const int reach = static_cast<int>(std::ceil(std::max(carve, near) / alpha)) + 1;
     for (size_t s = 0; s + 1 < flown->size(); ++s) {
       const Eigen::Vector2d a = (*flown)[s];
       const Eigen::Vector2d b = (*flown)[s + 1];
-      const double len = (b - a).norm();
+      const Eigen::Vector2d ab = b - a;
+      const double len = ab.norm();
       if (!(len <= kMaxFlownGap)) continue;
-      const int steps = std::max(1, static_cast<int>(std::ceil(len / alpha)));
-      for (int q = 0; q <= steps; ++q) {
-        const Eigen::Vector2d p = a + (b - a) * (static_cast<double>(q) / steps);
-        const std::optional<Cell2> c = t.band.CellOf(p);
-        if (!c) continue;
-        for (int y = std::max(0, c->y - reach); y <= std::min(h - 1, c->y + reach); ++y) {
-          for (int x = std::max(0, c->x - reach); x <= std::min(w - 1, c->x + reach); ++x) {
-            const size_t i = static_cast<size_t>(x + w * y);
-            if (t.traversable[i] || t.band.values[i] > 0.5 || !clear_of_known(x, y)) continue;
-            const Eigen::Vector2d ab = b - a;
-            const Eigen::Vector2d cp = t.band.CenterOf({x, y});
-            const double u =
-                len > 0 ? std::clamp((cp - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
-            if ((a + u * ab - cp).norm() <= near) {
-              t.traversable[i] = true;
-              t.unknown[i] = false;
-            }
-          }
+      // The segment's bounding box in cells, widened by reach and clipped to the grid.
+      const Eigen::Vector2d lo_c = (a.cwiseMin(b) - origin) / alpha;
+      const Eigen::Vector2d hi_c = (a.cwiseMax(b) - origin) / alpha;
+      const int x0 = std::max(0, static_cast<int>(std::floor(lo_c.x())) - reach);
+      const int y0 = std::max(0, static_cast<int>(std::floor(lo_c.y())) - reach);
+      const int x1 = std::min(w - 1, static_cast<int>(std::floor(hi_c.x())) + reach);
+      const int y1 = std::min(h - 1, static_cast<int>(std::floor(hi_c.y())) + reach);
+      for (int y = y0; y <= y1; ++y) {
+        for (int x = x0; x <= x1; ++x) {
+          const Eigen::Vector2d cp = t.band.CenterOf({x, y});
+          const double u =
+              len > 0 ? std::clamp((cp - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
+          double& d = flown_distance[static_cast<size_t>(x + w * y)];
+          d = std::min(d, (a + u * ab - cp).norm());
+        }
+      }
+    }
+    // Clearance there: to the known occupied cells (P > 0.5, and the map's outside) that were not
+    // carved; uncertain cells (sensor noise since) are ignored. The vehicle has flown the path, so
+    // its radius suffices: the margin's uncertainty has been resolved by the flight itself.
+    std::vector<bool> occupied(static_cast<size_t>(pw) * static_cast<size_t>(ph), true);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        const size_t i = static_cast<size_t>(x + w * y);
+        occupied[static_cast<size_t>((x + 1) + pw * (y + 1))] =
+            t.band.values[i] > 0.5 && !(flown_distance[i] <= carve);
+      }
+    }
+    const std::vector<double> o2 = SquaredDistanceTransform(pw, ph, occupied);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        const size_t i = static_cast<size_t>(x + w * y);
+        if (t.traversable[i] || !(flown_distance[i] <= near)) continue;
+        const size_t pi = static_cast<size_t>((x + 1) + pw * (y + 1));
+        if (occupied[pi]) continue;
+        if (std::sqrt(o2[pi]) * alpha - 0.5 * alpha >= config.vehicle_radius_m) {
+          t.traversable[i] = true;
+          t.unknown[i] = false;
         }
       }
     }
