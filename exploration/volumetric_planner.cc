@@ -401,7 +401,9 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
   result.end_test_gain_nats = best_gain;
   result.timings.gain_s = SecondsSince(t1);
   if (positions.empty()) {
-    result.status = PlanStatus::kExplorationDone;
+    // A failure, not the end: new map data (noise cleared, the vehicle moved on) can open space
+    // again; the explorer ends exploration with this rule after max_failed_plans in a row.
+    result.status = PlanStatus::kFailed;
     result.end_rule = "no reachable candidate";
     result.reason = "no reachable candidate position";
   } else if (best_gain < end_gain) {

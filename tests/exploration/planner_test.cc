@@ -322,7 +322,8 @@ TEST(Planner, VolumetricEdgeCases) {
     EXPECT_NE(r.reason.find("not finite"), std::string::npos) << r.reason;
   }
   {  // Inside an obstacle (a solid 1 m block of furniture around the vehicle): nothing
-     // reachable, exploration ends with the reason, and the flight home fails with its own.
+     // reachable: a failed plan with the rule (the explorer ends exploration after
+     // max_failed_plans of them), and the flight home fails with its own reason.
     RoomMap map(100.0);
     for (int k = 0; k < map.dims.z(); ++k) {
       for (int j = 0; j < map.dims.y(); ++j) {
@@ -334,7 +335,7 @@ TEST(Planner, VolumetricEdgeCases) {
       }
     }
     const PlanResult r = MakePlanner(config)->Plan(InputAt(map, {-1.5, 1.5}));
-    EXPECT_EQ(r.status, PlanStatus::kExplorationDone);
+    EXPECT_EQ(r.status, PlanStatus::kFailed);  // the explorer ends after max_failed_plans
     EXPECT_EQ(r.end_rule, "no reachable candidate");
     const PlanResult home = PlanToPoint(config, InputAt(map, {-1.5, 1.5}), {-2.0, -2.0}, 0.0);
     EXPECT_EQ(home.status, PlanStatus::kFailed);
@@ -353,7 +354,7 @@ TEST(Planner, VolumetricEdgeCases) {
       }
     }
     const PlanResult r = MakePlanner(config)->Plan(InputAt(map, {-1.5, -1.5}));
-    EXPECT_EQ(r.status, PlanStatus::kExplorationDone) << r.reason;
+    EXPECT_EQ(r.status, PlanStatus::kFailed) << r.reason;
     EXPECT_EQ(r.end_rule, "no reachable candidate");
     EXPECT_EQ(PlanToPoint(config, InputAt(map, {-1.5, -1.5}), {1.5, 1.5}, 0.0).status,
               PlanStatus::kFailed);
