@@ -85,6 +85,10 @@ int Traversable(int argc, char** argv) {
     }
     std::putchar('\n');
   }
+  const size_t own = static_cast<size_t>(t.band.IndexOf(*c));
+  std::printf("at (%.2f, %.2f): band P %.4f, clearance %.3f m (needed %.3f m)\n", xy.x(), xy.y(),
+              t.band.values[own], t.clearance.values[own],
+              FineTraversabilityConfig(config).required_clearance_m());
   return 0;
 }
 
