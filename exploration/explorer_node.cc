@@ -72,6 +72,11 @@ ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
     e.Read("height_tolerance_m", &c.height_tolerance_m, Range::Positive());
     e.Read("startup_while_climbing", &c.startup_while_climbing);
     e.Read("startup_min_rise_m", &c.startup_min_rise_m, Range::Positive());
+    std::string profile =
+        c.startup_yaw_profile == StartupYawProfile::kRamped ? "ramped" : "smoothstep";
+    e.Read("startup_yaw_profile", &profile, {"smoothstep", "ramped"});
+    c.startup_yaw_profile =
+        profile == "ramped" ? StartupYawProfile::kRamped : StartupYawProfile::kSmoothstep;
     e.Read("replan_period_s", &c.replan_period_s, Range::Positive());
     e.Read("replan_min_remaining_s", &c.replan_min_remaining_s, Range::NonNegative());
     e.Read("end_stall_window_s", &c.end_stall_window_s, Range::NonNegative());
@@ -243,6 +248,7 @@ bool ExplorerNode::StartTurn() {
   limits.max_acceleration_mps2 = config_.planner.trajectory.max_acceleration_mps2;
   limits.peak_yaw_rate_radps =
       std::min(config_.startup_yaw_rate_radps, config_.planner.trajectory.max_yaw_rate_radps);
+  limits.yaw_profile = config_.startup_yaw_profile;
   std::string error;
   const std::optional<PiecewisePolynomialTrajectory> turn =
       PlanStartupTurn(start, h, limits, &error);

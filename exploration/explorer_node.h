@@ -34,6 +34,7 @@
 #include "common/se3.h"
 #include "common/trajectory.h"
 #include "exploration/planner.h"
+#include "exploration/startup_turn.h"
 #include "kestrel/controller_status_t.hpp"
 #include "kestrel/exploration_status_t.hpp"
 #include "kestrel/map3d_chunk_t.hpp"
@@ -69,7 +70,12 @@ struct ExplorerConfig {
   /// the turn starts in HOLD within height_tolerance_m of h, after the climb.
   bool startup_while_climbing{true};
   double startup_min_rise_m{0.3};  ///< see startup_while_climbing, m (> 0)
-  double replan_period_s{1.0};     ///< replan at least this often while flying, s...
+  /// How the heading turns (exploration/startup_turn.h): smoothstep (the former turn, one
+  /// degree-7 smoothstep, 17.2 s at 0.8 rad/s) or ramped (0.75 s ramps of the rate and a cruise
+  /// at the peak, 8.6 s: the first plan 8.55 s earlier, no earlier 95% known on lasr;
+  /// docs/exploration.md, "Start-up: the turn while climbing").
+  StartupYawProfile startup_yaw_profile{StartupYawProfile::kSmoothstep};
+  double replan_period_s{1.0};  ///< replan at least this often while flying, s...
   /// ...unless the trajectory ends within this, s: a replan near the goal (often while the
   /// vehicle turns to the goal's heading in the goal's cell, which is no candidate) would pick
   /// another goal before this one is reached, again and again.

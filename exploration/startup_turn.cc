@@ -1,5 +1,7 @@
 #include "exploration/startup_turn.h"
 
+#include "exploration/trajectory_planner.h"
+
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
@@ -91,26 +93,51 @@ std::optional<PiecewisePolynomialTrajectory> PlanStartupTurn(const TrajectorySta
     }
   }
 
-  // yaw: the smoothstep full circle at the peak rate.
+  // yaw: the full circle, one smoothstep or the planner's ramped profile, at the peak rate.
   const double yaw0 = start.yaw_rad;
-  const double t_yaw = 35.0 / 16.0 * 2.0 * M_PI / limits.peak_yaw_rate_radps;
-  const std::vector<double> yaw_poly = ToRest(yaw0, 0.0, 0.0, yaw0 + 2.0 * M_PI, t_yaw);
+  std::vector<YawPiece> yaw;
+  if (limits.yaw_profile == StartupYawProfile::kSmoothstep) {
+    const double t_yaw = 35.0 / 16.0 * 2.0 * M_PI / limits.peak_yaw_rate_radps;
+    yaw = {{t_yaw, ToRest(yaw0, 0.0, 0.0, yaw0 + 2.0 * M_PI, t_yaw)}, {0.0, {yaw0 + 2.0 * M_PI}}};
+  } else {
+    yaw = YawProfile(yaw0, 0.0, 2.0 * M_PI, limits.peak_yaw_rate_radps);
+  }
+  std::vector<YawPiece> z;
+  if (t_z > 0.0) z.push_back({t_z, z_poly});
+  z.push_back({0.0, {height_m}});
 
-  // Pieces split where the shorter of the two ends.
-  std::vector<double> knots{0.0};
-  if (t_z > 1e-6 && std::abs(t_z - t_yaw) > 1e-6) knots.push_back(std::min(t_z, t_yaw));
-  knots.push_back(std::max(t_z, t_yaw));
-  auto axis = [](const std::vector<double>& c, double duration, double t0, double end_value) {
-    return t0 < duration - 1e-9 ? TaylorShift(c, t0) : std::vector<double>{end_value};
+  // Pieces at the union of both profiles' knots (each profile's last piece holds its end).
+  const auto knots_of = [](const std::vector<YawPiece>& pieces) {
+    std::vector<double> knots{0.0};
+    for (size_t j = 0; j + 1 < pieces.size(); ++j)
+      knots.push_back(knots.back() + pieces[j].duration_s);
+    return knots;
+  };
+  const std::vector<double> z_knots = knots_of(z), yaw_knots = knots_of(yaw);
+  std::vector<double> knots = z_knots;
+  knots.insert(knots.end(), yaw_knots.begin(), yaw_knots.end());
+  std::sort(knots.begin(), knots.end());
+  std::vector<double> unique{0.0};
+  for (double k : knots) {
+    if (k > unique.back() + 1e-6) unique.push_back(k);
+  }
+  // The piece of a profile holding local time t, expanded about t0.
+  const auto coefficients = [](const std::vector<YawPiece>& pieces,
+                               const std::vector<double>& piece_knots, double t, double t0) {
+    size_t j = 0;
+    while (j + 1 < pieces.size() && t >= piece_knots[j + 1]) ++j;
+    if (j + 1 == pieces.size()) return pieces[j].coefficients;  // the hold
+    return TaylorShift(pieces[j].coefficients, t0 - piece_knots[j]);
   };
   std::vector<PolynomialSegment> segments;
-  for (size_t i = 0; i + 1 < knots.size(); ++i) {
+  for (size_t i = 0; i + 1 < unique.size(); ++i) {
+    const double mid = 0.5 * (unique[i] + unique[i + 1]);
     PolynomialSegment seg;
-    seg.duration_s = knots[i + 1] - knots[i];
+    seg.duration_s = unique[i + 1] - unique[i];
     seg.coefficients[0] = {start.position_m.x()};
     seg.coefficients[1] = {start.position_m.y()};
-    seg.coefficients[2] = axis(z_poly, t_z, knots[i], height_m);
-    seg.coefficients[3] = axis(yaw_poly, t_yaw, knots[i], yaw0 + 2.0 * M_PI);
+    seg.coefficients[2] = coefficients(z, z_knots, mid, unique[i]);
+    seg.coefficients[3] = coefficients(yaw, yaw_knots, mid, unique[i]);
     segments.push_back(std::move(seg));
   }
   return PiecewisePolynomialTrajectory::Create(start.time_s, std::move(segments), error);

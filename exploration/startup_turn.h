@@ -13,10 +13,14 @@
 ///    tolerance); if none does (a start moving away from h, or too fast to stop at h), the
 ///    shortest that stays within 3 v0^2 / max_acceleration_mps2 (plus 2 cm) beyond the side the
 ///    start velocity v0 points to.
-///  - yaw: yaw0 + 2 pi s(tau / T_yaw) with the degree-7 smoothstep s (zero rate, acceleration and
-///    jerk at both ends, peak rate 35/16 * 2 pi / T_yaw), T_yaw set by the peak yaw rate.
+///  - yaw: +2 pi from the start's heading, with the peak yaw rate, either
+///    smoothstep (the default, the former turn): yaw0 + 2 pi s(tau / T) with the degree-7
+///    smoothstep s, peak rate 35/16 * 2 pi / T: 17.2 s at 0.8 rad/s; or
+///    ramped: the trajectory planner's YawProfile (exploration/trajectory_planner.h): the rate
+///    ramps up in 0.75 s (cubic smoothstep of the rate, yaw acceleration at most 2 peak per
+///    second), cruises at the peak and ramps down: 8.6 s at 0.8 rad/s.
 ///  - The two overlap from the start; the shorter holds its end value until the longer ends. The
-///    pieces are split at the shorter's end (Taylor shifts).
+///    pieces are split at the union of both profiles' knots (Taylor shifts).
 /// Position, velocity and acceleration in z and the yaw are continuous with the start (its yaw
 /// rate is taken as zero: take-off and hover do not turn). Pure, no I/O.
 
@@ -27,11 +31,15 @@
 
 namespace kestrel {
 
+/// How the heading turns its full circle (file comment).
+enum class StartupYawProfile { kSmoothstep, kRamped };
+
 /// Limits of the start-up trajectory.
 struct StartupTurnLimits {
   double max_speed_mps{1.0};          ///< vertical speed limit, m/s (> 0)
   double max_acceleration_mps2{1.0};  ///< vertical acceleration limit, m/s^2 (> 0)
   double peak_yaw_rate_radps{0.8};    ///< peak yaw rate of the full circle, rad/s (> 0)
+  StartupYawProfile yaw_profile{StartupYawProfile::kSmoothstep};  ///< see the file comment
 };
 
 /// The start-up trajectory from `start` (its time_s is the trajectory's start) to rest at

@@ -43,6 +43,8 @@ double CheckLimits(const PiecewisePolynomialTrajectory& t, const TrajectoryStart
     EXPECT_LE(f.position_m.z(), std::max(s.position_m.z(), h) + 0.02 + (v0 > 0 ? stop : 0))
         << sample.time_s;
     EXPECT_LE(f.yaw_rate_radps, limits.peak_yaw_rate_radps + 1e-9) << sample.time_s;
+    EXPECT_LE(std::abs(f.yaw_acceleration_radps2), 2.0 * limits.peak_yaw_rate_radps + 1e-9)
+        << sample.time_s;
     EXPECT_GE(f.yaw_rate_radps, -1e-9) << sample.time_s;  // one way round
     EXPECT_GE(f.yaw_rad, last_yaw - 1e-9) << sample.time_s;
     last_yaw = f.yaw_rad;
@@ -55,11 +57,15 @@ double CheckLimits(const PiecewisePolynomialTrajectory& t, const TrajectoryStart
 }
 
 // The climb continues from the take-off's state (position, velocity, acceleration continuous),
-// reaches h early in the turn, and the turn is exactly 2 pi within the yaw-rate limit.
-TEST(StartupTurn, ClimbsWhileTurningAFullCircle) {
+// reaches h early in the turn, and the turn is exactly 2 pi within the yaw-rate limit; with
+// either yaw profile.
+class ClimbingTurn : public ::testing::TestWithParam<StartupYawProfile> {};
+
+TEST_P(ClimbingTurn, ReachesHeightWhileTurningAFullCircle) {
   const TrajectoryStart s = Climbing();
   const double h = 0.8;
   StartupTurnLimits limits;  // 1 m/s, 1 m/s^2, 0.8 rad/s
+  limits.yaw_profile = GetParam();
   std::string error;
   const auto t = PlanStartupTurn(s, h, limits, &error);
   ASSERT_TRUE(t.has_value()) << error;
@@ -72,8 +78,13 @@ TEST(StartupTurn, ClimbsWhileTurningAFullCircle) {
   EXPECT_NEAR(at0.yaw_rad, s.yaw_rad, 1e-12);
   EXPECT_NEAR(at0.yaw_rate_radps, 0.0, 1e-12);
 
-  // The turn sets the duration: the degree-7 smoothstep's peak rate is 35/16 * 2 pi / T.
-  EXPECT_NEAR(t->duration_s(), 35.0 / 16.0 * kTwoPi / 0.8, 1e-9);
+  // The turn sets the duration. Smoothstep: peak rate 35/16 * 2 pi / T, 17.18 s. Ramped: 0.75 s
+  // ramps of the rate to and from 0.8 rad/s (sweeping 0.6 rad) and the rest of the circle at
+  // 0.8 rad/s: 2 pi / 0.8 + 0.75 = 8.60 s.
+  EXPECT_NEAR(t->duration_s(),
+              GetParam() == StartupYawProfile::kSmoothstep ? 35.0 / 16.0 * kTwoPi / 0.8
+                                                           : kTwoPi / 0.8 + 0.75,
+              1e-9);
   const FlatOutput end = t->Evaluate(t->end_time_s());
   EXPECT_NEAR(end.position_m.z(), h, 1e-9);
   EXPECT_NEAR(end.velocity_mps.z(), 0.0, 1e-9);
@@ -93,32 +104,48 @@ TEST(StartupTurn, ClimbsWhileTurningAFullCircle) {
     peak = std::max(peak, sample.flat.yaw_rate_radps);
   EXPECT_NEAR(peak, 0.8, 1e-3);
 
-  // Continuous at the knot where the climb ends (position to acceleration, yaw and its rate).
-  ASSERT_EQ(t->num_segments(), 2);
-  const double knot = t->start_time_s() + t->segments()[0].duration_s;
-  const FlatOutput a = t->Evaluate(knot - 1e-7);
-  const FlatOutput b = t->Evaluate(knot + 1e-7);
-  EXPECT_LT((a.position_m - b.position_m).norm(), 1e-6);
-  EXPECT_LT((a.velocity_mps - b.velocity_mps).norm(), 1e-5);
-  EXPECT_LT((a.acceleration_mps2 - b.acceleration_mps2).norm(), 1e-4);
-  EXPECT_NEAR(a.yaw_rad, b.yaw_rad, 1e-6);
-  EXPECT_NEAR(a.yaw_rate_radps, b.yaw_rate_radps, 1e-5);
+  // Continuous at every knot (the climb's end and the yaw profile's pieces): position to
+  // acceleration, yaw and its rate.
+  ASSERT_GE(t->num_segments(), GetParam() == StartupYawProfile::kSmoothstep ? 2 : 4);
+  double knot = t->start_time_s();
+  for (int i = 0; i + 1 < t->num_segments(); ++i) {
+    knot += t->segments()[static_cast<size_t>(i)].duration_s;
+    const FlatOutput a = t->Evaluate(knot - 1e-7);
+    const FlatOutput b = t->Evaluate(knot + 1e-7);
+    EXPECT_LT((a.position_m - b.position_m).norm(), 1e-6) << i;
+    EXPECT_LT((a.velocity_mps - b.velocity_mps).norm(), 1e-5) << i;
+    EXPECT_LT((a.acceleration_mps2 - b.acceleration_mps2).norm(), 1e-4) << i;
+    EXPECT_NEAR(a.yaw_rad, b.yaw_rad, 1e-6) << i;
+    EXPECT_NEAR(a.yaw_rate_radps, b.yaw_rate_radps, 1e-5) << i;
+  }
 }
 
-// Tighter limits (0.3 m/s^2, 0.6 m/s, 0.5 rad/s) are respected, the climb just takes longer.
+INSTANTIATE_TEST_SUITE_P(Profiles, ClimbingTurn,
+                         ::testing::Values(StartupYawProfile::kSmoothstep,
+                                           StartupYawProfile::kRamped));
+
+// Tighter limits (0.3 m/s^2, 0.6 m/s, 0.5 rad/s) are respected with both yaw profiles, the
+// climb just takes longer.
 TEST(StartupTurn, RespectsTighterLimits) {
   const TrajectoryStart s = Climbing();
-  StartupTurnLimits limits;
-  limits.max_speed_mps = 0.6;
-  limits.max_acceleration_mps2 = 0.3;
-  limits.peak_yaw_rate_radps = 0.5;
-  const auto t = PlanStartupTurn(s, 1.5, limits, nullptr);
-  ASSERT_TRUE(t.has_value());
-  EXPECT_GT(CheckLimits(*t, s, 1.5, limits), 0.0);
-  EXPECT_NEAR(t->Evaluate(t->end_time_s()).yaw_rad - s.yaw_rad, kTwoPi, 1e-9);
+  for (const StartupYawProfile profile :
+       {StartupYawProfile::kRamped, StartupYawProfile::kSmoothstep}) {
+    StartupTurnLimits limits;
+    limits.max_speed_mps = 0.6;
+    limits.max_acceleration_mps2 = 0.3;
+    limits.peak_yaw_rate_radps = 0.5;
+    limits.yaw_profile = profile;
+    const auto t = PlanStartupTurn(s, 1.5, limits, nullptr);
+    ASSERT_TRUE(t.has_value());
+    EXPECT_GT(CheckLimits(*t, s, 1.5, limits), 0.0);
+    const FlatOutput end = t->Evaluate(t->end_time_s());
+    EXPECT_NEAR(end.yaw_rad - s.yaw_rad, kTwoPi, 1e-9);
+    EXPECT_NEAR(end.position_m.z(), 1.5, 1e-9);
+  }
 }
 
-// From a hover at h it is the former turn in place: one piece, z constant, the smoothstep.
+// From a hover at h the default (smoothstep) profile is the former turn in place: one piece, z
+// constant, the same coefficients.
 TEST(StartupTurn, FromHoverAtHeightTurnsInPlace) {
   TrajectoryStart s;
   s.position_m = Eigen::Vector3d(1.0, 2.0, 0.8);
