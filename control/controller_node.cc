@@ -102,6 +102,7 @@ ControllerConfig LoadControllerConfig(const ConfigNode& node, const VehicleConfi
     s.Read("trajectory_timeout_s", &c.trajectory_timeout_s, Range::Positive());
     s.Read("takeoff_height_m", &c.takeoff_height_m, Range{0.0, 10.0, false, true});
     s.Read("takeoff_speed_mps", &c.takeoff_speed_mps, Range{0.0, 5.0, false, true});
+    s.Read("takeoff_track_min_rise_m", &c.takeoff_track_min_rise_m, Range::NonNegative());
     s.Read("land_speed_mps", &c.land_speed_mps, Range{0.0, 5.0, false, true});
     s.Read("landed_height_m", &c.landed_height_m, Range::Positive());
     s.Read("blind_land_depth_m", &c.blind_land_depth_m, Range{0.0, 10.0, false, true});

@@ -66,8 +66,9 @@ struct ControllerConfig {
 /// Reads a ControllerConfig from YAML: keys rate_hz, status_decimation, channels.{pose, imu,
 /// trajectory, command, motor, status}, controller.{attitude_error ("large_angle" | "cdc2010"),
 /// k_x_per_s2, ...}, estimator.{...},
-/// safety.{..., geofence_min_m, geofence_max_m}; absent keys keep their defaults. The vehicle
-/// comes from its own file (LoadVehicleConfigFile). @throws ConfigError naming file, key, range.
+/// safety.{..., takeoff_track_min_rise_m, geofence_min_m, geofence_max_m}; absent keys keep their
+/// defaults. The vehicle comes from its own file (LoadVehicleConfigFile). @throws ConfigError
+/// naming file, key, range.
 [[nodiscard]] ControllerConfig LoadControllerConfig(const ConfigNode& node,
                                                     const VehicleConfig& vehicle);
 

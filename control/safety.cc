@@ -50,6 +50,9 @@ void SafetyConfig::Validate() const {
   KESTREL_THROW_UNLESS(
       CheckPositive(takeoff_done_tolerance_m),
       "safety.takeoff_done_tolerance_m = " << takeoff_done_tolerance_m << ", accepted (0, inf)");
+  KESTREL_THROW_UNLESS(
+      std::isfinite(takeoff_track_min_rise_m) && takeoff_track_min_rise_m >= 0.0,
+      "safety.takeoff_track_min_rise_m = " << takeoff_track_min_rise_m << ", accepted [0, inf)");
   KESTREL_THROW_UNLESS(CheckPositive(land_speed_mps) && land_speed_mps <= 5.0,
                        "safety.land_speed_mps = " << land_speed_mps << ", accepted (0, 5]");
   KESTREL_THROW_UNLESS(CheckPositive(landed_height_m),
@@ -170,9 +173,23 @@ bool SafetySupervisor::AcceptTrajectory(const PiecewisePolynomialTrajectory& tra
       return false;
     }
   }
+  if (decision_.mode == FlightMode::kTakeoff) {
+    // The same rise as the take-off set point's (Update): off the ground, a trajectory (the
+    // explorer's climb and start-up turn) takes over the climb.
+    const double rise = std::min(
+        config_.takeoff_speed_mps * std::max(0.0, time_s - mode_start_time_s_), takeoff_height_m_);
+    if (!(rise >= config_.takeoff_track_min_rise_m)) {
+      if (reason != nullptr) {
+        *reason = "TAKEOFF: the set point has risen " + std::to_string(rise) +
+                  " m, less than takeoff_track_min_rise_m = " +
+                  std::to_string(config_.takeoff_track_min_rise_m) + " m";
+      }
+      return false;
+    }
+  }
   trajectory_ = trajectory;
   if ((decision_.mode == FlightMode::kHold && !failsafe_hold_) ||
-      decision_.mode == FlightMode::kTrack) {
+      decision_.mode == FlightMode::kTrack || decision_.mode == FlightMode::kTakeoff) {
     Enter(FlightMode::kTrack, time_s, "new trajectory");
   }
   if (reason != nullptr) reason->clear();

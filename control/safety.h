@@ -2,7 +2,10 @@
 /// @file
 /// The flight-mode supervisor of the controller (pure: times come with the inputs, no I/O).
 /// Modes: IDLE (motors off) -> TAKEOFF -> HOLD <-> TRACK -> LAND -> IDLE; ESTOP from anywhere,
-/// latched until an IDLE command. Failsafes, checked on every Update() in this order:
+/// latched until an IDLE command. TAKEOFF -> TRACK directly when a trajectory arrives once the
+/// take-off set point has risen takeoff_track_min_rise_m (the explorer's start-up turn while
+/// climbing, docs/exploration.md "Start-up: the turn while climbing"). Failsafes, checked on every
+/// Update() in this order:
 ///  1. a non-finite state estimate while flying: ESTOP (nothing can be controlled);
 ///  2. the last valid pose older than land_timeout_s: LAND (on the IMU-propagated state; the
 ///     touchdown test then does not trust the estimated height, see blind_land_depth_m);
@@ -41,7 +44,11 @@ struct SafetyConfig {
   double takeoff_height_m{1.0};          ///< climb above the take-off point, m
   double takeoff_speed_mps{0.5};         ///< climb rate of the take-off set point, m/s
   double takeoff_done_tolerance_m{0.1};  ///< position error that ends TAKEOFF (-> HOLD), m
-  double land_speed_mps{0.4};            ///< descent rate of the landing set point, m/s
+  /// In TAKEOFF, a trajectory is accepted (and starts TRACK) only once the take-off set point has
+  /// risen this far above the take-off point (the vehicle is off the ground); earlier it is
+  /// refused. A take-off lower than this accepts trajectories in HOLD only, m.
+  double takeoff_track_min_rise_m{0.2};
+  double land_speed_mps{0.4};    ///< descent rate of the landing set point, m/s
   double landed_height_m{0.08};  ///< within this above the ground height: landed (-> IDLE), m
   double landed_speed_mps{0.3};  ///< and slower than this, m/s
   /// Landing without fresh poses ("blind", on the IMU-propagated estimate, whose height drifts:
@@ -86,9 +93,10 @@ class SafetySupervisor {
   bool HandleCommand(FlightCommand command, double time_s, const VehicleState* state,
                      double last_pose_time_s, double takeoff_height_m = 0.0);
 
-  /// Stores a new trajectory if every point (sampled every 0.05 s) is inside the geofence; in
-  /// HOLD (not a failsafe hold) or TRACK it (re)starts TRACK. Returns false with *reason when
-  /// refused (the previous trajectory stays).
+  /// Stores a new trajectory if every point (sampled every 0.05 s) is inside the geofence and, in
+  /// TAKEOFF, the take-off set point has risen takeoff_track_min_rise_m; in TAKEOFF, HOLD (not a
+  /// failsafe hold) or TRACK it (re)starts TRACK. Returns false with *reason when refused (the
+  /// previous trajectory stays).
   bool AcceptTrajectory(const PiecewisePolynomialTrajectory& trajectory, double time_s,
                         std::string* reason);
 

@@ -9,6 +9,7 @@
 #include "common/config.h"
 #include "common/trajectory_message.h"
 #include "exploration/planner_config_io.h"
+#include "exploration/startup_turn.h"
 #include "kestrel/command_t.hpp"
 #include "kestrel/grid_map_t.hpp"
 #include "mapping/mapping_config.h"
@@ -27,6 +28,8 @@ void ExplorerConfig::Validate() const {
   KESTREL_THROW_UNLESS(p_init > 0 && p_init < 1, "map.p_init = " << p_init << " must be in (0, 1)");
   KESTREL_THROW_UNLESS(startup_yaw_rate_radps > 0, "explorer.startup_yaw_rate_radps = "
                                                        << startup_yaw_rate_radps << " must be > 0");
+  KESTREL_THROW_UNLESS(startup_min_rise_m > 0,
+                       "explorer.startup_min_rise_m = " << startup_min_rise_m << " must be > 0");
   KESTREL_THROW_UNLESS(height_tolerance_m > 0 && replan_period_s > 0 && safety_check_period_s > 0 &&
                            retry_period_s > 0,
                        "explorer periods and tolerances must be > 0");
@@ -67,6 +70,13 @@ ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
     e.Read("heartbeat_channel", &c.heartbeat_channel);
     e.Read("startup_yaw_rate_radps", &c.startup_yaw_rate_radps, Range::Positive());
     e.Read("height_tolerance_m", &c.height_tolerance_m, Range::Positive());
+    e.Read("startup_while_climbing", &c.startup_while_climbing);
+    e.Read("startup_min_rise_m", &c.startup_min_rise_m, Range::Positive());
+    std::string profile =
+        c.startup_yaw_profile == StartupYawProfile::kRamped ? "ramped" : "smoothstep";
+    e.Read("startup_yaw_profile", &profile, {"smoothstep", "ramped"});
+    c.startup_yaw_profile =
+        profile == "ramped" ? StartupYawProfile::kRamped : StartupYawProfile::kSmoothstep;
     e.Read("replan_period_s", &c.replan_period_s, Range::Positive());
     e.Read("replan_min_remaining_s", &c.replan_min_remaining_s, Range::NonNegative());
     e.Read("end_stall_window_s", &c.end_stall_window_s, Range::NonNegative());
@@ -133,6 +143,7 @@ ExplorerNode::ExplorerNode(lcm::LCM& lcm, const ExplorerConfig& config, const Cl
       [this](const std::string&, const controller_status_t& m) {
         have_controller_ = true;
         controller_mode_ = m.mode;
+        controller_trajectory_seq_ = m.trajectory_seq;
         bool finite = true;
         for (double v : m.velocity_mps) finite = finite && std::isfinite(v);
         if (finite)
@@ -158,6 +169,8 @@ void ExplorerNode::OnPose(const pose_t& msg) {
   X_WB.p = Eigen::Vector3d(msg.position_m[0], msg.position_m[1], msg.position_m[2]);
   pose_ = X_WB;
   have_pose_ = true;
+  if (state_ == exploration_status_t::STATE_WAITING)
+    lowest_z_m_ = std::min(lowest_z_m_, X_WB.p.z());
   if (state_ != exploration_status_t::STATE_WAITING && state_ != exploration_status_t::STATE_DONE &&
       (flown_path_.empty() ||
        (flown_path_.back() - X_WB.p.head<2>()).norm() >= config_.flown_path_spacing_m)) {
@@ -220,33 +233,35 @@ void ExplorerNode::Publish(const PiecewisePolynomialTrajectory& trajectory) {
   lcm_.publish(config_.trajectory_channel, &msg);
 }
 
-void ExplorerNode::StartTurn() {
-  // A full circle in place at (x, y, h): yaw = yaw0 + 2 pi s(tau / T) with the degree-7
-  // smoothstep s (zero rate, acceleration and jerk at both ends); its peak rate is 35/16 * 2 pi /
-  // T.
+bool ExplorerNode::StartTurn() {
+  // From the current state (docs/exploration.md, "Start-up: the turn while climbing"): the
+  // vertical velocity of the controller's estimate, no horizontal motion (a take-off climbs
+  // vertically), zero acceleration (the take-off set point climbs at constant speed).
   const double h = config_.planner.projection.height_m;
-  const double yaw0 = YawOf(pose_.q);
-  const double T = 35.0 / 16.0 * 2.0 * M_PI / config_.startup_yaw_rate_radps;
-  PolynomialSegment seg;
-  seg.duration_s = T;
-  seg.coefficients[0] = {pose_.p.x()};
-  seg.coefficients[1] = {pose_.p.y()};
-  seg.coefficients[2] = {h};
-  const double a = 2.0 * M_PI;
-  seg.coefficients[3] = {yaw0,
-                         0,
-                         0,
-                         0,
-                         a * 35 / std::pow(T, 4),
-                         -a * 84 / std::pow(T, 5),
-                         a * 70 / std::pow(T, 6),
-                         -a * 20 / std::pow(T, 7)};
+  TrajectoryStart start;
+  start.position_m = pose_.p;
+  start.velocity_mps = Eigen::Vector3d(0.0, 0.0, velocity_mps_.z());
+  start.yaw_rad = YawOf(pose_.q);
+  start.time_s = now_s();
+  StartupTurnLimits limits;
+  limits.max_speed_mps = config_.planner.trajectory.max_speed_mps;
+  limits.max_acceleration_mps2 = config_.planner.trajectory.max_acceleration_mps2;
+  limits.peak_yaw_rate_radps =
+      std::min(config_.startup_yaw_rate_radps, config_.planner.trajectory.max_yaw_rate_radps);
+  limits.yaw_profile = config_.startup_yaw_profile;
   std::string error;
-  auto turn = PiecewisePolynomialTrajectory::Create(now_s(), {seg}, &error);
-  KESTREL_DEMAND(turn.has_value());
+  const std::optional<PiecewisePolynomialTrajectory> turn =
+      PlanStartupTurn(start, h, limits, &error);
+  if (!turn.has_value()) {
+    drops_.Count("startup_failed", error);
+    return false;
+  }
   Publish(*turn);
-  Log(LogLevel::kInfo, "start-up: turning a full circle at h = " + std::to_string(h) + " m over " +
-                           std::to_string(T) + " s");
+  Log(LogLevel::kInfo, "start-up: from z = " + std::to_string(pose_.p.z()) + " m at " +
+                           std::to_string(start.velocity_mps.z()) +
+                           " m/s to h = " + std::to_string(h) + " m while turning a full circle, " +
+                           std::to_string(turn->duration_s()) + " s");
+  return true;
 }
 
 void ExplorerNode::Plan(const std::string& reason) {
@@ -402,18 +417,42 @@ void ExplorerNode::Step() {
   }
   const double h = config_.planner.projection.height_m;
   switch (state_) {
-    case exploration_status_t::STATE_WAITING:
-      if (have_pose_ && have_controller_ && replica_.current() &&
-          controller_mode_ == controller_status_t::MODE_HOLD &&
-          std::abs(pose_.p.z() - h) < config_.height_tolerance_m) {
-        home_xy_ = pose_.p.head<2>();
-        home_yaw_rad_ = YawOf(pose_.q);
+    case exploration_status_t::STATE_WAITING: {
+      if (!have_pose_ || !have_controller_ || !replica_.current() || t < next_attempt_s_) break;
+      const bool at_height = std::abs(pose_.p.z() - h) < config_.height_tolerance_m;
+      const bool risen = pose_.p.z() >= lowest_z_m_ + config_.startup_min_rise_m;
+      // The controller flies trajectories in HOLD and, once off the ground, in TAKEOFF
+      // (control/safety.h); in the other modes the explorer does nothing.
+      const bool ready =
+          config_.startup_while_climbing
+              ? (controller_mode_ == controller_status_t::MODE_TAKEOFF && risen) ||
+                    (controller_mode_ == controller_status_t::MODE_HOLD && (risen || at_height))
+              : controller_mode_ == controller_status_t::MODE_HOLD && at_height;
+      if (!ready) break;
+      home_xy_ = pose_.p.head<2>();
+      home_yaw_rad_ = YawOf(pose_.q);
+      if (StartTurn()) {
         state_ = exploration_status_t::STATE_STARTUP;
-        StartTurn();
+        startup_flown_ = false;
+      } else {
+        next_attempt_s_ = t + config_.retry_period_s;
       }
       break;
+    }
     case exploration_status_t::STATE_STARTUP:
-      if (t > trajectory_->end_time_s() + 0.5) {
+      if (controller_mode_ == controller_status_t::MODE_TRACK &&
+          controller_trajectory_seq_ == trajectory_seq_) {
+        startup_flown_ = true;
+      }
+      if (!startup_flown_ && t > trajectory_->start_time_s() + 1.0) {
+        // Refused or not flown (e.g. a failsafe hold): nothing is commanded; wait and retry.
+        drops_.Count("startup_not_flown",
+                     "the controller did not fly the start-up trajectory (mode " +
+                         std::to_string(controller_mode_) + ")");
+        state_ = exploration_status_t::STATE_WAITING;
+        trajectory_.reset();
+        next_attempt_s_ = t + config_.retry_period_s;
+      } else if (t > trajectory_->end_time_s() + 0.5) {
         state_ = exploration_status_t::STATE_EXPLORING;
         Plan("start-up turn done");
       }

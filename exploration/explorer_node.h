@@ -3,9 +3,13 @@
 /// The explorer node (kestrel-explorer): keeps a copy of the mapper's 3D map (MAP3D snapshots and
 /// deltas, mapping/map_replica.h), and runs the paper's exploration loop (ALGORITHMS.md section 8):
 ///
-///   WAITING   until a map, a valid pose and the controller hovering at the exploration height
-///             after the commanded take-off (the explorer never takes off by itself);
-///   STARTUP   turns a full circle in place at the exploration height to scan;
+///   WAITING   until a map, a valid pose and the vehicle airborne on the commanded take-off
+///             (controller in TAKEOFF, startup_min_rise_m above the lowest height seen) or
+///             hovering (HOLD); the explorer never takes off by itself;
+///   STARTUP   one trajectory from the current state: the rest of the climb to the exploration
+///             height h, vertically, while the heading turns a full circle to scan
+///             (exploration/startup_turn.h; docs/exploration.md "Start-up: the turn while
+///             climbing"); back to WAITING if the controller does not fly it;
 ///   EXPLORING plans (exploration/planner.h) and publishes TRAJECTORY; replans when the
 ///             trajectory ends, when new map data makes the remaining path unsafe (the vehicle's
 ///             disc over non-traversable collision cells), or after replan_period_s;
@@ -30,6 +34,7 @@
 #include "common/se3.h"
 #include "common/trajectory.h"
 #include "exploration/planner.h"
+#include "exploration/startup_turn.h"
 #include "kestrel/controller_status_t.hpp"
 #include "kestrel/exploration_status_t.hpp"
 #include "kestrel/map3d_chunk_t.hpp"
@@ -59,7 +64,18 @@ struct ExplorerConfig {
 
   double startup_yaw_rate_radps{0.8};  ///< peak yaw rate of the start-up full circle, rad/s
   double height_tolerance_m{0.25};     ///< hovering within this of h counts as "at height", m
-  double replan_period_s{1.0};         ///< replan at least this often while flying, s...
+  /// The start-up turn overlaps the climb (docs/exploration.md, "Start-up: the turn while
+  /// climbing"): it starts once the controller is in TAKEOFF and the vehicle is
+  /// startup_min_rise_m above the lowest height seen while waiting. false: the former behaviour,
+  /// the turn starts in HOLD within height_tolerance_m of h, after the climb.
+  bool startup_while_climbing{true};
+  double startup_min_rise_m{0.3};  ///< see startup_while_climbing, m (> 0)
+  /// How the heading turns (exploration/startup_turn.h): smoothstep (the former turn, one
+  /// degree-7 smoothstep, 17.2 s at 0.8 rad/s) or ramped (0.75 s ramps of the rate and a cruise
+  /// at the peak, 8.6 s: the first plan 8.55 s earlier, no earlier 95% known on lasr;
+  /// docs/exploration.md, "Start-up: the turn while climbing").
+  StartupYawProfile startup_yaw_profile{StartupYawProfile::kSmoothstep};
+  double replan_period_s{1.0};  ///< replan at least this often while flying, s...
   /// ...unless the trajectory ends within this, s: a replan near the goal (often while the
   /// vehicle turns to the goal's heading in the goal's cell, which is no candidate) would pick
   /// another goal before this one is reached, again and again.
@@ -128,7 +144,8 @@ class ExplorerNode {
   void OnPose(const pose_t& msg);
   void Plan(const std::string& reason);
   void PlanHome(const std::string& reason);
-  void StartTurn();
+  // Publishes the start-up trajectory from the current state; false (counted) if none is found.
+  bool StartTurn();
   bool RemainingPathSafe();
   void Publish(const PiecewisePolynomialTrajectory& trajectory);
   void PublishStatus(const PlanResult& result, const std::string& reason);
@@ -156,6 +173,9 @@ class ExplorerNode {
   Eigen::Vector3d velocity_mps_{Eigen::Vector3d::Zero()};
   bool have_controller_{false};
   int8_t controller_mode_{0};
+  int64_t controller_trajectory_seq_{-1};  // the trajectory the controller last accepted
+  double lowest_z_m_{1e300};               // lowest pose height seen while waiting, m
+  bool startup_flown_{false};              // the controller tracks the start-up trajectory
   Eigen::Vector2d home_xy_{Eigen::Vector2d::Zero()};
   double home_yaw_rad_{0.0};
   std::optional<PiecewisePolynomialTrajectory> trajectory_;

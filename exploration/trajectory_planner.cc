@@ -184,16 +184,9 @@ std::vector<double> ProfileDurations(const std::vector<Eigen::Vector3d>& points,
   return durations;
 }
 
-// One piece of the yaw profile: duration and coefficients in its local time.
-struct YawPiece {
-  double duration_s{0.0};
-  std::vector<double> coefficients;
-};
+}  // namespace
 
-// The yaw profile (step 5): from yaw0 at rate rate0, turn by delta (rad) and rest. The rate
-// ramps from rate0 to a peak (at most max_rate in magnitude), cruises, ramps to 0; each ramp is a
-// cubic smoothstep of the rate (yaw acceleration continuous, at most kYawAccelerationPerRate
-// max_rate), so the duration is the shortest that respects max_rate and that yaw acceleration.
+// Step 5 of the file comment; the yaw acceleration is at most kYawAccelerationPerRate max_rate.
 std::vector<YawPiece> YawProfile(double yaw0, double rate0, double delta, double max_rate) {
   const double alpha = kYawAccelerationPerRate * max_rate;
   const auto ramp_s = [alpha](double from, double to) { return 1.5 * std::abs(to - from) / alpha; };
@@ -235,6 +228,8 @@ std::vector<YawPiece> YawProfile(double yaw0, double rate0, double delta, double
   pieces.push_back({0.0, {yaw}});  // the hold (its duration unused)
   return pieces;
 }
+
+namespace {
 
 // The final trajectory (step 5): the translation pieces (a hover at the goal appended when the
 // turn outlasts them) and the yaw profile, both split at the union of their knots by Taylor

@@ -99,6 +99,22 @@ struct TrajectoryPlan {
   std::string error;           ///< why there is no trajectory
 };
 
+/// One piece of a yaw profile: duration (s) and coefficients (ascending powers of its local
+/// time, rad).
+struct YawPiece {
+  double duration_s{0.0};
+  std::vector<double> coefficients;
+};
+
+/// The yaw profile of step 5 of the file comment: from yaw0 (rad) at rate rate0 (rad/s), turn by
+/// delta (rad, not wrapped: 2 pi is a full circle) and rest. The rate ramps from rate0 to a peak
+/// (at most max_rate in magnitude), cruises, ramps to 0; each ramp is a cubic smoothstep of the
+/// rate (yaw acceleration continuous, at most 2 max_rate per second: a ramp from 0 to max_rate
+/// takes 0.75 s), so the duration is the shortest that respects max_rate and that yaw
+/// acceleration. The last piece is the hold at the end (its duration 0, unused).
+[[nodiscard]] std::vector<YawPiece> YawProfile(double yaw0, double rate0, double delta,
+                                               double max_rate);
+
 /// Whether the disc of radius r at p overlaps only cells with allowed[i] (and no cell outside the
 /// grid). Overlap means a distance < r from p to the cell's square.
 [[nodiscard]] bool DiscClear(const GridMap2D& grid, const std::vector<bool>& allowed,

@@ -85,6 +85,33 @@ TEST_F(SafetyTest, TakeOffHoldTrackLandIdle) {
   EXPECT_EQ(d.reason, "landed");
 }
 
+// A trajectory during TAKEOFF (the explorer's climb and start-up turn, docs/exploration.md
+// "Start-up: the turn while climbing") is refused until the take-off set point has risen
+// takeoff_track_min_rise_m (0.2 m: 0.4 s at 0.5 m/s), then starts TRACK at once.
+TEST_F(SafetyTest, TrajectoryDuringTakeoffTracksOnceAirborne) {
+  ASSERT_TRUE(supervisor_.HandleCommand(FlightCommand::kTakeoff, 0.0, &state_, 0.0));
+  SafetyDecision d = RunFresh(0.0, 0.2);
+  ASSERT_EQ(d.mode, FlightMode::kTakeoff);
+  std::string reason;
+  EXPECT_FALSE(supervisor_.AcceptTrajectory(Line({0, 0, 0.1}, {0, 0, 1}, 0.2, 1.8), 0.2, &reason));
+  EXPECT_NE(reason.find("TAKEOFF"), std::string::npos) << reason;
+  d = RunFresh(0.21, 0.6);
+  EXPECT_EQ(d.mode, FlightMode::kTakeoff);
+  EXPECT_TRUE(d.reset_integrals);
+  EXPECT_NEAR(d.setpoint.position_m.z(), 0.3, 1e-9);
+
+  ASSERT_TRUE(supervisor_.AcceptTrajectory(Line({0, 0, 0.3}, {0, 0, 1}, 0.6, 1.4), 0.6, &reason))
+      << reason;
+  d = Step(1.0, 1.0);
+  EXPECT_EQ(d.mode, FlightMode::kTrack) << d.reason;
+  EXPECT_NEAR(d.setpoint.position_m.z(), 0.3 + 0.7 * 0.4 / 1.4, 1e-9);
+  EXPECT_FALSE(d.reset_integrals);
+  // After the trajectory (and its time-out): HOLD where it ended, not the take-off's climb.
+  d = RunFresh(1.01, 4.0);
+  EXPECT_EQ(d.mode, FlightMode::kHold) << d.reason;
+  EXPECT_NEAR(d.setpoint.position_m.z(), 1.0, 1e-9);
+}
+
 TEST_F(SafetyTest, TakeoffNeedsIdleAndAFreshPose) {
   EXPECT_FALSE(supervisor_.HandleCommand(FlightCommand::kTakeoff, 1.0, &state_, 0.5));  // stale
   EXPECT_FALSE(supervisor_.HandleCommand(FlightCommand::kTakeoff, 1.0, nullptr, 1.0));

@@ -21,6 +21,9 @@ TEST(PlannerConfigIo, ReferenceFileEqualsDefaults) {
   EXPECT_EQ(e.replan_min_remaining_s, ed.replan_min_remaining_s);
   EXPECT_EQ(e.safety_check_period_s, ed.safety_check_period_s);
   EXPECT_EQ(e.startup_yaw_rate_radps, ed.startup_yaw_rate_radps);
+  EXPECT_EQ(e.startup_while_climbing, ed.startup_while_climbing);
+  EXPECT_EQ(e.startup_min_rise_m, ed.startup_min_rise_m);
+  EXPECT_EQ(e.startup_yaw_profile, ed.startup_yaw_profile);
   EXPECT_EQ(e.max_failed_plans, ed.max_failed_plans);
   EXPECT_EQ(e.map_channel, ed.map_channel);
   EXPECT_EQ(e.pose_channel, ed.pose_channel);

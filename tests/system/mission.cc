@@ -124,6 +124,7 @@ MissionResult RunMission(const MissionConfig& mc) {
     lcm.subscribe(".*", &LogWriter::Handle, &writer);
   }
   MissionResult r;
+  const int64_t t0_utime = clock.NowUtime();
   GuardedSubscriptions watch(lcm);
   bool first_plan_seen = false;
   watch.Add<exploration_status_t>(
@@ -136,6 +137,7 @@ MissionResult RunMission(const MissionConfig& mc) {
         }
         first_plan_seen = true;
         r.first_plan_chose_goal = m.chosen_index >= 0;
+        r.first_plan_time_s = UtimeToSeconds(clock.NowUtime() - t0_utime);
       },
       nullptr);
   if (mc.verbose) {
@@ -410,6 +412,7 @@ std::string MissionSummary(const MissionResult& r) {
     << "known fraction: " << r.quality.known_fraction << " of " << r.quality.observable_cells
     << " observable cells; accuracy " << r.quality.accuracy << "; Brier " << r.quality.brier
     << "; ROC AUC " << r.quality.roc_auc << "\n"
+    << "first exploration plan: " << r.first_plan_time_s << " s\n"
     << "time to 95% known: " << r.time_to_95_s << " s\n"
     << "faults: " << r.sensor_messages_dropped << " sensor messages and " << r.poses_dropped
     << " poses dropped; tracking after the outage: " << (r.tracked_after_outage ? "yes" : "no")

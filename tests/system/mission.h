@@ -80,6 +80,8 @@ struct MissionResult {
   bool tracked_after_outage{false};    ///< the controller was in TRACK after the outage
   /// The explorer's first plan after the start-up turn chose a goal (a trajectory was sent).
   bool first_plan_chose_goal{false};
+  /// Simulated time of that first exploration plan, s from the start (-1: none).
+  double first_plan_time_s{-1};
   /// The vehicle's (x, y) left the collision cell (ALGORITHMS.md section 7, edge alpha_C from the
   /// map's lower corner) that holds the take-off point, at some time of the flight.
   bool left_start_collision_cell{false};

@@ -109,7 +109,7 @@ class FirstPlan : public ::testing::TestWithParam<const char*> {};
 TEST_P(FirstPlan, LeavesTheStartCell) {
   MissionConfig mc = CiProfile();
   mc.world_file = std::string("config/worlds/") + GetParam() + ".yaml";
-  mc.max_time_s = 45;  // take-off, the 17 s turn, the first plan and part of its flight
+  mc.max_time_s = 45;  // take-off and the 17 s turn (overlapping), the first plan, its flight
   mc.compute_quality = false;
   const MissionResult r = RunMission(mc);
   EXPECT_TRUE(r.first_plan_chose_goal) << GetParam();
