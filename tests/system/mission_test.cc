@@ -18,9 +18,9 @@ MissionConfig CiProfile() {
 }
 
 // The volumetric mode (the default; docs/exploration.md). Measured (seed 1, 2026-12-02): 95% known
-// at 80 s (the paper's experiment ended at 167 s; Kestrel's combined mode reached 95% at 435 s),
-// ended by the gain rule at 118 s, returned home and landed, 0 collisions, known 0.983, accuracy
-// 0.990, Brier 0.016, height within 0.03 m of h. A vehicle that only hovers reaches about 0.38.
+// at 70 s (the paper's experiment ended at 167 s; Kestrel's combined mode reached 95% at 435 s),
+// ended by the gain rule at 106 s, returned home and landed, 0 collisions, known 0.977, accuracy
+// 0.990, Brier 0.016, height within 0.011 m of h. A vehicle that only hovers reaches about 0.38.
 TEST(Mission, ExploresLasrWithoutCollisionAndLands) {
   MissionConfig mc = CiProfile();
   mc.max_time_s = 900;
@@ -44,8 +44,8 @@ TEST(Mission, ExploresLasrWithoutCollisionAndLands) {
 }
 
 // office (20 x 14 m, eight rooms off a corridor): the paper's modes reached 71-78% in 900 s.
-// Measured (seed 1, 2026-12-02, volumetric): 95% known at 370 s, ended by the gain rule at 410 s,
-// returned home and landed, 0 collisions, known 0.959, accuracy 0.981, Brier 0.028.
+// Measured (seed 1, 2026-12-02, volumetric): 95% known at 365 s, ended by the gain rule at 370 s,
+// returned home and landed, 0 collisions, known 0.951, accuracy 0.983, Brier 0.027.
 TEST(Mission, ExploresOfficeWithoutCollisionAndLands) {
   MissionConfig mc = CiProfile();
   mc.world_file = "config/worlds/office.yaml";
