@@ -507,7 +507,9 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
           const float p = replica->At(x, y, z);
           if (!(static_cast<double>(p) > config.occupied_threshold)) continue;
           ++summary.occupied_cells;
-          std::fprintf(f.get(), "%.4f,%.4f,%.4f,%.4f\n", o.x() + (x + 0.5) * a,
+          // p with a float's full precision (%.9g): at 4 decimals a cell just above the
+          // threshold read back as the threshold itself.
+          std::fprintf(f.get(), "%.4f,%.4f,%.4f,%.9g\n", o.x() + (x + 0.5) * a,
                        o.y() + (y + 0.5) * a, o.z() + (z + 0.5) * a, static_cast<double>(p));
         }
       }
