@@ -654,7 +654,7 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
     const double base_m =
         speed * speed / (2.0 * kProfileAcceleration * config.max_acceleration_mps2) + 0.05;
     for (const double scale : {1.0, 1.6, 2.5}) {
-      if (speed <= 0.05) break;
+      if (speed <= 0.05) break;  // at rest: nothing to run out
       const Eigen::Vector2d stop = start_xy + scale * base_m * (v / speed);
       if (!SegmentClear(collision, allowed, start_xy, stop, r)) break;
       StartTry run_out{start.velocity_mps, start.acceleration_mps2, {stop}};
@@ -685,15 +685,13 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
     way2 = base_way;
     std::vector<double> caps = base_cap;
     leaving = base_leaving;
-    std::vector<bool> stop_at(way2.size(), false);  // knots where the vehicle rests
+    // Rests at the run-out's points (if any), checked without leaving.
     const std::vector<Eigen::Vector2d>& run_out = starts[attempt].run_out;
-    if (!run_out.empty()) {  // rests at the run-out's points, checked without leaving
-      way2.insert(way2.begin() + 1, run_out.begin(), run_out.end());
-      caps.insert(caps.begin() + 1, run_out.size(), 0.0);
-      leaving.insert(leaving.begin(), run_out.size(), false);
-      stop_at.assign(way2.size(), false);
-      for (size_t i = 1; i <= run_out.size(); ++i) stop_at[i] = true;
-    }
+    way2.insert(way2.begin() + 1, run_out.begin(), run_out.end());
+    caps.insert(caps.begin() + 1, run_out.size(), 0.0);
+    leaving.insert(leaving.begin(), run_out.size(), false);
+    std::vector<bool> stop_at(way2.size(), false);  // knots where the vehicle rests
+    std::fill_n(stop_at.begin() + 1, run_out.size(), true);
     plan.repair_rounds = 0;
     for (;;) {
       std::vector<Eigen::Vector3d> way3;
