@@ -278,6 +278,8 @@ void ExplorerNode::Plan(const std::string& reason) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   total_planning_s_ += plan_s;
   plan_times_s_.push_back(plan_s);
+  plan_timings_.push_back(result.timings);
+  plan_gain_stats_.push_back(result.volumetric_stats);
   last_plan_s_ = now_s();
   ++plan_seq_;
   if (result.status == PlanStatus::kGoal && result.trajectory.trajectory.has_value()) {

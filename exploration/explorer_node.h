@@ -136,6 +136,12 @@ class ExplorerNode {
   [[nodiscard]] double total_planning_s() const { return total_planning_s_; }
   /// Wall time of every exploration replan, s (not the flights home).
   [[nodiscard]] const std::vector<double>& plan_times_s() const { return plan_times_s_; }
+  /// The planner's own stage timings of every exploration replan, in plan_times_s() order.
+  [[nodiscard]] const std::vector<PlanTimings>& plan_timings() const { return plan_timings_; }
+  /// The volumetric gain's counters of every exploration replan, in plan_times_s() order.
+  [[nodiscard]] const std::vector<VolumetricGainStats>& plan_gain_stats() const {
+    return plan_gain_stats_;
+  }
   /// What ended exploration ("" while exploring): "gain rule", "progress stall", "planning
   /// failures", "no reachable candidate", "no reachable frontier".
   [[nodiscard]] const std::string& end_rule() const { return end_rule_; }
@@ -200,6 +206,8 @@ class ExplorerNode {
   // The flown corridor (PlannerInput::flown_path), a point every flown_path_spacing_m.
   std::vector<Eigen::Vector2d> flown_path_;
   std::vector<double> plan_times_s_;
+  std::vector<PlanTimings> plan_timings_;
+  std::vector<VolumetricGainStats> plan_gain_stats_;
   std::string end_rule_;
   std::string landing_;
   int home_attempts_{0};

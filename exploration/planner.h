@@ -226,7 +226,9 @@ class FrontierPlanner final : public ExplorationPlanner {
 /// order of bound x bump until the best exact objective reaches the next bound x bump, so the
 /// choice is the one evaluating every candidate gives; the end rule likewise evaluates in order of
 /// bound until one exact gain passes the threshold or no bound can. Candidates listed in the
-/// result are those evaluated exactly. Not thread-safe.
+/// result are those evaluated exactly. Between replans a position keeps its gains while the map
+/// within its rays' reach holds, and a memo per ray (RayMemo) otherwise: a ray that reads the
+/// same priors again reuses its exact I_ray, which is also its bound. Not thread-safe.
 class VolumetricPlanner final : public ExplorationPlanner {
  public:
   /// @throws std::invalid_argument if config is invalid.
@@ -243,6 +245,7 @@ class VolumetricPlanner final : public ExplorationPlanner {
   struct CachedPose {
     std::vector<double> bounds;
     std::vector<double> gains;  // empty until evaluated exactly
+    RayMemo memo;               // each ray's exact I_ray and the priors it was evaluated on
   };
   // Compares the map with the copy of the last Plan in tiles of kTile x kTile columns and marks
   // the tiles within the rays' reach of a changed one (affected_); copies the map. All tiles are

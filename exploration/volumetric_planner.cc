@@ -285,9 +285,14 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
         static_cast<int>(cached->second.bounds.size()) == n_yaw) {
       ++reused_positions_;
     } else {
-      const PoseGains b = gains_.Evaluate(input.map, Eigen::Vector3d(p.xy.x(), p.xy.y(), z), n_yaw,
-                                          false, &result.volumetric_stats);
-      cached = cache_.insert_or_assign(cell, CachedPose{b.bound_nats, {}}).first;
+      // The rays that read the same priors as at their last evaluation bound with their exact
+      // I_ray (RayMemo); the rest with the prior-entropy bound.
+      CachedPose& entry = cache_[cell];
+      PoseGains b = gains_.Evaluate(input.map, Eigen::Vector3d(p.xy.x(), p.xy.y(), z), n_yaw, false,
+                                    &result.volumetric_stats, &entry.memo);
+      entry.bounds = std::move(b.bound_nats);
+      entry.gains.clear();
+      cached = cache_.find(cell);
     }
     const CachedPose& c = cached->second;
     p.max_bound = *std::max_element(c.bounds.begin(), c.bounds.end());
@@ -299,11 +304,13 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
   }
   auto evaluate = [&](Position* p) {
     if (p->evaluated) return;
-    const PoseGains g = gains_.Evaluate(input.map, Eigen::Vector3d(p->xy.x(), p->xy.y(), z), n_yaw,
-                                        true, &result.volumetric_stats);
+    CachedPose& entry = cache_[p->cell];
+    PoseGains g = gains_.Evaluate(input.map, Eigen::Vector3d(p->xy.x(), p->xy.y(), z), n_yaw, true,
+                                  &result.volumetric_stats, &entry.memo);
     p->gains = g.gain_nats;
     p->evaluated = true;
-    cache_.insert_or_assign(p->cell, CachedPose{g.bound_nats, g.gain_nats});
+    entry.bounds = std::move(g.bound_nats);
+    entry.gains = std::move(g.gain_nats);
   };
   // Exact argmax of gain x bump, in decreasing bound x bump.
   std::vector<size_t> order(positions.size());

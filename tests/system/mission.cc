@@ -364,6 +364,30 @@ MissionResult RunMission(const MissionConfig& mc) {
     std::sort(times.begin(), times.end());
     r.plan_median_s = times[times.size() / 2];
     r.plan_max_s = times.back();
+    auto median = [&](double PlanTimings::*stage) {
+      std::vector<double> v;
+      for (const PlanTimings& t : explorer.plan_timings()) v.push_back(t.*stage);
+      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+      return v.empty() ? 0.0 : v[v.size() / 2];
+    };
+    r.plan_stage_median_s.projection_s = median(&PlanTimings::projection_s);
+    r.plan_stage_median_s.dijkstra_s = median(&PlanTimings::dijkstra_s);
+    r.plan_stage_median_s.gain_s = median(&PlanTimings::gain_s);
+    r.plan_stage_median_s.trajectory_s = median(&PlanTimings::trajectory_s);
+    r.plan_stage_median_s.total_s = median(&PlanTimings::total_s);
+    std::vector<double> bounded, gained;
+    long rays = 0, hits = 0;
+    for (const VolumetricGainStats& g : explorer.plan_gain_stats()) {
+      bounded.push_back(static_cast<double>(g.poses_bounded));
+      gained.push_back(static_cast<double>(g.poses_gained));
+      rays += g.rays;
+      hits += g.rays_memo_hits;
+    }
+    std::sort(bounded.begin(), bounded.end());
+    std::sort(gained.begin(), gained.end());
+    r.plan_positions_bounded_median = bounded[bounded.size() / 2];
+    r.plan_positions_gained_median = gained[gained.size() / 2];
+    r.plan_ray_memo_fraction = rays > 0 ? static_cast<double>(hits) / static_cast<double>(rays) : 0;
   }
   r.scans_applied = mapper.scans_applied();
   r.mapper_applied_every_message = mapper.applied_every_message();
@@ -405,6 +429,14 @@ std::string MissionSummary(const MissionResult& r) {
     << "plans: " << r.plans << ", planning wall time " << r.planning_wall_s << " s ("
     << (r.plans > 0 ? 1000.0 * r.planning_wall_s / r.plans : 0) << " ms per plan; replan median "
     << 1000.0 * r.plan_median_s << " ms, max " << 1000.0 * r.plan_max_s << " ms)\n"
+    << "replan stage medians: projection and traversability "
+    << 1000.0 * r.plan_stage_median_s.projection_s << " ms, distance field "
+    << 1000.0 * r.plan_stage_median_s.dijkstra_s << " ms, gain "
+    << 1000.0 * r.plan_stage_median_s.gain_s << " ms, trajectory "
+    << 1000.0 * r.plan_stage_median_s.trajectory_s << " ms\n"
+    << "replan gain: median " << r.plan_positions_bounded_median << " positions bounded and "
+    << r.plan_positions_gained_median << " evaluated exactly per replan; "
+    << 100.0 * r.plan_ray_memo_fraction << "% of rays reused from their memo\n"
     << "scans applied: " << r.scans_applied
     << ", every message applied: " << (r.mapper_applied_every_message ? "yes" : "no") << "\n"
     << "map entropy: " << r.final_entropy_nats << " nats, map hash " << std::hex << r.map_hash

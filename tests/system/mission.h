@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "exploration/planner.h"
 #include "mapping/map_quality.h"
 
 namespace kestrel {
@@ -72,6 +73,11 @@ struct MissionResult {
   std::string landing;      ///< "returned home (...)" or "landed elsewhere: ..."
   double plan_median_s{0};  ///< median wall time of an exploration replan
   double plan_max_s{0};     ///< slowest exploration replan
+  /// Median of each planner stage over the exploration replans (PlanTimings), s.
+  PlanTimings plan_stage_median_s;
+  double plan_positions_bounded_median{0};  ///< volumetric: positions bounded per replan
+  double plan_positions_gained_median{0};   ///< volumetric: positions evaluated exactly
+  double plan_ray_memo_fraction{0};         ///< volumetric: rays whose I_ray came from a memo
   /// Largest |z - h| of the true vehicle while exploring or flying home, m (h: the exploration
   /// height): trajectories stay in the plane their checks assume.
   double max_height_error_m{0};
