@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// The vehicle: mass, inertia, rotor layout, motor and sensor parameters, shared by the simulator,
-/// the controller and the mapper (DESIGN.md "Frames and the vehicle").
+/// the controller and the mapper (docs/design.md §4).
 ///
 /// Frames: body B is x forward, y left, z up; thrust along +z_B. Rotors are numbered 1..4
 /// counter-clockwise seen from above, starting front-right (layout "x", rotors at 45 deg between
@@ -58,7 +58,7 @@ struct VehicleConfig {
   void Validate() const;
 };
 
-/// Rotor geometry derived from a VehicleConfig (DESIGN.md "Frames and the vehicle").
+/// Rotor geometry derived from a VehicleConfig (docs/design.md §4).
 struct RotorGeometry {
   /// Column i: position of rotor i+1's hub in B (z = 0), m.
   Eigen::Matrix<double, 3, 4> position_B_m{Eigen::Matrix<double, 3, 4>::Zero()};

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// Geometric tracking control on SE(3): Lee, Leok, McClamroch, "Geometric tracking control of a
-/// quadrotor UAV on SE(3)", CDC 2010, in Kestrel's z-UP convention (ALGORITHMS.md section 9):
+/// quadrotor UAV on SE(3)", CDC 2010, in Kestrel's z-UP convention (docs/algorithms.md §11):
 /// world W x east, y north, z up, gravity -g e3; body B x forward, y left, z up; thrust f along
 /// +b3 = R e3, so m xddot = f R e3 - m g e3 and J Wdot + W x J W = M.
 ///
@@ -51,8 +51,8 @@ namespace kestrel {
 /// d/de Psi(R Exp(e eta), R_d) at e = 0 equals e_R . eta) the law uses. theta is the angle of
 /// the rotation R_d^T R, a its axis (in B).
 enum class AttitudeErrorForm {
-  /// Lee, Leok, McClamroch, CDC 2010 (ALGORITHMS.md section 9): Psi = 1/2 tr(I - R_d^T R) = 1 - cos
-  /// theta,
+  /// Lee, Leok, McClamroch, CDC 2010 (docs/algorithms.md §11.4):
+  /// Psi = 1/2 tr(I - R_d^T R) = 1 - cos theta,
   /// e_R = 1/2 vee(R_d^T R - R^T R_d) = sin(theta) a. Almost-global attractivity, but the
   /// restoring moment vanishes at theta = 180 deg (a saddle at exactly 180 deg).
   kCdc2010,
@@ -182,7 +182,7 @@ class GeometricController {
   /// @throws std::invalid_argument if config.Validate() throws.
   explicit GeometricController(const GeometricControllerConfig& config);
 
-  /// One control step (ALGORITHMS.md section 9). `dt_s` (s, in [0, max_dt_s]) is the time since
+  /// One control step (docs/algorithms.md §11). `dt_s` (s, in [0, max_dt_s]) is the time since
   /// the previous step, used to integrate e_i and e_I (first the integrals advance with the
   /// current errors and are clamped, then they are used).
   /// Returns false, leaving *out and the integrals untouched, when the state is not finite or R

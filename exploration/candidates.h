@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Candidate poses and the choice of the next one (ALGORITHMS.md section 8, eqs. (9) and (17)):
+/// Candidate poses and the choice of the next one (docs/algorithms.md §8.3-§8.5, eqs. (9), (17)):
 /// one reachable collision cell per block of the lattice (every `lattice_step` cells, anchored at
 /// cell (0, 0): the lattice cell, or the block's reachable cell nearest to it)
 /// times n_yaw headings yaw_m = 2 pi m / n_yaw; objective I(X_c) * bump(d_cell); the end of

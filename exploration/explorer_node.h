@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// The explorer node (kestrel-explorer): keeps a copy of the mapper's 3D map (MAP3D snapshots and
-/// deltas, mapping/map_replica.h), and runs the paper's exploration loop (ALGORITHMS.md section 8):
+/// deltas, mapping/map_replica.h), and runs the paper's exploration loop (docs/algorithms.md §8):
 ///
 ///   WAITING   until a map, a valid pose and the vehicle airborne on the commanded take-off
 ///             (controller in TAKEOFF, startup_min_rise_m above the lowest height seen) or
@@ -83,7 +83,7 @@ struct ExplorerConfig {
   /// another goal before this one is reached, again and again.
   double replan_min_remaining_s{0.0};
   /// Progress stall (Kestrel's addition; 0 disables): exploration also ends when the number of
-  /// known 3D cells (P < P_init / 2 or P > 0.5, ALGORITHMS.md section 10's rule on the
+  /// known 3D cells (P < P_init / 2 or P > 0.5, docs/algorithms.md §12.2's rule on the
   /// explorer's own map) grew by less than end_stall_min_growth of itself over this window, s.
   /// The gain-based tests alone may never end in a cluttered world: cells no sensor can see keep
   /// a little predicted gain that the vehicle chases round the rooms.

@@ -20,19 +20,19 @@ struct MapperSensorConfig {
   std::string name{"xtion"};  ///< sensor name; selects the extrinsic X_BS in the vehicle file
   std::string channel{"DEPTH_XTION"};  ///< LCM channel
   std::string kind{"depth"};           ///< "depth" (depth_image_t) or "scan" (planar_scan_t)
-  SensorModelConfig model{SensorModelConfig::Xtion()};  ///< forward model (ALGORITHMS.md section 3)
+  SensorModelConfig model{SensorModelConfig::Xtion()};  ///< forward model (docs/algorithms.md §3.2)
   Pose3 X_BS;  ///< sensor frame in the body frame (from the vehicle file)
 };
 
 struct MapperConfig {
   std::string grid{"dense"};   ///< "dense" (the paper's fixed limits) or "growing" (8^3 blocks)
-  std::string model{"exact"};  ///< "exact" (ALGORITHMS.md section 4) or "log_odds" (baseline)
+  std::string model{"exact"};  ///< "exact" (docs/algorithms.md §4.1) or "log_odds" (baseline)
   MapLimits limits;            ///< map limits and resolution alpha (growing: lattice origin)
   OccupancyLimits occupancy;   ///< P_init and the clamp P_min
   LogOddsConfig log_odds;      ///< baseline parameters (model = log_odds)
   std::vector<MapperSensorConfig> sensors;  ///< default: the paper's Xtion and Hokuyo
   std::string pose_channel{"POSE_VICON"};   ///< pose_t of the vehicle body
-  PoseHistoryConfig pose_history;           ///< interpolation limits (DESIGN.md "Time")
+  PoseHistoryConfig pose_history;           ///< interpolation limits (docs/design.md §5.2)
 
   std::string map_channel{"MAP3D"};          ///< full snapshots, in chunks
   std::string delta_channel{"MAP3D_DELTA"};  ///< changed cells between snapshots

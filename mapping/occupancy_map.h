@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// A 3D occupancy map that applies whole scans ray by ray (ALGORITHMS.md sections 1-5): a grid
+/// A 3D occupancy map that applies whole scans ray by ray (docs/algorithms.md §1-§5): a grid
 /// (DenseGrid with the paper's fixed limits, or GrowingGrid), a ray caster over its lattice, and
 /// an OccupancyUpdater (Kestrel's exact model or the log-odds baseline). The map entropy
 /// H(map) = sum_i H(P(m_i)) (eqs. 5-6) is kept per block of 512 cells (the GrowingGrid's 8^3

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
-/// Batched ray casting on a second core (ALGORITHMS.md section 11, "traversal of the next rays on
-/// one core while the other applies updates in order"): a worker thread fills a ring of
+/// Batched ray casting on a second core (docs/algorithms.md §13: traversal of the next rays on
+/// one core while the other applies updates in order): a worker thread fills a ring of
 /// RayBatch slots, eight rays each (the source, RayCaster::CastBatch and the map-independent
 /// prepare step, e.g. a_k), while the caller consumes the slots strictly in order. Neither step
 /// on the worker reads the map, so the map is bit-identical to a single thread's.

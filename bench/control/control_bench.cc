@@ -15,7 +15,7 @@
 namespace kestrel {
 namespace {
 
-// A point of the paper's helix (ALGORITHMS.md section 9) with a perturbed state.
+// A point of the paper's helix (docs/algorithms.md §11.8) with a perturbed state.
 FlatOutput HelixPoint(double t) {
   const double w = 3.14159265358979323846;
   FlatOutput d;

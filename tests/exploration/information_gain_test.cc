@@ -40,7 +40,7 @@ RayEntropy Evaluate(const SensorModel& m, const Ray2D& ray, const std::vector<do
                                   prior.data(), ray.size, mode, method, &scratch, terms);
 }
 
-// ALGORITHMS.md section 6: the fast evaluation equals the direct (n+1)^2 one to 1e-9 relative on
+// docs/algorithms.md §6.4: the fast evaluation equals the direct (n+1)^2 one to 1e-9 relative on
 // random rays (both sensors, both weightings, E-sized and B-sized cells, rays that leave the map).
 TEST(InformationGain, FastEqualsDirect) {
   std::mt19937 rng(3);

@@ -196,7 +196,7 @@ PiecewisePolynomialTrajectory Line(double start_s, const Eigen::Vector3d& start,
   return *PiecewisePolynomialTrajectory::Create(start_s, {seg}, nullptr);
 }
 
-// The paper's helix (ALGORITHMS.md section 9) as tests/system/helix_test.cc builds it: x_d =
+// The paper's helix (docs/algorithms.md §11.8) as tests/system/helix_test.cc builds it: x_d =
 // base + (0.4 t, 0.4 sin(pi t), 0.6 cos(pi t)), yaw = pi t, as 0.1 s pieces of degree-11 Taylor
 // expansions.
 PiecewisePolynomialTrajectory Helix(double start_s, const Eigen::Vector3d& base,

@@ -82,7 +82,7 @@ struct MissionResult {
   bool first_plan_chose_goal{false};
   /// Simulated time of that first exploration plan, s from the start (-1: none).
   double first_plan_time_s{-1};
-  /// The vehicle's (x, y) left the collision cell (ALGORITHMS.md section 7, edge alpha_C from the
+  /// The vehicle's (x, y) left the collision cell (docs/algorithms.md §7.1, edge alpha_C from the
   /// map's lower corner) that holds the take-off point, at some time of the flight.
   bool left_start_collision_cell{false};
   /// An EXPLORATION_STATUS message said DONE (what processes watching the explorer rely on).
