@@ -1,5 +1,5 @@
 // Controller update cost. Run: build-control/bench/control/control_bench
-// The law runs at 200-500 Hz on the vehicle (issue 5): its budget is 2-5 ms per step.
+// The law runs at 200-500 Hz on the vehicle: its budget is 2-5 ms per step.
 #include <benchmark/benchmark.h>
 
 #include <cmath>

@@ -171,7 +171,7 @@ TEST(InformationGain, LiteralWeightsAreMeasurementLikelihoods) {
   }
 }
 
-// Monte Carlo check of eq. (7) (issue 6): sample maps from the prior, a measurement from the
+// Monte Carlo check of eq. (7): sample maps from the prior, a measurement from the
 // forward model, snap it to the cell whose chord contains it (the discretisation behind the
 // weights) and average the posterior entropy H_k. Sampling error: 4 standard errors of the mean
 // (the test states it); discretisation error: zero for the snapped estimator by construction,

@@ -1,4 +1,4 @@
-// kestrel-controller's flight modes with the SIMULATOR's dynamics (issue 5): kestrel-sim's node
+// kestrel-controller's flight modes with the SIMULATOR's dynamics: kestrel-sim's node
 // and the controller node in one process, lockstep, over memq:// LCM, the paper-sized vehicle
 // (motor lag 0.02 s), the simulator's motion-capture noise and latency and IMU noise and bias.
 // Upside-down start (178 deg), take-off / hold / land, e-stop, motion capture lost for 1 s and
@@ -251,7 +251,7 @@ double FlyHelix(AttitudeErrorForm form, bool sensor_noise) {
   return rms_m;
 }
 
-// The helix stays within the issue's bounds with either attitude error: below 2 cm without sensor
+// The helix stays within these bounds with either attitude error: below 2 cm without sensor
 // noise, below 5 cm with it (motor lag 0.02 s, not compensated).
 TEST(FlightModes, HelixTracksWithEitherAttitudeError) {
   for (const AttitudeErrorForm form :

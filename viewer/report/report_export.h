@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// kestrel-report's data step (issue 9): reads a recorded run (an LCM log), rebuilds the mapper's
+/// kestrel-report's data step: reads a recorded run (an LCM log), rebuilds the mapper's
 /// 3D map from its MAP3D snapshots and MAP3D_DELTA messages (MapReplica), and writes plain CSV
 /// files that kestrel_report.py draws as the paper's figures (Figs. 1-3, 5-7):
 ///
