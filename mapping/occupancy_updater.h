@@ -3,7 +3,7 @@
 /// How one ray's reading changes the cells it crosses, behind one interface so that Kestrel's
 /// exact model and an OctoMap-style log-odds baseline can be run on identical data:
 ///  - ExactBayesUpdater: the exact inverse sensor model (docs/algorithms.md §4.1); cells store
-///    the probability P(m_i) as float, clamped to [P_min, 1 - P_min] (§1.2).
+///    the probability P(m_i) as float, clamped to [P_min, 1 - P_min] (docs/algorithms.md §1.2).
 ///  - LogOddsUpdater: OctoMap's update (hit 0.7 / miss 0.4, clamping 0.12 / 0.97); cells store
 ///    log-odds as float. The cell holding a return's end point is a hit, every other cell the ray
 ///    crosses up to it a miss; "no return" clears the whole ray to z_max (OctoMap's maxrange).
