@@ -39,7 +39,8 @@ struct VehicleConfig {
   double thrust_coefficient_N_per_radps2{8.5e-6};
   /// Drag-torque coefficient k_m: rotor reaction torque = k_m * thrust, m. 0.016 is typical of
   /// 10-12 in propellers; it sets the yaw authority (at the top of the paper's helix the thrust is
-  /// 40% of hover and yaw saturates: 0.0135 gave 19 mm helix RMS, 0.016 gives 17 mm).
+  /// 40% of hover and yaw saturates: a smaller k_m tracks the helix worse, docs/STATUS.md,
+  /// "Controller").
   double drag_torque_coefficient_m{0.016};
   double motor_time_constant_s{0.02};  ///< first-order lag of rotor thrust, s (0: no lag)
   double max_rotor_thrust_N{25.0};     ///< per-rotor thrust ceiling, N

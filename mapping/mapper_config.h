@@ -52,16 +52,17 @@ struct MapperConfig {
   /// Cast the rays of each scan on a second thread ahead of the in-order updates
   /// (OccupancyMap::SetTraversalThread): the same map bit for bit. With ray batches, each kind
   /// of scan goes through the thread only while that is faster (WorkerChoice). Off unless
-  /// configured: on this 2-vCPU machine the thread gives from below one thread's rays/s to 1.9x
-  /// it, in
-  /// spells (each ray's data crosses the cores, and what that costs depends on where the host
-  /// places the vCPUs) and takes up to twice the CPU. config/mapper.yaml turns it on; the sim
-  /// sheet turns it off (the simulator and the other processes share the two cores).
+  /// configured: on a 2-vCPU machine the thread's gain comes and goes in spells, down to below one
+  /// thread's rays/s (each ray's data crosses the cores, and what that costs depends on where the
+  /// host places the vCPUs; docs/STATUS.md, "Mapping"), and it takes up to twice the CPU.
+  /// config/mapper.yaml turns it on; the sim sheet turns it off (the simulator and the other
+  /// processes share the two cores).
   bool traversal_thread{false};
 
   /// Cast eight rays at a time, and evaluate their forward models and store their posteriors in
   /// vector registers, where the CPU has AVX-512 (OccupancyMap::SetRayBatches): the same map bit
-  /// for bit, 1.6-1.8x the rays/s of one ray at a time here (bench/mapping). false: one by one.
+  /// for bit, and faster than one ray at a time (bench/mapping; docs/STATUS.md, "Mapping").
+  /// false: one by one.
   /// A traversal thread, when on, takes precedence (its rays go one by one).
   bool ray_batches{true};
 

@@ -10,10 +10,10 @@
 /// core (on a shared machine the other side may not be running). The worker and the slots are
 /// created once; Run allocates nothing.
 ///
-/// Measured on the 2-vCPU development machine (bench/mapping, BM_KestrelExactThreaded_*): in
-/// some spells 1.5-1.9x one thread's rays per wall second, in others below one thread (each
-/// ray's d_k, cell indices and a_k, about 1.3 KB, cross between the cores, and what that costs
-/// depends on where the host places the two vCPUs), so it is off by default.
+/// On the 2-vCPU development machine (bench/mapping, BM_KestrelExactThreaded_*) it is faster than
+/// one thread in some spells and slower in others (each ray's d_k, cell indices and a_k cross
+/// between the cores, and what that costs depends on where the host places the two vCPUs;
+/// docs/STATUS.md, "Mapping"), so it is off by default.
 
 #include <atomic>
 #include <condition_variable>
