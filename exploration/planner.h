@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// One replan of the explorer (ALGORITHMS.md sections 7 and 8) behind one interface, so that the
+/// One replan of the explorer (docs/algorithms.md §7-§9) behind one interface, so that the
 /// entropy planner (both of the paper's modes) and the frontier baseline are interchangeable:
 ///   project C (and B or E) from the 3D map -> Dijkstra from the vehicle's collision cell ->
 ///   candidates and their gains -> choice (or the end of exploration) -> trajectory.
@@ -199,7 +199,7 @@ class EntropyPlanner final : public ExplorationPlanner {
 /// already reached (PlannerInput::reached_goals, with candidates.skip_reached_goals; the current
 /// goal is kept while it is still a reachable frontier), with an
 /// unknown 8-neighbour in C (not traversable and P_init/2 <= P(C) <= 0.5: not yet known free,
-/// not known occupied, after ALGORITHMS.md section 10), facing the mean direction of its unknown
+/// not known occupied, after docs/algorithms.md §12.2), facing the mean direction of its unknown
 /// neighbours; done when no such cell is reachable. Its gain (on B, for the status) is computed
 /// for the chosen pose only. Not thread-safe.
 class FrontierPlanner final : public ExplorationPlanner {

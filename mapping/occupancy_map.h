@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// A 3D occupancy map that applies whole scans ray by ray (ALGORITHMS.md sections 1-5): a grid
+/// A 3D occupancy map that applies whole scans ray by ray (docs/algorithms.md §1-§5): a grid
 /// (DenseGrid with the paper's fixed limits, or GrowingGrid), a ray caster over its lattice, and
 /// an OccupancyUpdater (Kestrel's exact model or the log-odds baseline). The map entropy
 /// H(map) = sum_i H(P(m_i)) (eqs. 5-6) is kept per block of 512 cells (the GrowingGrid's 8^3
@@ -131,11 +131,11 @@ class OccupancyMap {
   /// updates, which stay in ray order: same map bit for bit. With ray batches (SetRayBatches)
   /// the worker casts batches and evaluates their forward models (mapping/ray_batch_pipeline.h);
   /// otherwise it casts rays one by one and the two threads balance themselves
-  /// (mapping/traversal_pipeline.h). Measured on the shared 2-vCPU machine: from below one
-  /// thread's rate to 1.9x it, in spells (each ray's data crosses the cores, and what that costs
-  /// depends on where the host places the vCPUs); so with batches each kind of scan (depth
-  /// images, planar scans) goes through the worker only while that has been the faster way
-  /// (WorkerChoice, re-tried every 16th scan). Off by default (kestrel-mapper:
+  /// (mapping/traversal_pipeline.h). On a shared 2-vCPU machine its gain comes and goes in spells,
+  /// down to below one thread's rate (each ray's data crosses the cores, and what that costs
+  /// depends on where the host places the vCPUs; docs/STATUS.md, "Mapping"); so with batches each
+  /// kind of scan (depth images, planar scans) goes through the worker only while that has been the
+  /// faster way (WorkerChoice, re-tried every 16th scan). Off by default (kestrel-mapper:
   /// MapperConfig::traversal_thread); enabling creates the worker once.
   void SetTraversalThread(bool enabled);
   /// Whether a traversal thread is in use.

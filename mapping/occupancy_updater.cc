@@ -153,7 +153,7 @@ int ExactBayesUpdater::Update(const SensorModel& model, const Reading& reading,
   const ExactUpdateResult r = ExactUpdate::Apply(
       model, reading, distance_m, n, [&cell_at](int k) { return static_cast<double>(cell_at(k)); },
       [&](int k, double posterior) {
-        // ALGORITHMS.md section 1: clamp to [P_min, 1 - P_min] after each update. Branch-free:
+        // docs/algorithms.md §1.2: clamp to [P_min, 1 - P_min] after each update. Branch-free:
         // a cell held at its value (typically a free cell at the clamp) is rewritten unchanged
         // and not reported.
         const float stored = static_cast<float>(ClampProbability(posterior, p_min));

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Ray traversal on a second core (STYLE.md "Hot path"; ALGORITHMS.md section 11): a worker
+/// Ray traversal on a second core (docs/algorithms.md §13): a worker
 /// thread casts the rays of a scan ahead of the caller in batches, while the caller applies the
 /// updates strictly in ray order. Traversal reads no map, so the result is bit-identical to
 /// casting and applying one ray at a time. The worker and its batches (kBatches x kBatchRays ray

@@ -1,5 +1,5 @@
 // kestrel-map-score: scores a saved Kestrel map against the simulator's ground truth of a world
-// (ALGORITHMS.md section 10: known fraction, accuracy, Brier score, ROC AUC over the observable
+// (docs/algorithms.md §12.2: known fraction, accuracy, Brier score, ROC AUC over the observable
 // cells). The map's lattice must be the world's (map limits and resolution).
 #include <cstdio>
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The sim sheet through the runner (issue 8, multi-process): kestrel-procman starts the
+# The sim sheet through the runner, multi-process: kestrel-procman starts the
 # simulator, controller, mapper, explorer and logger as separate processes over UDP multicast in
 # a private network namespace and runs the sheet's "fly" script (take-off by kestrel-cmd);
 # flight_check then listens and asserts every process alive, message counts, entropy falling,
