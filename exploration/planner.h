@@ -49,8 +49,12 @@ struct FrontierConfig {
 /// C_thresh and P_init come from `projection`, the vehicle radius from `trajectory`, the bump and
 /// switch margin from `candidates`.
 struct VolumetricConfig {
-  double band_below_m{0.15};         ///< vehicle band below h checked for traversability, m (> 0)
-  double band_above_m{0.15};         ///< vehicle band above h, m (> 0)
+  /// Vehicle band below h checked for traversability, m (> 0): the body's half height (0.075 m),
+  /// the dip of its rim at 10 deg of tilt (0.44 sin 10 deg = 0.076 m) and one map cell for the
+  /// top of a thin or pointed object that the map resolves only below its tip (docs/exploration.md,
+  /// "Traversability").
+  double band_below_m{0.25};
+  double band_above_m{0.15};  ///< vehicle band above h, m (> 0)
   double margin_m{0.08};             ///< clearance beyond the vehicle radius, m (>= 0)
   double candidate_spacing_m{0.75};  ///< candidate positions every this many m (>= one cell)
   /// The paper's end rule, working: exploration ends when the best UNWEIGHTED 3D gain of every
