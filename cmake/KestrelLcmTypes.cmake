@@ -34,9 +34,20 @@ function(kestrel_lcm_types)
   endforeach()
   add_custom_target(${L_TARGET}_cpp DEPENDS ${headers})
   add_library(${L_TARGET} INTERFACE)
-  target_include_directories(${L_TARGET} SYSTEM INTERFACE ${cpp_dir})
+  target_include_directories(${L_TARGET} SYSTEM INTERFACE
+                             $<BUILD_INTERFACE:${cpp_dir}>
+                             $<INSTALL_INTERFACE:${KESTREL_INSTALL_INCLUDEDIR}>)
   target_link_libraries(${L_TARGET} INTERFACE PkgConfig::LCM)
   add_dependencies(${L_TARGET} ${L_TARGET}_cpp)
+  # Installed and exported like every library (kestrel::<name without kestrel_>); the headers go
+  # to <includedir>/kestrel/<package>/, included as "<package>/<struct>.hpp".
+  string(REGEX REPLACE "^kestrel_" "" short ${L_TARGET})
+  add_library(kestrel::${short} ALIAS ${L_TARGET})
+  set_target_properties(${L_TARGET} PROPERTIES EXPORT_NAME ${short})
+  set_property(GLOBAL APPEND PROPERTY KESTREL_EXPORTED_LIBRARIES kestrel::${short})
+  install(TARGETS ${L_TARGET} EXPORT KestrelTargets)
+  install(FILES ${headers} DESTINATION ${KESTREL_INSTALL_INCLUDEDIR}/${L_PACKAGE}
+          COMPONENT ${KESTREL_DEV_COMPONENT})
 
   if(Java_JAVAC_EXECUTABLE AND Java_JAR_EXECUTABLE AND LCM_JAR)
     set(jar ${CMAKE_CURRENT_BINARY_DIR}/${L_TARGET}.jar)
