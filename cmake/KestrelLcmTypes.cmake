@@ -63,6 +63,8 @@ function(kestrel_lcm_types)
       VERBATIM)
     add_custom_target(${L_TARGET}_jar ALL DEPENDS ${jar})
     set(${L_TARGET}_JAR ${jar} PARENT_SCOPE)
+    # Installed beside Debian's lcm.jar: lcm-spy -cp /usr/share/java/lcm.jar:.../<name>.jar
+    install(FILES ${jar} DESTINATION ${CMAKE_INSTALL_DATADIR}/java COMPONENT ${KESTREL_DEV_COMPONENT})
   else()
     message(WARNING "javac, jar or lcm.jar missing: the lcm-spy types jar is not built")
   endif()
