@@ -26,6 +26,7 @@ set(KESTREL_INSTALL_DATADIR ${CMAKE_INSTALL_DATADIR}/kestrel)
 set(KESTREL_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/Kestrel)
 # Libraries, headers and the CMake package go with the host's package (development is on the host).
 set(KESTREL_DEV_COMPONENT host)
+set(CMAKE_INSTALL_DEFAULT_COMPONENT_NAME host)
 
 function(kestrel_warnings target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow=local
