@@ -1,4 +1,4 @@
-#include "tests/system/mission.h"
+#include "tools/mission/mission.h"
 
 #include <algorithm>
 #include <chrono>
@@ -22,7 +22,7 @@
 #include "mapping/mapper_node.h"
 #include "sim/ground_truth.h"
 #include "sim/sim_node.h"
-#include "tests/system/map_scorer.h"
+#include "tools/map_score/map_scorer.h"
 
 namespace kestrel {
 

@@ -5,7 +5,7 @@
 
 #include "common/process.h"
 #include "mapping/map_file.h"
-#include "tests/system/map_scorer.h"
+#include "tools/map_score/map_scorer.h"
 
 namespace {
 const char* const kUsage =
