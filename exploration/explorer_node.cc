@@ -497,8 +497,8 @@ void ExplorerNode::Step() {
                    " m from the take-off point)";
         Log(LogLevel::kInfo, landing_);
         SendLand();
-        // The status says DONE too: processes watching EXPLORATION_STATUS (flight_check, the
-        // viewer, an operator) learn that exploration is over from it.
+        // The status says DONE too: processes watching EXPLORATION_STATUS (kestrel-flight-check,
+        // the viewer, an operator) learn that exploration is over from it.
         ++plan_seq_;
         PublishStatus(PlanResult{}, "home: land sent (" + end_rule_ + ", " + landing_ + ")");
       }
