@@ -40,6 +40,14 @@ ConfigNode Load(const std::string& root, const std::string& file,
   return node;
 }
 
+// The upper median (the element at size / 2 once sorted) of v, 0 if v is empty.
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto middle = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), middle, v.end());
+  return *middle;
+}
+
 }  // namespace
 
 MissionResult RunMission(const MissionConfig& mc) {
@@ -364,17 +372,16 @@ MissionResult RunMission(const MissionConfig& mc) {
     std::sort(times.begin(), times.end());
     r.plan_median_s = times[times.size() / 2];
     r.plan_max_s = times.back();
-    auto median = [&](double PlanTimings::*stage) {
+    auto stage_median = [&](double PlanTimings::*stage) {
       std::vector<double> v;
       for (const PlanTimings& t : explorer.plan_timings()) v.push_back(t.*stage);
-      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-      return v.empty() ? 0.0 : v[v.size() / 2];
+      return Median(std::move(v));
     };
-    r.plan_stage_median_s.projection_s = median(&PlanTimings::projection_s);
-    r.plan_stage_median_s.dijkstra_s = median(&PlanTimings::dijkstra_s);
-    r.plan_stage_median_s.gain_s = median(&PlanTimings::gain_s);
-    r.plan_stage_median_s.trajectory_s = median(&PlanTimings::trajectory_s);
-    r.plan_stage_median_s.total_s = median(&PlanTimings::total_s);
+    r.plan_stage_median_s.projection_s = stage_median(&PlanTimings::projection_s);
+    r.plan_stage_median_s.dijkstra_s = stage_median(&PlanTimings::dijkstra_s);
+    r.plan_stage_median_s.gain_s = stage_median(&PlanTimings::gain_s);
+    r.plan_stage_median_s.trajectory_s = stage_median(&PlanTimings::trajectory_s);
+    r.plan_stage_median_s.total_s = stage_median(&PlanTimings::total_s);
     std::vector<double> bounded, gained;
     long rays = 0, hits = 0;
     for (const VolumetricGainStats& g : explorer.plan_gain_stats()) {
@@ -383,10 +390,8 @@ MissionResult RunMission(const MissionConfig& mc) {
       rays += g.rays;
       hits += g.rays_memo_hits;
     }
-    std::sort(bounded.begin(), bounded.end());
-    std::sort(gained.begin(), gained.end());
-    r.plan_positions_bounded_median = bounded[bounded.size() / 2];
-    r.plan_positions_gained_median = gained[gained.size() / 2];
+    r.plan_positions_bounded_median = Median(std::move(bounded));
+    r.plan_positions_gained_median = Median(std::move(gained));
     r.plan_ray_memo_fraction = rays > 0 ? static_cast<double>(hits) / static_cast<double>(rays) : 0;
   }
   r.scans_applied = mapper.scans_applied();
