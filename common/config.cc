@@ -115,7 +115,7 @@ void ConfigNode::ApplyOverride(const std::string& assignment) {
   // yaml-cpp nodes are handles: walk with fresh handles, assigning into the tree.
   std::vector<YAML::Node> chain{node_};
   for (size_t i = 0; i + 1 < parts.size(); ++i) {
-    const YAML::Node& here = chain.back();
+    YAML::Node here = chain.back();  // not const: a missing key is created, as the last one is
     YAML::Node next = here.IsSequence() ? here[element_index(here, parts[i])] : here[parts[i]];
     if (next.IsDefined() && !next.IsNull() && !next.IsMap() && !next.IsSequence()) {
       throw ConfigError(file() + ": override '" + assignment + "': '" + parts[i] +

@@ -129,6 +129,11 @@ TEST(Config, CommandLineOverridesReplaceAndAreChecked) {
   root.ApplyOverride("xtion.width_px=0");
   ExpectConfigError([&] { ReadSensor(root.Child("xtion"), &c); }, {"xtion.width_px", "'0'"});
   ExpectConfigError([&] { root.ApplyOverride("novalue"); }, {"novalue", "key.path=value"});
+  // A path whose parents do not exist yet creates them.
+  root.ApplyOverride("hokuyo.model.sigma_m=0.05");
+  double sigma = 0.0;
+  root.Child("hokuyo").Child("model").Read("sigma_m", &sigma);
+  EXPECT_EQ(sigma, 0.05);
 }
 
 TEST(Config, OverridesIndexSequences) {
