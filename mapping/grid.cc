@@ -56,6 +56,16 @@ GridGeometry GridGeometry::Unbounded(const Eigen::Vector3d& origin_m, double res
   return g;
 }
 
+GridGeometry GridGeometry::WithBounds(const CellIndex& lower, const CellIndex& upper) const {
+  KESTREL_THROW_UNLESS(lower.x < upper.x && lower.y < upper.y && lower.z < upper.z,
+                       "grid window: lower bounds must lie below the upper ones");
+  GridGeometry g = *this;
+  g.bounded_ = true;
+  g.lower_ = lower;
+  g.upper_ = upper;
+  return g;
+}
+
 int64_t GridGeometry::AxisIndexOf(int axis, double v) const {
   int64_t i = static_cast<int64_t>(std::floor((v - origin_m_[axis]) * inv_resolution_));
   // The product may round across a boundary; settle it against Boundary() itself so that the
@@ -113,11 +123,14 @@ GrowingGrid::Block* GrowingGrid::CreateBlock(uint64_t key, uint32_t* index) {
   return raw;
 }
 
-GrowingGrid::Block* GrowingGrid::FindOrCreateBlock(const CellIndex& block_origin) {
+GrowingGrid::Block* GrowingGrid::FindOrCreateBlock(const CellIndex& block_origin, uint32_t* index) {
   const uint64_t key = BlockKeyOf(block_origin);
   const auto it = index_of_.find(key);
-  uint32_t index;
-  return it != index_of_.end() ? blocks_[it->second].get() : CreateBlock(key, &index);
+  uint32_t created;
+  if (index == nullptr) index = &created;
+  if (it == index_of_.end()) return CreateBlock(key, index);
+  *index = it->second;
+  return blocks_[it->second].get();
 }
 
 float GrowingGrid::Get(const CellIndex& c) const {

@@ -72,6 +72,10 @@ class GridGeometry {
   /// (-kUnboundedCells, kUnboundedCells) so that index arithmetic cannot overflow.
   /// @throws std::invalid_argument unless resolution_m > 0 and origin_m is finite.
   static GridGeometry Unbounded(const Eigen::Vector3d& origin_m, double resolution_m);
+  /// The same lattice (every point in the same cell) with the bounds [lower, upper) per axis: a
+  /// window of it (OccupancyMap::CastLattice).
+  /// @throws std::invalid_argument unless lower < upper on every axis.
+  [[nodiscard]] GridGeometry WithBounds(const CellIndex& lower, const CellIndex& upper) const;
 
   /// Edge alpha of a cell, m.
   [[nodiscard]] double resolution_m() const { return resolution_m_; }
@@ -81,7 +85,7 @@ class GridGeometry {
   [[nodiscard]] const CellIndex& lower() const { return lower_; }
   /// One past the largest valid index per axis (the cell count for a fixed map).
   [[nodiscard]] const CellIndex& upper() const { return upper_; }
-  /// Whether the grid has fixed limits.
+  /// Whether the grid has fixed limits (or is a window, WithBounds).
   [[nodiscard]] bool bounded() const { return bounded_; }
   /// Whether `other` is the same lattice with the same bounds (same cell of every point).
   [[nodiscard]] bool SameLattice(const GridGeometry& other) const {
@@ -245,8 +249,9 @@ class GrowingGrid {
     std::sort(order.begin(), order.end());
     for (const auto& [key, index] : order) f(BlockOriginOf(key), *blocks_[index]);
   }
-  /// The block holding `block_origin` (a multiple of kBlockEdge per axis), created if needed.
-  Block* FindOrCreateBlock(const CellIndex& block_origin);
+  /// The block holding `block_origin` (a multiple of kBlockEdge per axis), created if needed;
+  /// its creation index (block()) goes to *index when index is not null.
+  Block* FindOrCreateBlock(const CellIndex& block_origin, uint32_t* index = nullptr);
 
   /// Key of the block holding `c` (21 bits per axis, biased).
   [[nodiscard]] static uint64_t BlockKeyOf(const CellIndex& c) {

@@ -35,10 +35,12 @@ int RayCaster::Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& u, double l
 }
 
 bool RayCaster::LinearIndexable() const {
-  const CellIndex& n = geometry_.upper();
-  return geometry_.bounded() &&
-         static_cast<double>(n.x) * static_cast<double>(n.y) * static_cast<double>(n.z) <
-             2147483648.0;
+  const CellIndex& lo = geometry_.lower();
+  const CellIndex& hi = geometry_.upper();
+  return geometry_.bounded() && static_cast<double>(hi.x - lo.x) *
+                                        static_cast<double>(hi.y - lo.y) *
+                                        static_cast<double>(hi.z - lo.z) <
+                                    2147483648.0;
 }
 
 int RayCaster::CastWithLinearIndex(const Eigen::Vector3d& o, const Eigen::Vector3d& u,
@@ -159,13 +161,13 @@ bool RayCaster::StartWalk(const Eigen::Vector3d& o, const Eigen::Vector3d& u, do
   w.length = t_box < length_m ? t_box : length_m;
   w.left_bounds = t_box < length_m;
 
-  // Linear index (bounded lattice only): x + nx (y + ny z), one addition per step.
-  // (LinearIndexable: every index fits in 32 bits.)
+  // Linear index (bounded lattice only): x + nx (y + ny z), one addition per step, counted from
+  // the lower bound. (LinearIndexable: every index fits in 32 bits.)
   w.linear = 0;
   for (int32_t& s : w.linear_step) s = 0;
   if (LinearIndexable()) {
-    const int32_t nx = upper.x, ny = upper.y;
-    w.linear = c.x + nx * (c.y + ny * c.z);
+    const int32_t nx = upper.x - lower.x, ny = upper.y - lower.y;
+    w.linear = (c.x - lower.x) + nx * ((c.y - lower.y) + ny * (c.z - lower.z));
     w.linear_step[0] = w.step[0];
     w.linear_step[1] = w.step[1] * nx;
     w.linear_step[2] = w.step[2] * nx * ny;

@@ -49,7 +49,8 @@ struct RayCells {
   std::vector<CellIndex> cells;    ///< r_1 .. r_n, in order of increasing distance
   std::vector<double> distance_m;  ///< d_k, m, distance from o to the chord midpoint
   /// When has_linear_index: the cell's index in a DenseGrid over the caster's (bounded) lattice,
-  /// x + nx (y + ny z) (DenseGrid::LinearIndexOf), kept by the caster with one addition per step.
+  /// x + nx (y + ny z) (DenseGrid::LinearIndexOf), kept by the caster with one addition per step;
+  /// x, y, z and nx, ny count from the lattice's lower bound (0 for a fixed map).
   /// 32 bits: lattices of 2^31 cells or more get no linear index.
   std::vector<int32_t> linear_index;
   /// a_k per cell when has_likelihood: forward-model values computed off the map (on the

@@ -77,7 +77,8 @@ std::vector<OracleCell> OracleRay(const GridGeometry& g, const Eigen::Vector3d& 
 
 // Checks Cast, CastWithLinearIndex and CastLinearOnly against the oracle: the cells in order
 // (when filled), d_k, whether the ray left the bounds before L (the last chord ends before L),
-// and for a bounded lattice the linear index x + nx (y + ny z) of every cell.
+// and for a bounded lattice the linear index x + nx (y + ny z) of every cell, counted from the
+// lower bound.
 void ExpectMatchesOracle(const GridGeometry& g, const Eigen::Vector3d& o, const Eigen::Vector3d& u,
                          double L, RayCells* scratch) {
   const RayCaster caster(g);
@@ -107,9 +108,10 @@ void ExpectMatchesOracle(const GridGeometry& g, const Eigen::Vector3d& o, const 
       }
       if (scratch->has_linear_index) {
         const CellIndex& c = expected[k].cell;
+        const CellIndex& lo = g.lower();
+        const int64_t nx = g.upper().x - lo.x, ny = g.upper().y - lo.y;
         ASSERT_EQ(scratch->linear_index[k],
-                  int64_t{c.x} +
-                      int64_t{g.upper().x} * (int64_t{c.y} + int64_t{g.upper().y} * int64_t{c.z}));
+                  (c.x - lo.x) + nx * ((c.y - lo.y) + ny * int64_t{c.z - lo.z}));
       }
     }
   }
@@ -291,6 +293,40 @@ TEST(RayCaster, BatchesStepTiedAxesTogether) {
                             Eigen::Vector3d(1.5, 1.5, 0.8), 1 + l % 3);
       },
       [&](int) { return RandomSpecialDirection(rng); });
+}
+
+// A window of an unbounded lattice (GridGeometry::WithBounds, the growing map's CastLattice):
+// against the oracle on the window (linear indices from its lower corner, which lies at negative
+// indices), and batches against single rays; rays that stay inside the window get exactly the
+// unbounded lattice's cells and d_k.
+TEST(RayCaster, WindowsOfAnUnboundedLattice) {
+  const GridGeometry lattice = GridGeometry::Unbounded(Eigen::Vector3d(0.01, -0.02, 0.03), 0.075);
+  const GridGeometry window = lattice.WithBounds(CellIndex{-64, -72, -40}, CellIndex{0, 56, 88});
+  EXPECT_TRUE(window.bounded());
+  EXPECT_TRUE(RayCaster(window).LinearIndexable());
+  RayCells scratch(4.0, window.resolution_m());
+  RayCells whole(4.0, window.resolution_m());
+  std::mt19937 rng(13);
+  const Eigen::Vector3d lo(-4.8, -5.4, -3.0), hi(0.0, 4.2, 6.6);
+  int inside = 0;
+  for (int n = 0; n < 2000; ++n) {
+    const Eigen::Vector3d o = RandomOrigin(rng, window, lo, hi, n % 4);
+    const Eigen::Vector3d u = n % 2 ? RandomUnit(rng) : RandomSpecialDirection(rng);
+    ExpectMatchesOracle(window, o, u, 4.0, &scratch);
+    if (HasFatalFailure()) return;
+    if (scratch.size > 0 && !scratch.left_bounds) {
+      ++inside;
+      ASSERT_EQ(RayCaster(lattice).Cast(o, u, 4.0, &whole), scratch.size);
+      for (int k = 0; k < scratch.size; ++k) {
+        ASSERT_EQ(whole.cells[k], scratch.cells[k]);
+        ASSERT_EQ(whole.distance_m[k], scratch.distance_m[k]);
+      }
+    }
+  }
+  EXPECT_GT(inside, 100);
+  ExpectBatchesMatchSingleRays(
+      window, 4.0, 200, rng, [&](int l) { return RandomOrigin(rng, window, lo, hi, l % 4); },
+      [&](int) { return RandomUnit(rng); });
 }
 
 TEST(RayCaster, BatchRejectsBadInput) {
