@@ -148,48 +148,4 @@ size_t GrowingGrid::memory_bytes() const {
          index_of_.bucket_count() * sizeof(void*);
 }
 
-GrowingGrid::Block* GrowingGrid::Accessor::Lookup(uint64_t key, bool create, uint32_t* index) {
-  const size_t slot = SlotOf(key);
-  if (cache_keys_[slot] == key) {
-    *index = cache_indices_[slot];
-    return cache_blocks_[slot];
-  }
-  const auto it = grid_->index_of_.find(key);
-  Block* block = nullptr;
-  if (it != grid_->index_of_.end()) {
-    *index = it->second;
-    block = grid_->blocks_[it->second].get();
-  } else if (create) {
-    block = grid_->CreateBlock(key, index);
-  }
-  if (block != nullptr) {
-    cache_keys_[slot] = key;
-    cache_blocks_[slot] = block;
-    cache_indices_[slot] = *index;
-  }
-  return block;
-}
-
-float* GrowingGrid::Accessor::FindOrCreate(const CellIndex& c) {
-  const uint64_t key = BlockKeyOf(c);
-  if (key != last_key_) {
-    last_block_ = Lookup(key, /*create=*/true, &last_index_);
-    last_key_ = key;
-  }
-  return &last_block_->values[OffsetInBlock(c)];
-}
-
-const float* GrowingGrid::Accessor::Find(const CellIndex& c) {
-  const uint64_t key = BlockKeyOf(c);
-  if (key != last_key_) {
-    uint32_t index;
-    Block* block = Lookup(key, /*create=*/false, &index);
-    if (block == nullptr) return nullptr;
-    last_block_ = block;
-    last_index_ = index;
-    last_key_ = key;
-  }
-  return &last_block_->values[OffsetInBlock(c)];
-}
-
 }  // namespace kestrel

@@ -48,12 +48,7 @@ MapperNode::MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& c
   } else {
     CreateEmptyMap();
   }
-  std::visit(
-      [this](auto& m) {
-        m->SetTraversalThread(config_.traversal_thread);
-        if (!config_.ray_batches) m->SetRayBatches(false);  // else the map's default (AVX-512)
-      },
-      map_);
+  CreateIntegrator();
   auto on_error = [this](const std::string& channel, const std::string& reason) {
     skipped_.Count("malformed", channel + ": " + reason);
   };
@@ -89,6 +84,12 @@ void MapperNode::CreateEmptyMap() {
   } else {
     map_ = MakeExactGrowingMap(config_.limits, config_.occupancy, max_range);
   }
+}
+
+void MapperNode::CreateIntegrator() {
+  const ScanIntegrator::Options options{config_.traversal_thread, config_.instruction_set};
+  integrator_ =
+      std::visit([&](auto& m) { return std::make_unique<ScanIntegrator>(m.get(), options); }, map_);
 }
 
 void MapperNode::LoadCheckpoint() {
@@ -260,39 +261,36 @@ void MapperNode::Apply(const Pending& p, const Pose3& X_WB) {
   const Pose3 X_WS = X_WB * sensor.X_BS;
   const int k = ray_stride_;
   ScanStats stats;
-  std::visit(
-      [&](auto& map) {
-        if (p.depth) {
-          const depth_image_t& img = *p.depth;
-          const auto* depth = reinterpret_cast<const uint16_t*>(img.data.data());
-          // Every k-th pixel in both directions; pixel centres stay exact with scaled intrinsics.
-          DepthIntrinsics in{img.fx_px / k, img.fy_px / k, img.cx_px / k, img.cy_px / k};
-          if (k == 1) {
-            stats = map->ApplyDepthImage(X_WS, in, depth, img.width, img.height, img.depth_scale_m,
-                                         model);
-          } else {
-            const int w = (img.width + k - 1) / k, h = (img.height + k - 1) / k;
-            std::vector<uint16_t> sub(static_cast<size_t>(w) * static_cast<size_t>(h));
-            for (int v = 0; v < h; ++v) {
-              for (int u = 0; u < w; ++u) sub[v * w + u] = depth[(v * k) * img.width + u * k];
-            }
-            stats = map->ApplyDepthImage(X_WS, in, sub.data(), w, h, img.depth_scale_m, model);
-          }
-        } else {
-          const planar_scan_t& s = *p.scan;
-          if (k == 1) {
-            stats = map->ApplyPlanarScan(X_WS, s.angle_min_rad, s.angle_step_rad, s.ranges_m.data(),
-                                         s.num_ranges, model);
-          } else {
-            std::vector<float> sub;
-            for (int i = 0; i < s.num_ranges; i += k) sub.push_back(s.ranges_m[i]);
-            stats = map->ApplyPlanarScan(X_WS, s.angle_min_rad,
-                                         s.angle_step_rad * static_cast<float>(k), sub.data(),
-                                         static_cast<int>(sub.size()), model);
-          }
-        }
-      },
-      map_);
+  ScanIntegrator* const integrator = integrator_.get();
+  if (p.depth) {
+    const depth_image_t& img = *p.depth;
+    const auto* depth = reinterpret_cast<const uint16_t*>(img.data.data());
+    // Every k-th pixel in both directions; pixel centres stay exact with scaled intrinsics.
+    DepthIntrinsics in{img.fx_px / k, img.fy_px / k, img.cx_px / k, img.cy_px / k};
+    if (k == 1) {
+      stats = integrator->IntegrateDepthImage(X_WS, in, depth, img.width, img.height,
+                                              img.depth_scale_m, model);
+    } else {
+      const int w = (img.width + k - 1) / k, h = (img.height + k - 1) / k;
+      std::vector<uint16_t> sub(static_cast<size_t>(w) * static_cast<size_t>(h));
+      for (int v = 0; v < h; ++v) {
+        for (int u = 0; u < w; ++u) sub[v * w + u] = depth[(v * k) * img.width + u * k];
+      }
+      stats = integrator->IntegrateDepthImage(X_WS, in, sub.data(), w, h, img.depth_scale_m, model);
+    }
+  } else {
+    const planar_scan_t& s = *p.scan;
+    if (k == 1) {
+      stats = integrator->IntegratePlanarScan(X_WS, s.angle_min_rad, s.angle_step_rad,
+                                              s.ranges_m.data(), s.num_ranges, model);
+    } else {
+      std::vector<float> sub;
+      for (int i = 0; i < s.num_ranges; i += k) sub.push_back(s.ranges_m[i]);
+      stats = integrator->IntegratePlanarScan(X_WS, s.angle_min_rad,
+                                              s.angle_step_rad * static_cast<float>(k), sub.data(),
+                                              static_cast<int>(sub.size()), model);
+    }
+  }
   rays_total_ += stats.rays_applied;
   cells_total_ += stats.cells_updated;
   ++map_seq_;

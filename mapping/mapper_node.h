@@ -37,6 +37,7 @@
 #include "mapping/map_file.h"
 #include "mapping/mapper_config.h"
 #include "mapping/occupancy_map.h"
+#include "mapping/scan_integrator.h"
 
 namespace kestrel {
 
@@ -105,6 +106,8 @@ class MapperNode {
   void Apply(const Pending& p, const Pose3& X_WB);
   void CreateEmptyMap();
   void LoadCheckpoint();
+  // The integrator into map_ (after map_ was made or loaded).
+  void CreateIntegrator();
   /// Calls f(block_origin_cell, probabilities[512]) for every block holding any observed cell.
   template <class F>
   void ForEachBlock(F&& f) const;
@@ -114,6 +117,7 @@ class MapperNode {
   const Clock& clock_;
   std::vector<SensorModel> models_;
   MapPtr map_;
+  std::unique_ptr<ScanIntegrator> integrator_;  // into map_
   PoseHistory poses_;
   std::deque<Pending> queue_;
   StreamSequences sequences_;

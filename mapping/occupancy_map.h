@@ -1,8 +1,10 @@
 #pragma once
 /// @file
-/// A 3D occupancy map that applies whole scans ray by ray (ALGORITHMS.md sections 1-5): a grid
-/// (DenseGrid with the paper's fixed limits, or GrowingGrid), a ray caster over its lattice, and
-/// an OccupancyUpdater (Kestrel's exact model or the log-odds baseline). The map entropy
+/// A 3D occupancy map (ALGORITHMS.md sections 1, 4 and 5): a grid (DenseGrid with the paper's
+/// fixed limits, or GrowingGrid), an OccupancyUpdater (Kestrel's exact model or the log-odds
+/// baseline) and the bookkeeping of what changed. It keeps cells only: rays come to it cast, in
+/// batches (RayCaster::CastBatch), from a ScanIntegrator (mapping/scan_integrator.h), which
+/// turns depth images, scans and single readings into rays. The map entropy
 /// H(map) = sum_i H(P(m_i)) (eqs. 5-6) is kept per block of 512 cells (the GrowingGrid's 8^3
 /// blocks; runs of 512 consecutive cells of a DenseGrid's array, so a cell's block is its linear
 /// index / 512): a ray marks the blocks of the cells it changed, and a query
@@ -11,16 +13,11 @@
 /// update, and is O(changed blocks x 512 + blocks) per query; for a GrowingGrid it sums the
 /// allocated cells (each new block adds 512 H(P_init)).
 ///
-/// Order is fixed, so the same inputs give a bit-identical map: images row-major (v outer, u
-/// inner), scans in ascending angle, one ray fully applied before the next. No allocation per
-/// ray (the scratch is sized at construction from max_range_m); a GrowingGrid allocates a block
-/// the first time a ray touches it.
-///
-/// Batches (DenseGrid, SetRayBatches): ApplyDepthImage and ApplyPlanarScan cast eight rays at
-/// once in vector registers (RayCaster::CastBatch) and evaluate their forward models together
-/// (OccupancyUpdater::PrecomputeBatch), on this thread or on the traversal thread, then update
-/// the eight rays one after the other, in order. Neither step reads the map, so the map is the
-/// one ray-by-ray updates give, bit for bit (tests/mapping/occupancy_map_test.cc).
+/// Rays are updated one fully before the next, in batch and lane order; no allocation per ray (the
+/// scratch is sized at construction from max_range_m); a GrowingGrid allocates a block the first
+/// time a ray touches it. A GrowingGrid's rays are cast on a window of the lattice around their
+/// origin (CastLattice), whose linear indices the map resolves to blocks through a table of the
+/// window's blocks.
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -31,22 +28,10 @@
 #include "common/se3.h"
 #include "mapping/grid.h"
 #include "mapping/occupancy_updater.h"
-#include "mapping/ray_batch_pipeline.h"
 #include "mapping/ray_caster.h"
 #include "mapping/sensor_model.h"
-#include "mapping/traversal_pipeline.h"
 
 namespace kestrel {
-
-/// Pinhole intrinsics of a depth camera, pixels. Pixel (u, v) (column, row; centres at integer
-/// coordinates, OpenCV convention) looks along ((u - cx)/fx, (v - cy)/fy, 1) in the optical
-/// frame S (z forward, x right, y down).
-struct DepthIntrinsics {
-  double fx{0.0};  ///< focal length along x, px
-  double fy{0.0};  ///< focal length along y, px
-  double cx{0.0};  ///< principal point x, px
-  double cy{0.0};  ///< principal point y, px
-};
 
 /// What applying one scan did.
 struct ScanStats {
@@ -65,6 +50,10 @@ struct ScanStats {
   }
 };
 
+namespace kernels {
+struct Kernels;  // one instruction set's kernels (kernels/kernels.h)
+}  // namespace kernels
+
 /// The map over a grid type (DenseGrid or GrowingGrid). Neither copyable nor movable (scratch
 /// pointers into the grid).
 template <class Grid>
@@ -72,39 +61,26 @@ class OccupancyMap {
  public:
   /// A map over `grid` (whose cells should hold updater->initial_value()) whose sensors reach at
   /// most `max_range_m` (sizes the per-ray scratch).
-  /// @throws std::invalid_argument if updater is null or max_range_m is not positive.
+  /// @throws std::invalid_argument if updater is null or max_range_m is not positive, or for a
+  /// GrowingGrid if max_range_m / resolution exceeds 500 cells (the window of CastLattice).
   OccupancyMap(Grid grid, std::unique_ptr<OccupancyUpdater> updater, double max_range_m);
   OccupancyMap(const OccupancyMap&) = delete;
   OccupancyMap& operator=(const OccupancyMap&) = delete;
 
-  /// Applies one reading along a ray from origin_W along unit direction_W (W frame): classifies
-  /// `range_m` with the sensor model (mapping/sensor_model.h), drops invalid readings (returns
-  /// them counted in rays_invalid), casts the ray and updates its cells.
-  /// @throws std::invalid_argument if direction_W is not unit, origin not finite, or the
-  /// sensor's z_max exceeds max_range_m.
-  ScanStats ApplyRay(const Eigen::Vector3d& origin_W, const Eigen::Vector3d& direction_W,
-                     double range_m, const SensorModel& model);
-
-  /// Same with an already classified reading (kInvalid is counted and dropped).
-  ScanStats ApplyReading(const Eigen::Vector3d& origin_W, const Eigen::Vector3d& direction_W,
-                         const Reading& reading, const SensorModel& model);
-
-  /// Applies a depth image, row-major. depth[v * width + u] * depth_scale_m is the depth along
-  /// the optical axis (m), converted to the range along the pixel's ray; 0 means "no return".
-  /// X_WS is the pose of the optical frame S in W.
-  /// @throws std::invalid_argument on non-positive sizes (or more than 2^30 pixels), fx/fy/scale
-  /// not positive and finite, a non-finite pose or |q| outside (0.5, 1.5).
-  ScanStats ApplyDepthImage(const Pose3& X_WS, const DepthIntrinsics& intrinsics,
-                            const uint16_t* depth, int width, int height, double depth_scale_m,
-                            const SensorModel& model);
-
-  /// Applies a planar scan in ascending angle: beam i looks along angle_min_rad + i *
-  /// angle_step_rad about z of the LIDAR frame S (x forward, z up); ranges_m[i] is classified by
-  /// the model (+inf or >= z_max: no return; NaN, negative, < z_min: invalid).
-  /// @throws std::invalid_argument unless angle_step_rad > 0, the angles are finite, the pose is
-  /// finite and |q| in (0.5, 1.5).
-  ScanStats ApplyPlanarScan(const Pose3& X_WS, double angle_min_rad, double angle_step_rad,
-                            const float* ranges_m, int count, const SensorModel& model);
+  /// The lattice to cast rays from origin_W on (RayCaster::CastBatch) for UpdateRays: a
+  /// DenseGrid's own; for a GrowingGrid, the block-aligned window of its lattice that holds every
+  /// cell within max_range_m of the origin (cut by nothing: the same cells and d_k as the whole
+  /// lattice), whose linear indices UpdateRays turns into blocks.
+  /// @throws std::invalid_argument if a GrowingGrid's window would leave its lattice (an origin
+  /// within a window's edge of the +-2^23-cell index limit).
+  [[nodiscard]] GridGeometry CastLattice(const Eigen::Vector3d& origin_W) const;
+  /// Updates the cells of the rays of `batch` (cast on CastLattice of their origin, maybe
+  /// prepared by updater().PrecomputeBatch) for readings[0 .. batch.count) (kReturn or kNoReturn),
+  /// one ray after the other in lane order: each sees its predecessors' posteriors. Marks the
+  /// blocks of the changed cells (entropy) and adds to *stats (rays_applied, rays_no_return,
+  /// cells_updated). The same cells bit for bit with every instruction set's `kernels`.
+  void UpdateRays(const Reading* readings, const RayBatch& batch, const SensorModel& model,
+                  const kernels::Kernels& kernels, ScanStats* stats);
 
   /// H(map), nats, from the block sums (file comment); recomputes the blocks changed since the
   /// last query (so a const call writes a cache: not for concurrent calls).
@@ -125,41 +101,9 @@ class OccupancyMap {
   /// The update rule.
   [[nodiscard]] const OccupancyUpdater& updater() const { return *updater_; }
   /// Longest ray the scratch holds, m.
-  [[nodiscard]] double max_range_m() const { return ray_.max_length_m; }
-
-  /// Casts the rays of ApplyDepthImage and ApplyPlanarScan on a second thread, ahead of the
-  /// updates, which stay in ray order: same map bit for bit. With ray batches (SetRayBatches)
-  /// the worker casts batches and evaluates their forward models (mapping/ray_batch_pipeline.h);
-  /// otherwise it casts rays one by one and the two threads balance themselves
-  /// (mapping/traversal_pipeline.h). Measured on the shared 2-vCPU machine: from below one
-  /// thread's rate to 1.9x it, in spells (each ray's data crosses the cores, and what that costs
-  /// depends on where the host places the vCPUs); so with batches each kind of scan (depth
-  /// images, planar scans) goes through the worker only while that has been the faster way
-  /// (WorkerChoice, re-tried every 16th scan). Off by default (kestrel-mapper:
-  /// MapperConfig::traversal_thread); enabling creates the worker once.
-  void SetTraversalThread(bool enabled);
-  /// Whether a traversal thread is in use.
-  [[nodiscard]] bool traversal_thread() const {
-    return pipeline_ != nullptr || batch_pipeline_ != nullptr;
-  }
-
-  /// Casts the rays of ApplyDepthImage and ApplyPlanarScan eight at a time, compiled for `isa`
-  /// (file comment; DenseGrid only): same map bit for bit. Default: on where the CPU has
-  /// AVX-512 (lanes::BestIsa), where it is faster than one ray at a time (measured:
-  /// bench/mapping); the baseline kernels run the scalar code lane by lane, so elsewhere off.
-  /// @throws std::invalid_argument if the CPU does not run `isa`.
-  void SetRayBatches(bool enabled, lanes::Isa isa = lanes::BestIsa());
-  /// Whether rays are cast in batches (SetRayBatches).
-  [[nodiscard]] bool ray_batches() const { return batch_isa_.has_value(); }
+  [[nodiscard]] double max_range_m() const { return max_range_m_; }
 
  private:
-  // What ApplyRays applies (the batch worker's choice is kept per kind).
-  enum ScanKind : int { kDepthImage = 0, kPlanarScan = 1 };
-  float* CellPointer(const CellIndex& c);
-  // DenseGrid: the first cell value (nullptr for a GrowingGrid).
-  float* DenseValues();
-  // Entropy block of the k-th cell of the ray last passed to ApplyCastRay.
-  uint32_t EntropyBlockOf(const RayCells& ray, int k) const;
   // DenseGrid: entropy block of the cell with linear index `linear` (file comment).
   static uint32_t DenseBlockOf(int64_t linear) {
     return static_cast<uint32_t>(linear >> kDenseBlockShift);
@@ -176,44 +120,44 @@ class OccupancyMap {
   }
   // Grows the block arrays to the grid's block count (GrowingGrid), new blocks dirty.
   void SyncBlocks();
-  // Updates the cells of an already cast ray; adds to *stats.
-  void ApplyCastRay(const Reading& reading, const RayCells& ray, const SensorModel& model,
-                    ScanStats* stats);
-  // Applies rays 0..count-1 described by source(i, &spec), pipelined, batched or one by one
-  // (defined and used in occupancy_map.cc only).
-  template <class Source>
-  ScanStats ApplyRays(ScanKind kind, int count, const Source& source, const SensorModel& model);
-  // ApplyRays in batches of eight (file comment), from source(i, BatchRaySpec*).
-  template <class Source>
-  void ApplyRayBatches(int count, const Source& source, const SensorModel& model, ScanStats* stats);
-  // Updates the rays of a cast batch in order; adds to *stats.
-  void ApplyBatch(const Reading* readings, const RayBatch& batch, const SensorModel& model,
-                  ScanStats* stats);
-  // Whether ApplyRays casts in batches (a DenseGrid with batches on).
-  [[nodiscard]] bool Batched() const;
-  // Creates or drops the workers to match traversal_thread_ and the batches.
-  void ConfigureWorkers();
+  // GrowingGrid: makes `window` (a CastLattice) the one the window table describes.
+  void UseWindow(const GridGeometry& window);
+  // GrowingGrid: looks up (or creates) the block of the window table's slot `slot`.
+  void ResolveWindowBlock(uint32_t slot);
+  // GrowingGrid: the window table's slot of the block holding the cell with window linear
+  // index `cell` = x + E (y + E z) (kernels::ResolveWindowCellsFn).
+  [[nodiscard]] uint32_t WindowSlotOf(int32_t cell) const {
+    const int s = window_shift_;
+    const int b = s - GrowingGrid::kBlockShift;  // log2 of the window's blocks per axis
+    const int32_t mask = (int32_t{1} << s) - 1;
+    const int32_t x = cell & mask, y = (cell >> s) & mask, z = cell >> (2 * s);
+    return static_cast<uint32_t>((x >> GrowingGrid::kBlockShift) |
+                                 ((y >> GrowingGrid::kBlockShift) << b) |
+                                 ((z >> GrowingGrid::kBlockShift) << (2 * b)));
+  }
 
   Grid grid_;
   std::unique_ptr<OccupancyUpdater> updater_;
-  RayCaster caster_;
-  RayCells ray_;
-  RayBatch batch_;
-  std::optional<lanes::Isa> batch_isa_;  // batches on, compiled for this instruction set
-  std::vector<float*> cell_pointers_;
-  std::vector<int> changed_;          // indices k of the cells the last ray changed
-  std::vector<uint32_t> cell_block_;  // GrowingGrid: block index of each cell of the ray
+  double max_range_m_;
+  std::vector<int> changed_;  // indices k of the cells the last ray changed
   // Lazy entropy (file comment): per-block sums, dirty flags and list, cached total.
   mutable std::vector<double> block_entropy_;
   mutable std::vector<uint8_t> block_dirty_;
   mutable std::vector<uint32_t> dirty_blocks_;
   mutable double entropy_nats_{0.0};
-  // GrowingGrid only: cached block access.
-  std::unique_ptr<GrowingGrid::Accessor> accessor_;
-  bool traversal_thread_{false};
-  WorkerChoice choices_[2];  // per ScanKind: with the batch worker or without (ApplyRays)
-  std::unique_ptr<TraversalPipeline> pipeline_;       // thread, rays one by one
-  std::unique_ptr<RayBatchPipeline> batch_pipeline_;  // thread, batches
+  // GrowingGrid only: the cast window (CastLattice), 2^window_shift_ cells per axis from
+  // window_lower_ (a multiple of the block edge), within window_reach_ cells of the origin cell
+  // and beyond; its blocks in x-fastest order (their cells, null until looked up, and creation
+  // indices), the slots filled since UseWindow, and the addresses of the cells of the batch being
+  // updated, in its layout.
+  int window_reach_{0};
+  int window_shift_{0};
+  CellIndex window_lower_;
+  bool window_set_{false};
+  std::vector<float*> window_blocks_;
+  std::vector<uint32_t> window_indices_;
+  std::vector<uint32_t> window_filled_;
+  std::vector<float*> cell_pointers_;
 };
 
 /// The paper's map: fixed limits, dense storage.
