@@ -22,7 +22,7 @@ constexpr Kernels kAvx512Kernels{Isa::kAvx512,
                                  &FillLikelihoodsAvx512,
                                  &StorePosteriorsAvx512,
                                  &StorePosteriorsAtAvx512,
-                                 &ResolveWindowCellsScalar};
+                                 &ResolveWindowCellsAvx512};
 #endif
 const char* NameOf(Isa isa) { return isa == Isa::kAvx512 ? "avx512" : "scalar"; }
 }  // namespace

@@ -127,6 +127,8 @@ int StorePosteriorsAvx512(const double* posterior, const int32_t* cells, const f
                           int first, int n, double p_min, float* base, int* changed);
 int StorePosteriorsAtAvx512(const double* posterior, float* const* cells, const float* priors,
                             int first, int n, double p_min, int* changed);
+bool ResolveWindowCellsAvx512(const int32_t* linear, const int* size, int rows, int shift,
+                              float* const* blocks, float** cells);
 #endif
 
 }  // namespace kernels
