@@ -50,31 +50,74 @@ OccupancyMap<Grid>::OccupancyMap(Grid grid, std::unique_ptr<OccupancyUpdater> up
 }
 
 template <class Grid>
-void OccupancyMap<Grid>::SyncBlocks() {
+void OccupancyMap<Grid>::SyncChunks() {
   size_t count;
   if constexpr (std::is_same_v<Grid, GrowingGrid>) {
     count = grid_.block_count();
   } else {
-    count = (grid_.size() + (size_t{1} << kDenseBlockShift) - 1) >> kDenseBlockShift;
+    count = (grid_.size() + kChunkMask) >> kChunkShift;
   }
-  const size_t old = block_entropy_.size();
+  const size_t old = chunk_entropy_.size();
   if (count == old) return;
-  block_entropy_.resize(count, 0.0);
-  block_dirty_.resize(count, 0);
-  dirty_blocks_.reserve(count);
-  for (size_t b = old; b < count; ++b) MarkDirty(static_cast<uint32_t>(b));
+  chunk_entropy_.resize(count, 0.0);
+  chunk_stale_.resize(count, 0);
+  stale_chunks_.reserve(count);
+  changed_bits_.resize(count * kWordsPerChunk, 0);
+  chunk_changed_.resize(count, 0);
+  changed_chunks_.reserve(count);
+  for (size_t c = old; c < count; ++c) MarkStale(static_cast<uint32_t>(c));
 }
 
 template <class Grid>
 void OccupancyMap<Grid>::ResetEntropy() {
-  SyncBlocks();
-  for (size_t b = 0; b < block_entropy_.size(); ++b) MarkDirty(static_cast<uint32_t>(b));
+  SyncChunks();
+  for (size_t c = 0; c < chunk_entropy_.size(); ++c) MarkStale(static_cast<uint32_t>(c));
   // Cells may have been written through mutable_grid(): look the window's blocks up again.
   window_set_ = false;
 }
 
 template <class Grid>
-double OccupancyMap<Grid>::BlockEntropy(uint32_t b) const {
+CellIndex OccupancyMap<Grid>::CellOfChunk(uint32_t c, uint32_t cell) const {
+  if constexpr (std::is_same_v<Grid, GrowingGrid>) {
+    const CellIndex origin = grid_.block_origin(c);
+    // GrowingGrid::OffsetInBlock, inverted.
+    constexpr uint32_t kIn = GrowingGrid::kBlockEdge - 1;
+    return CellIndex{origin.x + static_cast<int32_t>(cell & kIn),
+                     origin.y + static_cast<int32_t>((cell >> GrowingGrid::kBlockShift) & kIn),
+                     origin.z + static_cast<int32_t>(cell >> (2 * GrowingGrid::kBlockShift))};
+  } else {
+    // DenseGrid::LinearIndexOf, inverted.
+    const size_t linear = (size_t{c} << kChunkShift) + cell;
+    const size_t nx = static_cast<size_t>(grid_.dims().x);
+    const size_t ny = static_cast<size_t>(grid_.dims().y);
+    return CellIndex{static_cast<int32_t>(linear % nx), static_cast<int32_t>((linear / nx) % ny),
+                     static_cast<int32_t>(linear / (nx * ny))};
+  }
+}
+
+template <class Grid>
+size_t OccupancyMap<Grid>::ChangedCellCount() const {
+  size_t n = 0;
+  for (const uint32_t c : changed_chunks_) {
+    for (int w = 0; w < kWordsPerChunk; ++w) {
+      n += static_cast<size_t>(__builtin_popcountll(changed_bits_[size_t{c} * kWordsPerChunk + w]));
+    }
+  }
+  return n;
+}
+
+template <class Grid>
+void OccupancyMap<Grid>::ClearChanges() {
+  for (const uint32_t c : changed_chunks_) {
+    std::fill_n(changed_bits_.begin() + static_cast<ptrdiff_t>(size_t{c} * kWordsPerChunk),
+                kWordsPerChunk, 0);
+    chunk_changed_[c] = 0;
+  }
+  changed_chunks_.clear();
+}
+
+template <class Grid>
+double OccupancyMap<Grid>::ChunkEntropy(uint32_t c) const {
   // Neighbouring cells often hold the same value (the clamp, the prior): reuse its H.
   float last_v = updater_->initial_value();
   double last_h = BinaryEntropy(updater_->ProbabilityOf(last_v));
@@ -87,11 +130,11 @@ double OccupancyMap<Grid>::BlockEntropy(uint32_t b) const {
   };
   double h = 0.0;
   if constexpr (std::is_same_v<Grid, GrowingGrid>) {
-    for (float v : grid_.block(b).values) h += cached_entropy(v);
+    for (float v : grid_.block(c).values) h += cached_entropy(v);
   } else {
     const std::vector<float>& values = grid_.values();
-    const size_t begin = size_t{b} << kDenseBlockShift;
-    const size_t end = std::min(values.size(), begin + (size_t{1} << kDenseBlockShift));
+    const size_t begin = size_t{c} << kChunkShift;
+    const size_t end = std::min(values.size(), begin + (size_t{1} << kChunkShift));
     for (size_t i = begin; i < end; ++i) h += cached_entropy(values[i]);
   }
   return h;
@@ -99,14 +142,14 @@ double OccupancyMap<Grid>::BlockEntropy(uint32_t b) const {
 
 template <class Grid>
 double OccupancyMap<Grid>::entropy_nats() const {
-  if (!dirty_blocks_.empty()) {
-    for (uint32_t b : dirty_blocks_) {
-      block_entropy_[b] = BlockEntropy(b);
-      block_dirty_[b] = 0;
+  if (!stale_chunks_.empty()) {
+    for (uint32_t c : stale_chunks_) {
+      chunk_entropy_[c] = ChunkEntropy(c);
+      chunk_stale_[c] = 0;
     }
-    dirty_blocks_.clear();
+    stale_chunks_.clear();
     double h = 0.0;
-    for (double e : block_entropy_) h += e;  // block order: independent of query times
+    for (double e : chunk_entropy_) h += e;  // chunk order: independent of query times
     entropy_nats_ = h;
   }
   return entropy_nats_;
@@ -184,7 +227,7 @@ void OccupancyMap<Grid>::UpdateRays(const Reading* readings, const RayBatch& bat
         }
       }
       // Newly allocated cells join the summed entropy at P_init (file comment).
-      if (grid_.block_count() != blocks_before) SyncBlocks();
+      if (grid_.block_count() != blocks_before) SyncChunks();
       KESTREL_DEMAND(resolve());
     }
     // The rays one after the other, in order: each sees its predecessors' posteriors.
@@ -193,7 +236,13 @@ void OccupancyMap<Grid>::UpdateRays(const Reading* readings, const RayBatch& bat
           model, readings[l], batch, l, cells + l, kernels, &stats->cells_updated, changed_.data());
       for (int c = 0; c < changed; ++c) {
         const int32_t cell = linear[RayBatch::At(changed_[static_cast<size_t>(c)], l)];
-        MarkDirty(window_indices_[WindowSlotOf(cell)]);
+        // The cell's chunk is its block; its place there is GrowingGrid::OffsetInBlock (the
+        // window starts at a block corner).
+        const int32_t in = GrowingGrid::kBlockEdge - 1, s = window_shift_;
+        const uint32_t offset =
+            static_cast<uint32_t>((cell & in) | (((cell >> s) & in) << GrowingGrid::kBlockShift) |
+                                  (((cell >> (2 * s)) & in) << (2 * GrowingGrid::kBlockShift)));
+        MarkChanged(window_indices_[WindowSlotOf(cell)], offset);
       }
       ++stats->rays_applied;
       if (readings[l].kind == ReadingKind::kNoReturn) ++stats->rays_no_return;
@@ -206,7 +255,9 @@ void OccupancyMap<Grid>::UpdateRays(const Reading* readings, const RayBatch& bat
       const int changed = updater_->UpdateBatchLane(model, readings[l], batch, l, values, kernels,
                                                     &stats->cells_updated, changed_.data());
       for (int c = 0; c < changed; ++c) {
-        MarkDirty(DenseBlockOf(linear[RayBatch::At(changed_[static_cast<size_t>(c)], l)]));
+        const uint32_t cell =
+            static_cast<uint32_t>(linear[RayBatch::At(changed_[static_cast<size_t>(c)], l)]);
+        MarkChanged(cell >> kChunkShift, cell & kChunkMask);
       }
       ++stats->rays_applied;
       if (readings[l].kind == ReadingKind::kNoReturn) ++stats->rays_no_return;

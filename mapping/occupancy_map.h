@@ -4,14 +4,18 @@
 /// fixed limits, or GrowingGrid), an OccupancyUpdater (Kestrel's exact model or the log-odds
 /// baseline) and the bookkeeping of what changed. It keeps cells only: rays come to it cast, in
 /// batches (RayCaster::CastBatch), from a ScanIntegrator (mapping/scan_integrator.h), which
-/// turns depth images, scans and single readings into rays. The map entropy
-/// H(map) = sum_i H(P(m_i)) (eqs. 5-6) is kept per block of 512 cells (the GrowingGrid's 8^3
-/// blocks; runs of 512 consecutive cells of a DenseGrid's array, so a cell's block is its linear
-/// index / 512): a ray marks the blocks of the cells it changed, and a query
-/// recomputes the marked blocks' sums and adds all block sums in block order. The result is a
-/// function of the cell values only (not of when it is queried), costs no logarithm per cell
-/// update, and is O(changed blocks x 512 + blocks) per query; for a GrowingGrid it sums the
-/// allocated cells (each new block adds 512 H(P_init)).
+/// turns depth images, scans and single readings into rays.
+///
+/// Bookkeeping is per chunk of 512 cells: a GrowingGrid's 8^3 block (chunk c is the block
+/// created c-th), or a run of 512 consecutive cells of a DenseGrid's array (a cell's chunk is
+/// its linear index / 512). ("Block" means only an 8^3 cube of cells.) The map entropy
+/// H(map) = sum_i H(P(m_i)) (eqs. 5-6) is kept per chunk: a ray marks the chunks of the cells it
+/// changed, and a query recomputes the marked chunks' sums and adds all chunk sums in chunk
+/// order. The result is a function of the cell values only (not of when it is queried), costs
+/// no logarithm per cell update, and is O(changed chunks x 512 + chunks) per query; for a
+/// GrowingGrid it sums the allocated cells (each new block adds 512 H(P_init)). The map also
+/// tracks which cells changed since the last ClearChanges, a bit per cell (like OctoMap's
+/// changed keys), so that a caller can publish them without a copy of the map.
 ///
 /// Rays are updated one fully before the next, in batch and lane order; no allocation per ray (the
 /// scratch is sized at construction from max_range_m); a GrowingGrid allocates a block the first
@@ -23,6 +27,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <type_traits>
 #include <vector>
 
 #include "common/se3.h"
@@ -77,12 +82,13 @@ class OccupancyMap {
   /// Updates the cells of the rays of `batch` (cast on CastLattice of their origin, maybe
   /// prepared by updater().PrecomputeBatch) for readings[0 .. batch.count) (kReturn or kNoReturn),
   /// one ray after the other in lane order: each sees its predecessors' posteriors. Marks the
-  /// blocks of the changed cells (entropy) and adds to *stats (rays_applied, rays_no_return,
-  /// cells_updated). The same cells bit for bit with every instruction set's `kernels`.
+  /// changed cells and their chunks (file comment) and adds to *stats (rays_applied,
+  /// rays_no_return, cells_updated). The same cells bit for bit with every instruction set's
+  /// `kernels`.
   void UpdateRays(const Reading* readings, const RayBatch& batch, const SensorModel& model,
                   const kernels::Kernels& kernels, ScanStats* stats);
 
-  /// H(map), nats, from the block sums (file comment); recomputes the blocks changed since the
+  /// H(map), nats, from the chunk sums (file comment); recomputes the chunks changed since the
   /// last query (so a const call writes a cache: not for concurrent calls).
   [[nodiscard]] double entropy_nats() const;
   /// H(map) recomputed from every cell (O(cells)), for tests and checks.
@@ -95,31 +101,60 @@ class OccupancyMap {
   [[nodiscard]] const Grid& grid() const { return grid_; }
   /// The grid, mutable (loading a map; call ResetEntropy() afterwards).
   [[nodiscard]] Grid& mutable_grid() { return grid_; }
-  /// Marks every block for entropy recomputation (after cells were written through
-  /// mutable_grid(), e.g. when loading a map).
+  /// Marks every chunk for entropy recomputation (after cells were written through
+  /// mutable_grid(), e.g. when loading a map; such writes are not changes for
+  /// ForEachChangedCell).
   void ResetEntropy();
+
+  /// Calls f(cell, stored value) for every cell an update changed since the last ClearChanges
+  /// (or construction): its stored bit pattern changed (it may have changed back since). Chunk
+  /// by chunk in the order they first changed, cells ascending within a chunk: the same order
+  /// for the same inputs. O(changed chunks x 8 + changed cells).
+  template <class F>
+  void ForEachChangedCell(F&& f) const;
+  /// The number of cells ForEachChangedCell visits.
+  [[nodiscard]] size_t ChangedCellCount() const;
+  /// Forgets the changes (e.g. once they are published).
+  void ClearChanges();
   /// The update rule.
   [[nodiscard]] const OccupancyUpdater& updater() const { return *updater_; }
   /// Longest ray the scratch holds, m.
   [[nodiscard]] double max_range_m() const { return max_range_m_; }
 
  private:
-  // DenseGrid: entropy block of the cell with linear index `linear` (file comment).
-  static uint32_t DenseBlockOf(int64_t linear) {
-    return static_cast<uint32_t>(linear >> kDenseBlockShift);
-  }
-  static constexpr int kDenseBlockShift = 9;  // 512 cells per DenseGrid entropy block
-  // Sum of H over the cells of entropy block b.
-  double BlockEntropy(uint32_t b) const;
-  // Marks block b for recomputation.
-  void MarkDirty(uint32_t b) const {
-    if (block_dirty_[b] == 0) {
-      block_dirty_[b] = 1;
-      dirty_blocks_.push_back(b);
+  static constexpr int kChunkShift = 9;  // 512 cells per chunk (file comment)
+  static constexpr uint32_t kChunkMask = (1u << kChunkShift) - 1;
+  static constexpr int kWordsPerChunk = (1 << kChunkShift) / 64;  // changed-cell bits
+  // Sum of H over the cells of chunk c.
+  double ChunkEntropy(uint32_t c) const;
+  // Marks chunk c for entropy recomputation.
+  void MarkStale(uint32_t c) const {
+    if (chunk_stale_[c] == 0) {
+      chunk_stale_[c] = 1;
+      stale_chunks_.push_back(c);
     }
   }
-  // Grows the block arrays to the grid's block count (GrowingGrid), new blocks dirty.
-  void SyncBlocks();
+  // Marks cell `cell` (0 .. 511) of chunk c changed, and the chunk for entropy recomputation.
+  void MarkChanged(uint32_t c, uint32_t cell) {
+    MarkStale(c);
+    if (chunk_changed_[c] == 0) {
+      chunk_changed_[c] = 1;
+      changed_chunks_.push_back(c);
+    }
+    changed_bits_[size_t{c} * kWordsPerChunk + (cell >> 6)] |= uint64_t{1} << (cell & 63);
+  }
+  // Grows the chunk arrays to the grid's chunk count (GrowingGrid: its blocks), new chunks
+  // stale.
+  void SyncChunks();
+  // The cell `cell` (0 .. 511) of chunk c, and its stored value.
+  [[nodiscard]] CellIndex CellOfChunk(uint32_t c, uint32_t cell) const;
+  [[nodiscard]] float StoredInChunk(uint32_t c, uint32_t cell) const {
+    if constexpr (std::is_same_v<Grid, GrowingGrid>) {
+      return grid_.block(c).values[cell];
+    } else {
+      return grid_.values()[(size_t{c} << kChunkShift) + cell];
+    }
+  }
   // GrowingGrid: makes `window` (a CastLattice) the one the window table describes.
   void UseWindow(const GridGeometry& window);
   // GrowingGrid: looks up (or creates) the block of the window table's slot `slot`.
@@ -140,11 +175,16 @@ class OccupancyMap {
   std::unique_ptr<OccupancyUpdater> updater_;
   double max_range_m_;
   std::vector<int> changed_;  // indices k of the cells the last ray changed
-  // Lazy entropy (file comment): per-block sums, dirty flags and list, cached total.
-  mutable std::vector<double> block_entropy_;
-  mutable std::vector<uint8_t> block_dirty_;
-  mutable std::vector<uint32_t> dirty_blocks_;
+  // Lazy entropy (file comment): per-chunk sums, stale flags and list, cached total.
+  mutable std::vector<double> chunk_entropy_;
+  mutable std::vector<uint8_t> chunk_stale_;
+  mutable std::vector<uint32_t> stale_chunks_;
   mutable double entropy_nats_{0.0};
+  // Changes since ClearChanges (file comment): a bit per cell (kWordsPerChunk words per chunk),
+  // per-chunk flags and the chunks in the order they first changed.
+  std::vector<uint64_t> changed_bits_;
+  std::vector<uint8_t> chunk_changed_;
+  std::vector<uint32_t> changed_chunks_;
   // GrowingGrid only: the cast window (CastLattice), 2^window_shift_ cells per axis from
   // window_lower_ (a multiple of the block edge), within window_reach_ cells of the origin cell
   // and beyond; its blocks in x-fastest order (their cells, null until looked up, and creation
@@ -159,6 +199,20 @@ class OccupancyMap {
   std::vector<uint32_t> window_filled_;
   std::vector<float*> cell_pointers_;
 };
+
+template <class Grid>
+template <class F>
+void OccupancyMap<Grid>::ForEachChangedCell(F&& f) const {
+  for (const uint32_t c : changed_chunks_) {
+    for (int w = 0; w < kWordsPerChunk; ++w) {
+      for (uint64_t bits = changed_bits_[size_t{c} * kWordsPerChunk + w]; bits != 0;
+           bits &= bits - 1) {
+        const uint32_t cell = static_cast<uint32_t>(64 * w + __builtin_ctzll(bits));
+        f(CellOfChunk(c, cell), StoredInChunk(c, cell));
+      }
+    }
+  }
+}
 
 /// The paper's map: fixed limits, dense storage.
 using DenseOccupancyMap = OccupancyMap<DenseGrid>;

@@ -3,8 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <random>
+#include <set>
 #include <string>
+#include <tuple>
+#include <type_traits>
 #include <vector>
 
 #include "mapping/kernels/kernels.h"
@@ -330,6 +334,90 @@ TEST(OccupancyMap, GrowingGridWindowsMatchDenseGridAcrossNegativeIndices) {
     EXPECT_NEAR(growing->entropy_nats(), growing->RecomputeEntropy(),
                 1e-10 * growing->RecomputeEntropy());
   }
+}
+
+// Every stored cell that differs from the initial value, by cell index.
+template <class Map>
+std::map<std::tuple<int32_t, int32_t, int32_t>, float> StoredCells(const Map& map) {
+  std::map<std::tuple<int32_t, int32_t, int32_t>, float> out;
+  const float initial = map.grid().initial_value();
+  if constexpr (std::is_same_v<Map, GrowingOccupancyMap>) {
+    map.grid().ForEachBlock([&](const CellIndex& o, const GrowingGrid::Block& block) {
+      for (int i = 0; i < GrowingGrid::kBlockCells; ++i) {
+        if (block.values[i] != initial) {
+          out[{o.x + (i & 7), o.y + ((i >> 3) & 7), o.z + (i >> 6)}] = block.values[i];
+        }
+      }
+    });
+  } else {
+    const CellIndex dims = map.grid().dims();
+    for (int z = 0; z < dims.z; ++z) {
+      for (int y = 0; y < dims.y; ++y) {
+        for (int x = 0; x < dims.x; ++x) {
+          const float v = map.grid().Get(CellIndex{x, y, z});
+          if (v != initial) out[{x, y, z}] = v;
+        }
+      }
+    }
+  }
+  return out;
+}
+
+// The map tracks the cells its updates changed (ForEachChangedCell, like OctoMap's changed keys):
+// after many rays every cell whose value differs from before is reported (a cell may also have
+// changed and changed back), each with its current value; after one ray exactly the cells it
+// changed; ClearChanges forgets them. Both grids, and the log-odds baseline.
+TEST(OccupancyMap, TracksTheCellsUpdatesChanged) {
+  const SensorModel xtion(SensorModelConfig::Xtion());
+  const auto check = [&](auto map) {
+    using Cells = std::map<std::tuple<int32_t, int32_t, int32_t>, float>;
+    const float initial = map->grid().initial_value();
+    const auto reported = [&] {
+      Cells out;
+      map->ForEachChangedCell([&](const CellIndex& c, float stored) {
+        EXPECT_EQ(stored, map->grid().Get(c));
+        EXPECT_TRUE(out.emplace(std::make_tuple(c.x, c.y, c.z), stored).second) << "twice";
+      });
+      EXPECT_EQ(out.size(), map->ChangedCellCount());
+      return out;
+    };
+    // The cells whose value differs between two StoredCells.
+    const auto differing = [&](const Cells& before, const Cells& after) {
+      std::set<std::tuple<int32_t, int32_t, int32_t>> out;
+      for (const auto& [c, v] : after) {
+        const auto it = before.find(c);
+        if ((it == before.end() ? initial : it->second) != v) out.insert(c);
+      }
+      for (const auto& [c, v] : before) {
+        if (after.count(c) == 0 && v != initial) out.insert(c);
+      }
+      return out;
+    };
+    EXPECT_EQ(map->ChangedCellCount(), 0u);
+    ApplyRandomRays(map.get(), xtion, 300, 4);
+    map->ClearChanges();
+    EXPECT_EQ(map->ChangedCellCount(), 0u);
+    const Cells before = StoredCells(*map);
+    ApplyRandomRays(map.get(), xtion, 2000, 5);
+    const Cells changed = reported();
+    const auto differ = differing(before, StoredCells(*map));
+    EXPECT_GT(differ.size(), 1000u);
+    for (const auto& c : differ) ASSERT_EQ(changed.count(c), 1u);
+    // One ray: exactly its changed cells.
+    map->ClearChanges();
+    EXPECT_TRUE(reported().empty());
+    const Cells before_ray = StoredCells(*map);
+    ScanIntegrator(map.get()).IntegrateRay(Eigen::Vector3d(0.1, 0.2, 0.7),
+                                           Eigen::Vector3d(0.6, 0.8, 0.0), 2.5, xtion);
+    const Cells by_ray = reported();
+    const auto differ_ray = differing(before_ray, StoredCells(*map));
+    EXPECT_GT(differ_ray.size(), 5u);
+    ASSERT_EQ(by_ray.size(), differ_ray.size());
+    for (const auto& c : differ_ray) EXPECT_EQ(by_ray.count(c), 1u);
+  };
+  check(MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0));
+  check(MakeExactGrowingMap(MapLimits{}, kOccupancy, 4.0));
+  check(MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0));
 }
 
 // Determinism: the same inputs twice give bit-identical maps (hash of the cell array), and a
