@@ -376,8 +376,7 @@ void MapperNode::PublishSnapshot() {
   ForEachBlock([&](const CellIndex& origin, const std::vector<float>& p) {
     blocks.emplace_back(origin, p);
   });
-  published_.clear();
-  for (const auto& [origin, p] : blocks) published_[{origin.x, origin.y, origin.z}] = p;
+  std::visit([](auto& m) { m->ClearChanges(); }, map_);  // the next delta starts here
   const int per_chunk = config_.snapshot_blocks_per_chunk;
   const int num_chunks =
       std::max<int>(1, (static_cast<int>(blocks.size()) + per_chunk - 1) / per_chunk);
@@ -421,20 +420,19 @@ void MapperNode::PublishSnapshot() {
 void MapperNode::PublishDelta() {
   if (map_seq_ == last_delta_map_seq_) return;
   const GridGeometry& g = geometry();
-  const float untouched = static_cast<float>(std::visit(
-      [](const auto& m) { return m->updater().ProbabilityOf(m->grid().initial_value()); }, map_));
   map3d_delta_t msg{};
-  ForEachBlock([&](const CellIndex& origin, const std::vector<float>& p) {
-    auto& previous = published_[{origin.x, origin.y, origin.z}];
-    if (previous.empty()) previous.assign(kBlockCells, untouched);
-    for (int i = 0; i < kBlockCells; ++i) {
-      if (p[i] == previous[i]) continue;
-      msg.cells.push_back({origin.x + (i & 7), origin.y + ((i >> 3) & 7), origin.z + (i >> 6)});
-      msg.probabilities.push_back(p[i]);
-      previous[i] = p[i];
-    }
-  });
-  if (msg.cells.size() > kMaxDeltaCells) {
+  const bool too_large = std::visit(
+      [&](const auto& m) {
+        if (m->ChangedCellCount() > kMaxDeltaCells) return true;
+        const OccupancyUpdater& updater = m->updater();
+        m->ForEachChangedCell([&](const CellIndex& c, float stored) {
+          msg.cells.push_back({c.x, c.y, c.z});
+          msg.probabilities.push_back(static_cast<float>(updater.ProbabilityOf(stored)));
+        });
+        return false;
+      },
+      map_);
+  if (too_large) {
     PublishSnapshot();  // cheaper to resend everything
     return;
   }
@@ -446,6 +444,7 @@ void MapperNode::PublishDelta() {
   msg.resolution_m = g.resolution_m();
   msg.num_cells = static_cast<int32_t>(msg.cells.size());
   lcm_.publish(config_.delta_channel, &msg);
+  std::visit([](auto& m) { m->ClearChanges(); }, map_);
   last_delta_map_seq_ = map_seq_;
 }
 

@@ -10,7 +10,8 @@
 /// pairs exactly as live); scans older than the
 /// history, across a pose gap, malformed, or already in the checkpoint (sequence number) are
 /// counted by reason and skipped. Outputs: full snapshots in chunks (MAP3D) at a low rate, deltas
-/// of the changed cells in between (MAP3D_DELTA), MAP_STATUS and a heartbeat.
+/// of the changed cells in between (MAP3D_DELTA: the cells the map tracked as changed since the
+/// last delta or snapshot, OccupancyMap::ForEachChangedCell), MAP_STATUS and a heartbeat.
 ///
 /// Overload policy (documented in config/mapper.yaml): when the oldest queued scan is more than
 /// max_backlog_s behind the newest input, the next scans apply only every k-th ray (k doubles
@@ -19,7 +20,6 @@
 
 #include <cstdint>
 #include <deque>
-#include <map>
 #include <memory>
 #include <string>
 #include <variant>
@@ -145,8 +145,6 @@ class MapperNode {
   int64_t last_delta_utime_{-1};
   int64_t last_snapshot_utime_{-1};
   int64_t last_checkpoint_utime_{-1};
-  // Last published probability per block (the base of the next delta), keyed by block origin.
-  std::map<std::tuple<int32_t, int32_t, int32_t>, std::vector<float>> published_;
 };
 
 }  // namespace kestrel
