@@ -45,6 +45,7 @@ OccupancyMap<Grid>::OccupancyMap(Grid grid, std::unique_ptr<OccupancyUpdater> up
     window_indices_.resize(slots, 0);
     window_filled_.reserve(slots);
     cell_pointers_.resize(capacity * lanes::kLanes);
+    cell_slots_.resize(capacity * lanes::kLanes);
   }
   ResetEntropy();
 }
@@ -212,9 +213,10 @@ void OccupancyMap<Grid>::UpdateRays(const Reading* readings, const RayBatch& bat
   if constexpr (std::is_same_v<Grid, GrowingGrid>) {
     UseWindow(batch.lattice);
     float** const cells = cell_pointers_.data();
+    uint32_t* const slot_cells = cell_slots_.data();
     const auto resolve = [&] {
       return kernels.resolve_window_cells(linear, batch.size, batch.longest, window_shift_,
-                                          window_blocks_.data(), cells);
+                                          window_blocks_.data(), cells, slot_cells);
     };
     if (!resolve()) {
       // Some cell's block is not in the window's table yet: look the blocks up, or create them
@@ -235,14 +237,9 @@ void OccupancyMap<Grid>::UpdateRays(const Reading* readings, const RayBatch& bat
       const int changed = updater_->UpdateBatchLaneAt(
           model, readings[l], batch, l, cells + l, kernels, &stats->cells_updated, changed_.data());
       for (int c = 0; c < changed; ++c) {
-        const int32_t cell = linear[RayBatch::At(changed_[static_cast<size_t>(c)], l)];
-        // The cell's chunk is its block; its place there is GrowingGrid::OffsetInBlock (the
-        // window starts at a block corner).
-        const int32_t in = GrowingGrid::kBlockEdge - 1, s = window_shift_;
-        const uint32_t offset =
-            static_cast<uint32_t>((cell & in) | (((cell >> s) & in) << GrowingGrid::kBlockShift) |
-                                  (((cell >> (2 * s)) & in) << (2 * GrowingGrid::kBlockShift)));
-        MarkChanged(window_indices_[WindowSlotOf(cell)], offset);
+        // The cell's chunk is its block (ResolveWindowCellsFn: slot * 512 + offset).
+        const uint32_t slot_cell = slot_cells[RayBatch::At(changed_[static_cast<size_t>(c)], l)];
+        MarkChanged(window_indices_[slot_cell >> kChunkShift], slot_cell & kChunkMask);
       }
       ++stats->rays_applied;
       if (readings[l].kind == ReadingKind::kNoReturn) ++stats->rays_no_return;

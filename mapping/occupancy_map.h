@@ -188,8 +188,8 @@ class OccupancyMap {
   // GrowingGrid only: the cast window (CastLattice), 2^window_shift_ cells per axis from
   // window_lower_ (a multiple of the block edge), within window_reach_ cells of the origin cell
   // and beyond; its blocks in x-fastest order (their cells, null until looked up, and creation
-  // indices), the slots filled since UseWindow, and the addresses of the cells of the batch being
-  // updated, in its layout.
+  // indices), the slots filled since UseWindow, and the cells of the batch being updated, in its
+  // layout: addresses, and slot * 512 + offset in the block (kernels::ResolveWindowCellsFn).
   int window_reach_{0};
   int window_shift_{0};
   CellIndex window_lower_;
@@ -198,6 +198,7 @@ class OccupancyMap {
   std::vector<uint32_t> window_indices_;
   std::vector<uint32_t> window_filled_;
   std::vector<float*> cell_pointers_;
+  std::vector<uint32_t> cell_slots_;
 };
 
 template <class Grid>

@@ -76,10 +76,11 @@ using StorePosteriorsAtFn = int (*)(const double* posterior, float* const* cells
 /// index linear[k * kLanes + l] = x + E (y + E z) (E = 2^shift cells per axis, the window's
 /// lower corner on a block corner) lies in block slot (x / 8) + (E / 8) ((y / 8) + (E / 8)
 /// (z / 8)), at offset (x % 8) + 8 ((y % 8) + 8 (z % 8)) of its cells (GrowingGrid::
-/// OffsetInBlock). Writes the cell's address blocks[slot] + offset to cells[k * kLanes + l], for
-/// rows < rows. Returns false, with the outputs unspecified, if some cell's blocks[slot] is null.
+/// OffsetInBlock). Writes the cell's address blocks[slot] + offset to cells[k * kLanes + l] and
+/// slot * 512 + offset to slot_cells[k * kLanes + l], for rows < rows. Returns false, with the
+/// outputs unspecified, if some cell's blocks[slot] is null.
 using ResolveWindowCellsFn = bool (*)(const int32_t* linear, const int* size, int rows, int shift,
-                                      float* const* blocks, float** cells);
+                                      float* const* blocks, float** cells, uint32_t* slot_cells);
 
 /// One instruction set's kernels.
 struct Kernels {
@@ -116,7 +117,7 @@ int StorePosteriorsScalar(const double* posterior, const int32_t* cells, const f
 int StorePosteriorsAtScalar(const double* posterior, float* const* cells, const float* priors,
                             int first, int n, double p_min, int* changed);
 bool ResolveWindowCellsScalar(const int32_t* linear, const int* size, int rows, int shift,
-                              float* const* blocks, float** cells);
+                              float* const* blocks, float** cells, uint32_t* slot_cells);
 #if defined(__x86_64__)
 void WalkLanesAvx512(const RaySegment* rays, int count, const bool* started, detail::RayWalk* walks,
                      const Eigen::Vector3d& origin_m, double resolution, double* distance,
@@ -128,7 +129,7 @@ int StorePosteriorsAvx512(const double* posterior, const int32_t* cells, const f
 int StorePosteriorsAtAvx512(const double* posterior, float* const* cells, const float* priors,
                             int first, int n, double p_min, int* changed);
 bool ResolveWindowCellsAvx512(const int32_t* linear, const int* size, int rows, int shift,
-                              float* const* blocks, float** cells);
+                              float* const* blocks, float** cells, uint32_t* slot_cells);
 #endif
 
 }  // namespace kernels

@@ -14,7 +14,8 @@ namespace {
 
 KESTREL_AVX512_BEGIN
 [[KESTREL_AVX512]] bool ResolveRowsAvx512(const int32_t* linear, const int* size, int rows,
-                                          int shift, float* const* blocks, float** cells) {
+                                          int shift, float* const* blocks, float** cells,
+                                          uint32_t* slot_cells) {
   using lanes::kLanes;
   const __m256i sizes = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(size));
   const __m256i mask = _mm256_set1_epi32((1 << shift) - 1);
@@ -44,6 +45,8 @@ KESTREL_AVX512_BEGIN
     const __m512i address =
         _mm512_add_epi64(block, _mm512_slli_epi64(_mm512_cvtepu32_epi64(offset), 2));
     _mm512_storeu_si512(cells + k * kLanes, address);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(slot_cells + k * kLanes),
+                        _mm256_or_si256(_mm256_slli_epi32(slot, 9), offset));
   }
   return missing == 0;
 }
@@ -52,8 +55,8 @@ KESTREL_AVX512_END
 }  // namespace
 
 bool ResolveWindowCellsAvx512(const int32_t* linear, const int* size, int rows, int shift,
-                              float* const* blocks, float** cells) {
-  return ResolveRowsAvx512(linear, size, rows, shift, blocks, cells);
+                              float* const* blocks, float** cells, uint32_t* slot_cells) {
+  return ResolveRowsAvx512(linear, size, rows, shift, blocks, cells, slot_cells);
 }
 
 }  // namespace kestrel::kernels

@@ -8,7 +8,7 @@
 namespace kestrel::kernels {
 
 bool ResolveWindowCellsScalar(const int32_t* linear, const int* size, int rows, int shift,
-                              float* const* blocks, float** cells) {
+                              float* const* blocks, float** cells, uint32_t* slot_cells) {
   using lanes::kLanes;
   const int32_t mask = (int32_t{1} << shift) - 1;
   const int b = shift - 3;  // log2 of the window's blocks per axis
@@ -21,7 +21,9 @@ bool ResolveWindowCellsScalar(const int32_t* linear, const int* size, int rows, 
       const int32_t slot = (x >> 3) | ((y >> 3) << b) | ((z >> 3) << (2 * b));
       float* const block = blocks[slot];
       if (block == nullptr) return false;
-      cells[at] = block + ((x & 7) | ((y & 7) << 3) | ((z & 7) << 6));
+      const int32_t offset = (x & 7) | ((y & 7) << 3) | ((z & 7) << 6);
+      cells[at] = block + offset;
+      slot_cells[at] = static_cast<uint32_t>((slot << 9) | offset);
     }
   }
   return true;
