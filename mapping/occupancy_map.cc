@@ -36,9 +36,9 @@ OccupancyMap<Grid>::OccupancyMap(Grid grid, std::unique_ptr<OccupancyUpdater> up
     window_shift_ = GrowingGrid::kBlockShift;
     while ((1 << window_shift_) < 2 * window_reach_ + GrowingGrid::kBlockEdge) ++window_shift_;
     KESTREL_THROW_UNLESS(window_shift_ <= 10,
-                         "growing map: max_range_m / resolution_m = "
-                             << max_range_m / grid_.geometry().resolution_m()
-                             << " cells, accepted at most 500 (the cast window)");
+                         "growing map: ceil(max_range_m / resolution_m) = "
+                             << window_reach_ - 1
+                             << " cells, accepted at most 507 (the cast window's 1024 cells)");
     const int blocks_per_axis = 1 << (window_shift_ - GrowingGrid::kBlockShift);
     const size_t slots = static_cast<size_t>(blocks_per_axis) * blocks_per_axis * blocks_per_axis;
     window_blocks_.resize(slots, nullptr);
@@ -211,7 +211,12 @@ void OccupancyMap<Grid>::UpdateRays(const Reading* readings, const RayBatch& bat
                                     ScanStats* stats) {
   const int32_t* const linear = batch.linear_index.data();
   if constexpr (std::is_same_v<Grid, GrowingGrid>) {
-    UseWindow(batch.lattice);
+    // Cast on a window of this lattice (CastLattice), which the window table describes.
+    const GridGeometry& window = batch.lattice;
+    KESTREL_DEMAND(window.upper().x - window.lower().x == (int32_t{1} << window_shift_) &&
+                   window.origin_m() == grid_.geometry().origin_m() &&
+                   window.resolution_m() == grid_.geometry().resolution_m());
+    UseWindow(window);
     float** const cells = cell_pointers_.data();
     uint32_t* const slot_cells = cell_slots_.data();
     const auto resolve = [&] {

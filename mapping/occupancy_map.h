@@ -67,7 +67,8 @@ class OccupancyMap {
   /// A map over `grid` (whose cells should hold updater->initial_value()) whose sensors reach at
   /// most `max_range_m` (sizes the per-ray scratch).
   /// @throws std::invalid_argument if updater is null or max_range_m is not positive, or for a
-  /// GrowingGrid if max_range_m / resolution exceeds 500 cells (the window of CastLattice).
+  /// GrowingGrid if ceil(max_range_m / resolution) exceeds 507 cells (the window of CastLattice
+  /// is at most 1024 cells per axis).
   OccupancyMap(Grid grid, std::unique_ptr<OccupancyUpdater> updater, double max_range_m);
   OccupancyMap(const OccupancyMap&) = delete;
   OccupancyMap& operator=(const OccupancyMap&) = delete;

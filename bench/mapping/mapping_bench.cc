@@ -5,7 +5,7 @@
 // Counters: rays/s (returns and "no return" rays to 4 m) and cell updates/s. Rays are cast eight
 // at a time (ScanIntegrator) with the widest kernels the CPU runs (AVX-512 here); *Scalar* forces
 // the scalar kernels (the same map), as on CPUs without AVX-512. The *Threaded*
-// variants (traversal thread on) are timed in wall time and also report rays/busiest_cpu_s: rays
+// variants (worker thread on) are timed in wall time and also report rays/busiest_cpu_s: rays
 // per CPU second of the busier of the two threads, the rate on two otherwise idle cores (the
 // machine is shared, so wall time overstates their cost).
 #include <benchmark/benchmark.h>

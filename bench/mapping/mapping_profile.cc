@@ -76,7 +76,7 @@ int Run(Map* map, const std::string& kind, int frames, int threads) {
   CALLGRIND_STOP_INSTRUMENTATION;
   const double cpu = CpuSeconds(CLOCK_PROCESS_CPUTIME_ID) - cpu0;
   const double main_cpu = CpuSeconds(CLOCK_THREAD_CPUTIME_ID) - main0;
-  // With a traversal thread, the rate on two otherwise idle cores is bounded by the busier
+  // With a worker thread, the rate on two otherwise idle cores is bounded by the busier
   // thread: rays / max(main thread CPU, other threads' CPU).
   const double busiest = std::max(main_cpu, cpu - main_cpu);
   const double wall =
