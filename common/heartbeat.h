@@ -1,7 +1,7 @@
 #pragma once
 /// @file
-/// The heartbeat every process publishes at >= 1 Hz (DESIGN.md): state, uptime, last error and
-/// named counters (rates, drops, queue depths), on HEARTBEAT_<NAME> by default.
+/// The heartbeat every process publishes at >= 1 Hz (docs/design.md §2.2): state, uptime, last
+/// error and named counters (rates, drops, queue depths), on HEARTBEAT_<NAME> by default.
 
 #include <cstdint>
 #include <map>

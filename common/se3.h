@@ -2,7 +2,7 @@
 /// @file
 /// Geometry on SO(3)/SE(3) with Eigen. Frames follow Drake's monogram notation: X_AB is the pose
 /// of frame B in frame A, R_AB its rotation, p_AB the position of B's origin in A. World W is
-/// x east, y north, z up (DESIGN.md "Frames and the vehicle"). Quaternions are unit, Hamilton,
+/// x east, y north, z up (docs/design.md §4). Quaternions are unit, Hamilton,
 /// stored as (w, x, y, z) in messages.
 
 #include <Eigen/Core>

@@ -1,12 +1,13 @@
 #pragma once
 /// @file
 /// Piecewise-polynomial trajectories of the flat outputs (position and yaw) of a quadrotor, as
-/// carried by the TRAJECTORY message (DESIGN.md "Message contract"): segments with durations and,
+/// carried by the TRAJECTORY message (docs/design.md §3.1): segments with durations and,
 /// per segment, polynomial coefficients for x, y, z (m, world frame W, z up) and yaw (rad) in the
 /// segment's local time tau in [0, duration_s]:
 ///     x(tau) = c[0] + c[1] tau + c[2] tau^2 + ... + c[n] tau^n      (ascending powers)
-/// Evaluate() gives exact derivatives up to snap (the controller feeds them forward, ALGORITHMS.md
-/// section 9); Sample() is the paper's "path interpreter" for display (every 0.01 s).
+/// Evaluate() gives exact derivatives up to snap (the controller feeds them forward,
+/// docs/algorithms.md §11.5); Sample() is the paper's "path interpreter" for display (every
+/// 0.01 s).
 
 #include <Eigen/Core>
 #include <array>

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// The vehicle: mass, inertia, rotor layout, motor and sensor parameters, shared by the simulator,
-/// the controller and the mapper (DESIGN.md "Frames and the vehicle").
+/// the controller and the mapper (docs/design.md §4).
 ///
 /// Frames: body B is x forward, y left, z up; thrust along +z_B. Rotors are numbered 1..4
 /// counter-clockwise seen from above, starting front-right (layout "x", rotors at 45 deg between
@@ -39,7 +39,8 @@ struct VehicleConfig {
   double thrust_coefficient_N_per_radps2{8.5e-6};
   /// Drag-torque coefficient k_m: rotor reaction torque = k_m * thrust, m. 0.016 is typical of
   /// 10-12 in propellers; it sets the yaw authority (at the top of the paper's helix the thrust is
-  /// 40% of hover and yaw saturates: 0.0135 gave 19 mm helix RMS, 0.016 gives 17 mm).
+  /// 40% of hover and yaw saturates: a smaller k_m tracks the helix worse, docs/STATUS.md,
+  /// "Controller").
   double drag_torque_coefficient_m{0.016};
   double motor_time_constant_s{0.02};  ///< first-order lag of rotor thrust, s (0: no lag)
   double max_rotor_thrust_N{25.0};     ///< per-rotor thrust ceiling, N
@@ -58,7 +59,7 @@ struct VehicleConfig {
   void Validate() const;
 };
 
-/// Rotor geometry derived from a VehicleConfig (DESIGN.md "Frames and the vehicle").
+/// Rotor geometry derived from a VehicleConfig (docs/design.md §4).
 struct RotorGeometry {
   /// Column i: position of rotor i+1's hub in B (z = 0), m.
   Eigen::Matrix<double, 3, 4> position_B_m{Eigen::Matrix<double, 3, 4>::Zero()};

@@ -204,7 +204,7 @@ bool GeometricController::Compute(const VehicleState& state, const FlatOutput& d
       IntegrateClamped(config_.c1_per_s * e_x + e_v, dt_s, config_.position_integral_limit_m, &e_i);
   const Eigen::Vector3d e_i_rate = e_i_active.cwiseProduct(config_.c1_per_s * e_x + e_v);
 
-  // A = -k_x e_x - k_v e_v - k_i e_i + m g e3 + m a_d (ALGORITHMS.md section 9, z up).
+  // A = -k_x e_x - k_v e_v - k_i e_i + m g e3 + m a_d (docs/algorithms.md §11.2, z up).
   Eigen::Vector3d A =
       -k_x * e_x - k_v * e_v - k_i * e_i + m * g * e3 + m * desired.acceleration_mps2;
   // A_z >= min_force_z_fraction m g: R_d never upside down (see the config field); while the
@@ -281,7 +281,7 @@ bool GeometricController::Compute(const VehicleState& state, const FlatOutput& d
   }
 
   // Projection of the heading onto the plane normal to b3d: b2d = (b3d x b1d)/|b3d x b1d|,
-  // b1c = b2d x b3d (ALGORITHMS.md section 9), with derivatives.
+  // b1c = b2d x b3d (docs/algorithms.md §11.3), with derivatives.
   const Eigen::Vector3d C = b3d.cross(b1d);
   const Eigen::Vector3d C_dot = b3d_dot.cross(b1d) + b3d.cross(b1d_dot);
   const Eigen::Vector3d C_ddot =

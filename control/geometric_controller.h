@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// Geometric tracking control on SE(3): Lee, Leok, McClamroch, "Geometric tracking control of a
-/// quadrotor UAV on SE(3)", CDC 2010, in Kestrel's z-UP convention (ALGORITHMS.md section 9):
+/// quadrotor UAV on SE(3)", CDC 2010, in Kestrel's z-UP convention (docs/algorithms.md §11):
 /// world W x east, y north, z up, gravity -g e3; body B x forward, y left, z up; thrust f along
 /// +b3 = R e3, so m xddot = f R e3 - m g e3 and J Wdot + W x J W = M.
 ///
@@ -28,12 +28,10 @@
 /// collective only to f_min(M_xy), the least that keeps every rotor >= 0 with the flipping
 /// moments. That is the bound we keep: while b3 . e3 < 0 any thrust pushes the vehicle towards
 /// the ground, so more collective than the moments need would only add to the fall (a floor of
-/// m g / 2 while inverted loses 2.5 m instead of 2.2; with CDC 2010's e_R 36.5 m instead of
-/// 19.5; tests/control/closed_loop_test.cc). From 178 deg
-/// (tests/control/closed_loop_test.cc, large-angle e_R): the saturated flip moment costs 50 N of
-/// collective for 0.07 s, then 3-9 N until 90 deg at 0.29 s (0.7 m lost, 4 m/s down); past 90
-/// deg f = A . R e3 grows with the position and velocity errors and saturates by 70 deg; the rest
-/// of the 2.2 m is braking that descent at full thrust.
+/// m g / 2 while inverted loses more altitude, with either e_R; tests/control/closed_loop_test.cc).
+/// Past 90 deg f = A . R e3 grows with the position and velocity errors and saturates; the rest
+/// of the altitude lost is braking the descent at full thrust. The flip's figures:
+/// docs/STATUS.md, "Controller".
 ///
 /// Motor lag: with thrust_lag_compensation_s = tau > 0 the commanded thrust is f + tau * fdot (fdot
 /// analytic); the moment is not lag-compensated. Default 0 (no compensation).
@@ -51,8 +49,8 @@ namespace kestrel {
 /// d/de Psi(R Exp(e eta), R_d) at e = 0 equals e_R . eta) the law uses. theta is the angle of
 /// the rotation R_d^T R, a its axis (in B).
 enum class AttitudeErrorForm {
-  /// Lee, Leok, McClamroch, CDC 2010 (ALGORITHMS.md section 9): Psi = 1/2 tr(I - R_d^T R) = 1 - cos
-  /// theta,
+  /// Lee, Leok, McClamroch, CDC 2010 (docs/algorithms.md §11.4):
+  /// Psi = 1/2 tr(I - R_d^T R) = 1 - cos theta,
   /// e_R = 1/2 vee(R_d^T R - R^T R_d) = sin(theta) a. Almost-global attractivity, but the
   /// restoring moment vanishes at theta = 180 deg (a saddle at exactly 180 deg).
   kCdc2010,
@@ -91,9 +89,10 @@ enum class AttitudeErrorForm {
 
 /// Gains and vehicle constants of the geometric controller. Position gains are given per unit
 /// mass (the paper writes k_x = 16 m, k_v = 5.6 m), attitude gains absolutely (paper: k_R = 8.81,
-/// k_W = 2.54). The integral gains are ours: measured on the paper's helix with tau = 0.02 s
-/// (tests/control/closed_loop_test.cc), k_i/m = 4 gave 39 mm RMS, 0.5 gives 17 mm, 0 gives 16 mm;
-/// k_I barely matters there (it is for offsets: centre of mass, rotor mismatch).
+/// k_W = 2.54). The integral gains are ours, chosen on the paper's helix with tau = 0.02 s
+/// (tests/control/closed_loop_test.cc; docs/STATUS.md, "Controller"): a small k_i costs the helix
+/// almost nothing, a large one worsens it; k_I barely matters there (it is for offsets: centre of
+/// mass, rotor mismatch).
 struct GeometricControllerConfig {
   double mass_kg{4.34};                                  ///< m, kg
   Eigen::Vector3d inertia_kgm2{0.0820, 0.0845, 0.1377};  ///< diag J, body axes, kg m^2
@@ -124,7 +123,7 @@ struct GeometricControllerConfig {
   /// b3d = A/|A| stays in the upper hemisphere and R_d is never upside down: rotors that cannot
   /// reverse give at most g downward (idling); flipping over to push down faster is never worth
   /// it. Needed with kLargeAngle, together with max_tilt_rad and the W_d, Wdot_d bounds below:
-  /// after the 178 deg recovery the vehicle overshoots upward (+3.9 m/s), A_z turns negative,
+  /// after the 178 deg recovery the vehicle overshoots upward, A_z turns negative,
   /// R_d swings by ~180 deg and the large-angle e_R, unlike CDC 2010's (near zero there), rolls
   /// the vehicle over again (tests/control/closed_loop_test.cc). The paper's helix needs A_z >=
   /// m (g - 0.6 pi^2) = 0.40 m g: 0.2 leaves it untouched.
@@ -132,16 +131,17 @@ struct GeometricControllerConfig {
   /// Largest tilt of b3d from vertical, rad, (0, 1.5): |A_xy| is scaled down to A_z
   /// tan(max_tilt_rad), keeping its direction (W_d, Wdot_d from the bounded A, exactly). Without
   /// it the bounded A_z above still lets b3d lie almost flat when the horizontal error is large
-  /// (as after a flip), and the vehicle rolls over again. The paper's helix needs 27 deg.
+  /// (as after a flip), and the vehicle rolls over again. The paper's helix needs much less
+  /// (docs/STATUS.md, "Controller").
   double max_tilt_rad{1.0};
   /// Bound on |W_d|, rad/s (inf: none). W_d ~ |Adot| / |A| grows without bound when |A| is
   /// small and the feedback part of Adot large (after a flip: a vehicle tilted at full thrust
   /// decelerating sideways while its vertical channel asks for little thrust): tracking that
-  /// W_d rolls the vehicle over (178 deg case: |W_d| 17 rad/s, |Wdot_d| 240 rad/s^2, a second
-  /// roll to 116 deg). W_d is scaled down to this norm, direction kept. The paper's helix needs
-  /// 4.5 rad/s after its transient (tests/control/closed_loop_test.cc).
+  /// W_d rolls the vehicle over (in the 178 deg case a second roll followed). W_d is scaled down
+  /// to this norm, direction kept. The paper's helix needs less after its transient
+  /// (tests/control/closed_loop_test.cc; the figures: docs/STATUS.md, "Controller").
   double max_desired_rate_radps{6.0};
-  /// Bound on |Wdot_d|, rad/s^2, likewise (the helix needs 18 rad/s^2 after its transient).
+  /// Bound on |Wdot_d|, rad/s^2, likewise (the helix needs less after its transient).
   double max_desired_angular_acceleration_radps2{30.0};
   /// |A| below this (N) leaves no thrust direction: Compute() fails (only reachable with
   /// min_force_z_fraction = 0: free fall commanded).
@@ -182,7 +182,7 @@ class GeometricController {
   /// @throws std::invalid_argument if config.Validate() throws.
   explicit GeometricController(const GeometricControllerConfig& config);
 
-  /// One control step (ALGORITHMS.md section 9). `dt_s` (s, in [0, max_dt_s]) is the time since
+  /// One control step (docs/algorithms.md §11). `dt_s` (s, in [0, max_dt_s]) is the time since
   /// the previous step, used to integrate e_i and e_I (first the integrals advance with the
   /// current errors and are clamped, then they are used).
   /// Returns false, leaving *out and the integrals untouched, when the state is not finite or R

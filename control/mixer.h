@@ -1,8 +1,8 @@
 #pragma once
 /// @file
 /// Mixer: total thrust f (N, along +z_B) and moment M (N m, body frame) to the four rotor thrusts,
-/// for the "x" and "plus" layouts (geometry from common/vehicle_config.h, DESIGN.md "Frames and the
-/// vehicle"), with the saturation priority of ALGORITHMS.md section 9:
+/// for the "x" and "plus" layouts (geometry from common/vehicle_config.h, docs/design.md §4),
+/// with the saturation priority of docs/algorithms.md §11.7:
 ///   1. roll and pitch moments first: if their rotor differential alone spans more than
 ///      [T_min, T_max], (M_x, M_y) is scaled down as a vector (its direction is kept);
 ///   2. then the collective: f is clamped to [f_min(M_xy), f_max(M_xy)], f_min being the least

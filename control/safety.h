@@ -10,9 +10,9 @@
 ///  2. the last valid pose older than land_timeout_s: LAND (on the IMU-propagated state; the
 ///     touchdown test then does not trust the estimated height, see blind_land_depth_m);
 ///  3. the last valid pose older than pose_timeout_s: HOLD (a "failsafe hold"); when poses return
-///     within land_timeout_s the mode held before (TRACK) resumes (DESIGN.md: "motion-capture
-///     loss ... shorter than the land time-out the controller flies on its IMU-propagated state and
-///     resumes tracking when valid poses return; longer, it lands");
+///     within land_timeout_s the mode held before (TRACK) resumes (docs/design.md §2.4: a
+///     loss shorter than the land time-out is flown on the IMU-propagated state and tracking
+///     resumes when valid poses return; a longer one lands);
 ///  4. the vehicle outside the geofence by more than geofence_margin_m: LAND;
 ///  5. TRACK without a trajectory, or trajectory_timeout_s past its end: HOLD.
 /// Set points are always finite and inside the geofence (clamped); trajectories that leave the
@@ -39,7 +39,7 @@ enum class FlightCommand { kIdle = 0, kTakeoff = 1, kTrack = 2, kHold = 3, kLand
 /// Time-outs, take-off and landing profile and the geofence.
 struct SafetyConfig {
   double pose_timeout_s{0.1};            ///< pose older than this: failsafe HOLD, s
-  double land_timeout_s{2.0};            ///< pose older than this: LAND, s (DESIGN.md default 2 s)
+  double land_timeout_s{2.0};            ///< pose older than this: LAND, s (docs/design.md §2.4)
   double trajectory_timeout_s{1.0};      ///< TRACK this long after the trajectory's end: HOLD, s
   double takeoff_height_m{1.0};          ///< climb above the take-off point, m
   double takeoff_speed_mps{0.5};         ///< climb rate of the take-off set point, m/s

@@ -2,7 +2,7 @@
 /// @file
 /// The rigid-body state the controller flies on. Frame convention of control/: world W is x east,
 /// y north, z up, gravity along -z_W; body B is x forward, y left, z up, thrust along +z_B
-/// (DESIGN.md "Frames and the vehicle").
+/// (docs/design.md §4).
 
 #include <Eigen/Core>
 #include <Eigen/LU>

@@ -16,9 +16,9 @@ void CandidateConfig::Validate() const {
                        "d_fixed_m = " << d_fixed_m << ", accepted (0, inf)");
   KESTREL_THROW_UNLESS(switch_margin >= 0.0 && std::isfinite(switch_margin),
                        "switch_margin = " << switch_margin << ", accepted [0, inf)");
-  KESTREL_THROW_UNLESS(end_entropy_gain_nats >= 0.0 && std::isfinite(end_entropy_gain_nats),
-                       "end_entropy_gain_nats = " << end_entropy_gain_nats
-                                                  << ", accepted [0, inf)");
+  KESTREL_THROW_UNLESS(
+      end_entropy_gain_nats >= 0.0 && std::isfinite(end_entropy_gain_nats),
+      "end_entropy_gain_nats = " << end_entropy_gain_nats << ", accepted [0, inf)");
   KESTREL_THROW_UNLESS(end_gain_nats >= 0.0 && std::isfinite(end_gain_nats),
                        "end_gain_nats = " << end_gain_nats << ", accepted [0, inf)");
 }

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Candidate poses and the choice of the next one (ALGORITHMS.md section 8, eqs. (9) and (17)):
+/// Candidate poses and the choice of the next one (docs/algorithms.md §8.3-§8.5, eqs. (9), (17)):
 /// one reachable collision cell per block of the lattice (every `lattice_step` cells, anchored at
 /// cell (0, 0): the lattice cell, or the block's reachable cell nearest to it)
 /// times n_yaw headings yaw_m = 2 pi m / n_yaw; objective I(X_c) * bump(d_cell); the end of
@@ -36,9 +36,9 @@ struct CandidateConfig {
   double end_entropy_gain_nats{1.0};
   /// Combined mode's end test (Kestrel's addition): B's min rule (eq. 16) calls a collision cell
   /// known once one of its band cells is seen free, so B can run out of gain with whole rooms
-  /// unknown above and below the band (lasr: ended at 74% known). When true, a combined plan
-  /// whose B test says "done" scores the candidates on E, and flies on with E's gains while
-  /// they pass E's end test (end_entropy_gain_nats).
+  /// unknown above and below the band (seen on lasr, docs/STATUS.md, "Exploration"). When true, a
+  /// combined plan whose B test says "done" scores the candidates on E, and flies on with E's gains
+  /// while they pass E's end test (end_entropy_gain_nats).
   bool end_check_entropy_map{true};
   /// Skip the vehicle's own collision cell, so that every plan moves the vehicle (a turn on the
   /// spot comes with the trajectory's yaw); the start-up scan has already looked around.

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Shortest paths on the collision map C (ALGORITHMS.md section 8): Dijkstra, 8-connected, step
+/// Shortest paths on the collision map C (docs/algorithms.md §8.2): Dijkstra, 8-connected, step
 /// cost the Euclidean distance between cell centres (alpha_C or sqrt(2) alpha_C), over the
 /// traversable cells only; a diagonal step is allowed only when both orthogonal neighbours it
 /// passes are traversable (no corner cutting). The start cell is always usable (the vehicle is

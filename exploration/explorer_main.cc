@@ -1,4 +1,4 @@
-// kestrel-explorer: entropy-based exploration (ALGORITHMS.md sections 6-8).
+// kestrel-explorer: entropy-based exploration (docs/algorithms.md §6-§9).
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/node_loop.h"

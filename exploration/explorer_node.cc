@@ -278,6 +278,8 @@ void ExplorerNode::Plan(const std::string& reason) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   total_planning_s_ += plan_s;
   plan_times_s_.push_back(plan_s);
+  plan_timings_.push_back(result.timings);
+  plan_gain_stats_.push_back(result.volumetric_stats);
   last_plan_s_ = now_s();
   ++plan_seq_;
   if (result.status == PlanStatus::kGoal && result.trajectory.trajectory.has_value()) {
@@ -495,8 +497,8 @@ void ExplorerNode::Step() {
                    " m from the take-off point)";
         Log(LogLevel::kInfo, landing_);
         SendLand();
-        // The status says DONE too: processes watching EXPLORATION_STATUS (flight_check, the
-        // viewer, an operator) learn that exploration is over from it.
+        // The status says DONE too: processes watching EXPLORATION_STATUS (kestrel-flight-check,
+        // the viewer, an operator) learn that exploration is over from it.
         ++plan_seq_;
         PublishStatus(PlanResult{}, "home: land sent (" + end_rule_ + ", " + landing_ + ")");
       }

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// The explorer node (kestrel-explorer): keeps a copy of the mapper's 3D map (MAP3D snapshots and
-/// deltas, mapping/map_replica.h), and runs the paper's exploration loop (ALGORITHMS.md section 8):
+/// deltas, mapping/map_replica.h), and runs the paper's exploration loop (docs/algorithms.md §8):
 ///
 ///   WAITING   until a map, a valid pose and the vehicle airborne on the commanded take-off
 ///             (controller in TAKEOFF, startup_min_rise_m above the lowest height seen) or
@@ -67,14 +67,14 @@ struct ExplorerConfig {
   /// true: the start-up turn overlaps the climb (docs/exploration.md, "Start-up: the turn while
   /// climbing"): it starts once the controller is in TAKEOFF and the vehicle is
   /// startup_min_rise_m above the lowest height seen while waiting. false (default): the turn
-  /// starts in HOLD within height_tolerance_m of h, after the climb; the overlap saves about 1 s
-  /// and, seen from below h, can leave the band around the take-off unseen (cellar, seed 3: the
-  /// gain rule ended exploration at 49% known).
+  /// starts in HOLD within height_tolerance_m of h, after the climb; the overlap saves little
+  /// time and, seen from below h, can leave the band around the take-off unseen, so that the gain
+  /// rule ends exploration early (measured in docs/exploration.md, same section).
   bool startup_while_climbing{false};
   double startup_min_rise_m{0.3};  ///< see startup_while_climbing, m (> 0)
   /// How the heading turns (exploration/startup_turn.h): smoothstep (the former turn, one
   /// degree-7 smoothstep, 17.2 s at 0.8 rad/s) or ramped (0.75 s ramps of the rate and a cruise
-  /// at the peak, 8.6 s: the first plan 8.55 s earlier, no earlier 95% known on lasr;
+  /// at the peak, 8.6 s: an earlier first plan, but not an earlier 95% known; measured in
   /// docs/exploration.md, "Start-up: the turn while climbing").
   StartupYawProfile startup_yaw_profile{StartupYawProfile::kSmoothstep};
   double replan_period_s{1.0};  ///< replan at least this often while flying, s...
@@ -83,7 +83,7 @@ struct ExplorerConfig {
   /// another goal before this one is reached, again and again.
   double replan_min_remaining_s{0.0};
   /// Progress stall (Kestrel's addition; 0 disables): exploration also ends when the number of
-  /// known 3D cells (P < P_init / 2 or P > 0.5, ALGORITHMS.md section 10's rule on the
+  /// known 3D cells (P < P_init / 2 or P > 0.5, docs/algorithms.md §12.2's rule on the
   /// explorer's own map) grew by less than end_stall_min_growth of itself over this window, s.
   /// The gain-based tests alone may never end in a cluttered world: cells no sensor can see keep
   /// a little predicted gain that the vehicle chases round the rooms.
@@ -136,6 +136,12 @@ class ExplorerNode {
   [[nodiscard]] double total_planning_s() const { return total_planning_s_; }
   /// Wall time of every exploration replan, s (not the flights home).
   [[nodiscard]] const std::vector<double>& plan_times_s() const { return plan_times_s_; }
+  /// The planner's own stage timings of every exploration replan, in plan_times_s() order.
+  [[nodiscard]] const std::vector<PlanTimings>& plan_timings() const { return plan_timings_; }
+  /// The volumetric gain's counters of every exploration replan, in plan_times_s() order.
+  [[nodiscard]] const std::vector<VolumetricGainStats>& plan_gain_stats() const {
+    return plan_gain_stats_;
+  }
   /// What ended exploration ("" while exploring): "gain rule", "progress stall", "planning
   /// failures", "no reachable candidate", "no reachable frontier".
   [[nodiscard]] const std::string& end_rule() const { return end_rule_; }
@@ -200,6 +206,8 @@ class ExplorerNode {
   // The flown corridor (PlannerInput::flown_path), a point every flown_path_spacing_m.
   std::vector<Eigen::Vector2d> flown_path_;
   std::vector<double> plan_times_s_;
+  std::vector<PlanTimings> plan_timings_;
+  std::vector<VolumetricGainStats> plan_gain_stats_;
   std::string end_rule_;
   std::string landing_;
   int home_attempts_{0};

@@ -1,9 +1,9 @@
 #pragma once
 /// @file
 /// A 2D grid in the plane z = height_m of the world frame W (x east, y north, z up): the
-/// explorer's collision map C, entropy map E and combined map B (ALGORITHMS.md section 7). Cell
+/// explorer's collision map C, entropy map E and combined map B (docs/algorithms.md §7). Cell
 /// (ix, iy) spans [origin + ix*alpha, origin + (ix+1)*alpha) x [..) (half-open, aligned to the
-/// 3D map's lower limit, as in ALGORITHMS.md section 1). Values are x fastest, like
+/// 3D map's lower limit, as in docs/algorithms.md §1.1). Values are x fastest, like
 /// kestrel::grid_map_t.
 
 #include <Eigen/Core>

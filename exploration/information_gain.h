@@ -1,14 +1,14 @@
 #pragma once
 /// @file
 /// Expected information gain of a candidate pose, eqs. (7)-(10) of Kaufman et al. 2018 as
-/// cleaned in ALGORITHMS.md section 6.
+/// cleaned in docs/algorithms.md §6.
 ///
 /// One candidate ray: cells 1..n with priors P_j, chords [entry_j, exit_j] and d_j (the chord
 /// midpoint, exploration/ray_caster_2d.h). Hypothetical measurements k = 1..n: a return at
 ///     z_k = midpoint of chord_k intersected with [z_min, z_max)   (= d_k for a chord in range)
 /// and k = n+1: "no return". For each:
 ///     P'_j(k) = posterior of cell j given measurement k, by the mapper's exact inverse sensor
-///               model (mapping/inverse_sensor_model.h, ALGORITHMS.md section 4; the cells it
+///               model (mapping/inverse_sensor_model.h, docs/algorithms.md §4.1; the cells it
 ///               does not write keep their prior: those beyond z_k + c*sigma for a return, those
 ///               nearer than z_min for "no return", exactly as in the map)
 ///     H_k     = sum_j H(P'_j(k))
@@ -57,7 +57,7 @@ namespace kestrel {
 
 /// How the hypotheses of eq. (7) are weighted (file comment).
 enum class WeightMode {
-  kChordProbability,  ///< ALGORITHMS.md section 6: probability of the chord / of no return
+  kChordProbability,  ///< docs/algorithms.md §6.2: probability of the chord / of no return
   kPaperLiteral,      ///< the paper's eq. (8): normalised 1/eta_k
 };
 

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// One replan of the explorer (ALGORITHMS.md sections 7 and 8) behind one interface, so that the
+/// One replan of the explorer (docs/algorithms.md §7-§9) behind one interface, so that the
 /// entropy planner (both of the paper's modes) and the frontier baseline are interchangeable:
 ///   project C (and B or E) from the 3D map -> Dijkstra from the vehicle's collision cell ->
 ///   candidates and their gains -> choice (or the end of exploration) -> trajectory.
@@ -49,7 +49,11 @@ struct FrontierConfig {
 /// C_thresh and P_init come from `projection`, the vehicle radius from `trajectory`, the bump and
 /// switch margin from `candidates`.
 struct VolumetricConfig {
-  double band_below_m{0.15};         ///< vehicle band below h checked for traversability, m (> 0)
+  /// Vehicle band below h checked for traversability, m (> 0): the body's half height (0.075 m),
+  /// the dip of its rim at 10 deg of tilt (0.44 sin 10 deg = 0.076 m) and one map cell for the
+  /// top of a thin or pointed object that the map resolves only below its tip (docs/exploration.md,
+  /// "Traversability").
+  double band_below_m{0.25};
   double band_above_m{0.15};         ///< vehicle band above h, m (> 0)
   double margin_m{0.08};             ///< clearance beyond the vehicle radius, m (>= 0)
   double candidate_spacing_m{0.75};  ///< candidate positions every this many m (>= one cell)
@@ -199,7 +203,7 @@ class EntropyPlanner final : public ExplorationPlanner {
 /// already reached (PlannerInput::reached_goals, with candidates.skip_reached_goals; the current
 /// goal is kept while it is still a reachable frontier), with an
 /// unknown 8-neighbour in C (not traversable and P_init/2 <= P(C) <= 0.5: not yet known free,
-/// not known occupied, after ALGORITHMS.md section 10), facing the mean direction of its unknown
+/// not known occupied, after docs/algorithms.md §12.2), facing the mean direction of its unknown
 /// neighbours; done when no such cell is reachable. Its gain (on B, for the status) is computed
 /// for the chosen pose only. Not thread-safe.
 class FrontierPlanner final : public ExplorationPlanner {
@@ -226,7 +230,9 @@ class FrontierPlanner final : public ExplorationPlanner {
 /// order of bound x bump until the best exact objective reaches the next bound x bump, so the
 /// choice is the one evaluating every candidate gives; the end rule likewise evaluates in order of
 /// bound until one exact gain passes the threshold or no bound can. Candidates listed in the
-/// result are those evaluated exactly. Not thread-safe.
+/// result are those evaluated exactly. Between replans a position keeps its gains while the map
+/// within its rays' reach holds, and a memo per ray (RayMemo) otherwise: a ray that reads the
+/// same priors again reuses its exact I_ray, which is also its bound. Not thread-safe.
 class VolumetricPlanner final : public ExplorationPlanner {
  public:
   /// @throws std::invalid_argument if config is invalid.
@@ -243,6 +249,7 @@ class VolumetricPlanner final : public ExplorationPlanner {
   struct CachedPose {
     std::vector<double> bounds;
     std::vector<double> gains;  // empty until evaluated exactly
+    RayMemo memo;               // each ray's exact I_ray and the priors it was evaluated on
   };
   // Compares the map with the copy of the last Plan in tiles of kTile x kTile columns and marks
   // the tiles within the rays' reach of a changed one (affected_); copies the map. All tiles are

@@ -128,7 +128,7 @@ CollisionProjection ProjectCollisionMaps(const OccupancyGridView& map,
             const double p = static_cast<double>(v);
             double p_collision = p;
             if (startup && v <= p_init_f) {
-              // ALGORITHMS.md section 8: band cells near the start with no evidence of
+              // docs/algorithms.md §8.1: band cells near the start with no evidence of
               // occupancy (at or below P_init: unseen, or grazed by free rays) count as free in
               // C (and in B's maximum); B's minimum keeps what the map says.
               const double xc = map.origin_m.x() + (i + 0.5) * alpha;

@@ -1,13 +1,13 @@
 #pragma once
 /// @file
-/// Projected 2D maps of section III-B of Kaufman et al. 2018 (ALGORITHMS.md section 7): the
+/// Projected 2D maps of section III-B of Kaufman et al. 2018 (docs/algorithms.md §7): the
 /// collision map C (eqs. 11-13), the entropy map E (eqs. 14-15) and the combined map B (eq. 16),
 /// all in the plane of the exploration height h, aligned to the 3D map's lower limit.
 ///
 /// Choices the paper leaves open (tested in tests/exploration/projected_maps_test.cc):
 ///  - A 3D cell belongs to the vertical band of C / B when its z extent [z, z + alpha) overlaps
 ///    the open interval (h - alpha_C/2, h + alpha_C/2) by more than 1e-9 m (rounding).
-///  - A collision cell that sticks out of the 3D map (ALGORITHMS.md section 1) counts its
+///  - A collision cell that sticks out of the 3D map (docs/algorithms.md §1.1) counts its
 ///    missing part as unknown (P_init), so it is never traversable: the vehicle must not leave
 ///    the map. A band that leaves the map vertically counts the same way.
 ///  - A 3D cell lies below the floor (ignored by E) when its top z + alpha <= floor height, above
@@ -25,7 +25,7 @@ namespace kestrel {
 
 class DenseGrid;
 
-/// Minimal read interface to a 3D occupancy grid (ALGORITHMS.md section 1): `dims` cells per
+/// Minimal read interface to a 3D occupancy grid (docs/algorithms.md §1.1): `dims` cells per
 /// axis, cell (i, j, k) spans origin + [i, i+1) * alpha etc., probability values x fastest then
 /// y then z (the layout of mapping's DenseGrid). Not owning.
 struct OccupancyGridView {
@@ -50,7 +50,7 @@ struct OccupancyGridView {
 /// outlive the view.
 [[nodiscard]] OccupancyGridView ViewOf(const DenseGrid& grid);
 
-/// Parameters of the projections (ALGORITHMS.md sections 7 and 8 defaults).
+/// Parameters of the projections (defaults: docs/algorithms.md §7, §8.1).
 struct ProjectionConfig {
   double height_m{0.75};             ///< exploration height h, m, W
   int collision_factor{0};           ///< k_C (>= 1); 0: the smallest k with k*alpha >= diameter
@@ -72,13 +72,13 @@ struct ProjectionConfig {
 };
 
 /// k_C for a 3D cell edge: config.collision_factor if set, else the smallest k with
-/// k * alpha >= vehicle diameter (eq. (11) and ALGORITHMS.md section 8).
+/// k * alpha >= vehicle diameter (eq. (11), docs/algorithms.md §7.1).
 [[nodiscard]] int CollisionFactor(const ProjectionConfig& config, double resolution_m);
 
-/// The start-up zone of ALGORITHMS.md section 8: 3D band cells with no evidence of occupancy
+/// The start-up zone of docs/algorithms.md §8.1: 3D band cells with no evidence of occupancy
 /// (P <= P_init) whose centre lies within radius_m (horizontally) of center_m count as free in
-/// C (the explorer's view only; the 3D map is not changed). ALGORITHMS.md frees only cells still
-/// exactly at P_init; Kestrel also frees those a few free rays grazed (P_init > P > C_thresh),
+/// C (the explorer's view only; the 3D map is not changed). Not only cells still exactly at
+/// P_init: Kestrel also frees those a few free rays grazed (P_init > P > C_thresh),
 /// which would otherwise block the start more than unseen cells do: in office, a vehicle that
 /// left the start cell found it closed behind it and ended exploration in a dead end.
 struct StartupFreeZone {
@@ -86,7 +86,7 @@ struct StartupFreeZone {
   double radius_m{0.0};                               ///< m
 };
 
-/// The radius alpha_C/2 + alpha_C/(2 tan(vfov/2)) of ALGORITHMS.md section 8, m.
+/// The radius alpha_C/2 + alpha_C/(2 tan(vfov/2)) of docs/algorithms.md §8.1, m.
 /// Precondition: 0 < vertical_fov_rad < pi.
 [[nodiscard]] double StartupFreeRadius(double collision_cell_m, double vertical_fov_rad);
 

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// 2D ray traversal in a GridMap2D (Amanatides & Woo 1987), the planar counterpart of
-/// mapping/ray_caster.h with the same conventions (ALGORITHMS.md section 2): half-open cells
+/// mapping/ray_caster.h with the same conventions (docs/algorithms.md §2.3): half-open cells
 /// [B(i), B(i+1)) with B(i) = origin + i*alpha; crossing parameters t = (B - o)/u as one
 /// correctly rounded division; a cell is listed iff its chord has positive length; tied axes step
 /// together (a ray through a corner does not list the cells it only touches); a ray starting on a

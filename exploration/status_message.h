@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// The explorer's messages from a replan (DESIGN.md "Processes and channels"): the 2D maps as
+/// The explorer's messages from a replan (docs/design.md §2.1): the 2D maps as
 /// kestrel::grid_map_t (MAP2D_*) and the decision as kestrel::exploration_status_t
 /// (EXPLORATION_STATUS). Pure conversions, no LCM I/O.
 

@@ -11,7 +11,7 @@
 namespace kestrel {
 namespace {
 
-// A collision cell above this is known occupied (ALGORITHMS.md section 10's P > 0.5).
+// A collision cell above this is known occupied (docs/algorithms.md §12.2's P > 0.5).
 constexpr double kKnownOccupied = 0.5;
 
 // i! / (i - d)!, 0 when i < d.

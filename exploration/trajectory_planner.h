@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// From a chosen candidate to a trajectory (ALGORITHMS.md section 8, "Path"; non-stop flight:
+/// From a chosen candidate to a trajectory (docs/algorithms.md §10; non-stop flight:
 /// docs/exploration.md, section "Non-stop flight"):
 ///  1. Dijkstra back-pointers give the cell path; waypoints are the vehicle's position, then the
 ///     centres of the path's cells (the start cell's included) up to the goal cell's centre.

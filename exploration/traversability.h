@@ -17,7 +17,7 @@
 ///     passable where w/2 >= radius + margin, wherever it lies: no lattice.
 ///
 /// Two exceptions, both for the explorer's view only (the 3D map is never changed):
-///  - the start-up zone (ALGORITHMS.md section 8): band cells with no evidence of occupancy
+///  - the start-up zone (docs/algorithms.md §8.1): band cells with no evidence of occupancy
 ///    (P <= P_init) within a radius of the take-off point count as free, since a level camera
 ///    with a minimum range cannot see the band next to itself;
 ///  - the flown corridor: cells within 1.5 cells of the polyline the vehicle's centre has flown

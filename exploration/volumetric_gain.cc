@@ -16,6 +16,29 @@ namespace {
 // Two positions share a template when their sensor origins' offsets inside their cells agree to
 // this (rounding of positions built as cell centres is ~1e-15 m).
 constexpr double kOffsetTolerance_m = 1e-10;
+
+// One step of a RayMemo key: the value folded in, then a multiply-xorshift (MurmurHash3's
+// 64-bit finaliser constants), so that every bit of every prior reaches every bit of the key.
+inline uint64_t MixKey(uint64_t key, uint64_t value) {
+  key = (key ^ value) * 0xff51afd7ed558ccdULL;
+  return key ^ (key >> 33);
+}
+inline uint64_t KeyOf(float p) {
+  uint32_t bits = 0;
+  std::memcpy(&bits, &p, sizeof bits);
+  return bits;
+}
+// The first step of a ray's key: its cell count and path (template or cast).
+inline uint64_t SeedKey(int n, bool templated) {
+  return MixKey(0x9e3779b97f4a7c15ULL, (static_cast<uint64_t>(n) << 1) | (templated ? 1u : 0u));
+}
+// The last step: MurmurHash3's fmix64; 0 is reserved for "no entry".
+inline uint64_t FinishKey(uint64_t key) {
+  key ^= key >> 33;
+  key *= 0xc4ceb9fe1a85ec53ULL;
+  key ^= key >> 33;
+  return key == 0 ? 1 : key;
+}
 // Crossings closer than this (plus the offset tolerance's effect) make a ray fragile.
 constexpr double kTieTolerance_m = 1e-9;
 // Components below this are 0 (file comment of the header).
@@ -290,10 +313,9 @@ Eigen::Vector3d VolumetricGainEvaluator::OffsetInCell(const Eigen::Vector3d& o) 
   return f;
 }
 
-VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::Finish(int sensor,
-                                                                   const RayKernel& kernel, int n,
-                                                                   double bound, bool with_gain,
-                                                                   VolumetricGainStats* stats) {
+VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::Finish(
+    int sensor, int slot, const RayKernel& kernel, int n, double bound, uint64_t key,
+    bool with_gain, VolumetricGainStats* stats, RayMemo* memo) {
   RayResult r;
   // I_ray is the sum over the ray's cells of I(m_j; z), and for cells independent a priori that
   // sum is at most I(m; z) <= H(z) <= ln(number of hypotheses) <= ln(n + 1): for a ray through
@@ -314,19 +336,31 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::Finish(int sensor,
     if (stats != nullptr) ++stats->rays_skipped;
     return r;
   }
+  // The same priors as when this ray's I_ray was evaluated: the same I_ray, bit for bit (the
+  // kernel and the sums depend on nothing else), and it is its own, exact, bound.
+  if (memo != nullptr && memo->key[static_cast<size_t>(slot)] == key) {
+    r.gain = memo->gain[static_cast<size_t>(slot)];
+    r.bound = r.gain;
+    if (stats != nullptr) ++stats->rays_memo_hits;
+    return r;
+  }
   if (!with_gain) return r;
   const RayEntropy e =
       ExpectedEntropy::Evaluate(models_[static_cast<size_t>(sensor)], kernel, prior_.data(), n,
                                 config_.weight_mode, &scratch_, config_.entropy_sum);
   r.gain = e.gain_nats();
   if (stats != nullptr) ++stats->rays_evaluated;
+  if (memo != nullptr) {
+    memo->key[static_cast<size_t>(slot)] = key;
+    memo->gain[static_cast<size_t>(slot)] = r.gain;
+  }
   return r;
 }
 
 VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::EvaluateRay(
     const OccupancyGridView& map, int sensor, int slot, const Eigen::Vector3d& o,
     const Eigen::Vector3i& cell, int64_t linear, bool use_template, bool with_gain,
-    VolumetricGainStats* stats) {
+    VolumetricGainStats* stats, RayMemo* memo) {
   const float* const p = map.probability;
   const Template& t = templates_[static_cast<size_t>(slot)];
   if (use_template && !t.fragile) {
@@ -350,19 +384,21 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::EvaluateRay(
     if (prior_.size() < static_cast<size_t>(n)) prior_.resize(2 * static_cast<size_t>(n) + 16);
     double bound = 0.0;
     bool visible = true;
+    uint64_t key = SeedKey(n, true);
     const float* const base = p + linear;
     const int32_t* const delta = t.delta.data();
     for (int k = 0; k < n; ++k) {
       const float v = Certain(base[delta[k]]);
       prior_[static_cast<size_t>(k)] = static_cast<double>(v);
+      if (memo != nullptr) key = MixKey(key, KeyOf(v));
       if (visible) {  // the bound stops at a certain occupied cell: nothing behind it counts
         bound += CellEntropy(v);
         visible = v != 1.0f;
       }
     }
     if (stats != nullptr) ++stats->templated_rays;
-    return Finish(sensor, template_kernels_[static_cast<size_t>(t.kernel)], n, bound, with_gain,
-                  stats);
+    return Finish(sensor, slot, template_kernels_[static_cast<size_t>(t.kernel)], n, bound,
+                  FinishKey(key), with_gain, stats, memo);
   }
   // Cast at this position (fragile ray, or an origin at another in-cell offset).
   const SensorModel& model = models_[static_cast<size_t>(sensor)];
@@ -372,16 +408,21 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::EvaluateRay(
   if (prior_.size() < static_cast<size_t>(n)) prior_.resize(2 * static_cast<size_t>(n) + 16);
   double bound = 0.0;
   bool visible = true;
+  uint64_t key = SeedKey(n, false);
   for (int k = 0; k < n; ++k) {
     const float v = Certain(p[cells_.linear_index[static_cast<size_t>(k)]]);
     prior_[static_cast<size_t>(k)] = static_cast<double>(v);
+    if (memo != nullptr) key = MixKey(key, KeyOf(v));
     if (visible) {  // the bound stops at a certain occupied cell (see the gathering above)
       bound += CellEntropy(v);
       visible = v != 1.0f;
     }
   }
   RayKernel& kernel = cast_kernels_[static_cast<size_t>(slot)];
-  if (!with_gain) return Finish(sensor, kernel, n, bound, false, stats);  // kernel not read
+  key = FinishKey(key);
+  if (!with_gain) {  // the kernel is not read
+    return Finish(sensor, slot, kernel, n, bound, key, false, stats, memo);
+  }
   if (entry_.size() < static_cast<size_t>(n)) {
     entry_.resize(2 * static_cast<size_t>(n) + 16);
     exit_.resize(2 * static_cast<size_t>(n) + 16);
@@ -397,16 +438,18 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::EvaluateRay(
     kernel.Build(model, entry_.data(), exit_.data(), d, n);
     built_for.assign(d, d + n);
   }
-  return Finish(sensor, kernel, n, bound, true, stats);
+  return Finish(sensor, slot, kernel, n, bound, key, true, stats, memo);
 }
 
 PoseGains VolumetricGainEvaluator::Evaluate(const OccupancyGridView& map,
                                             const Eigen::Vector3d& position_m, int n_yaw,
-                                            bool with_gain, VolumetricGainStats* stats) {
+                                            bool with_gain, VolumetricGainStats* stats,
+                                            RayMemo* memo) {
   KESTREL_THROW_UNLESS(n_yaw >= 1,
                        "VolumetricGainEvaluator: n_yaw = " << n_yaw << ", accepted >= 1");
   KESTREL_THROW_UNLESS(position_m.allFinite(), "VolumetricGainEvaluator: position not finite");
   map.Validate();
+  if (stats != nullptr) ++(with_gain ? stats->poses_gained : stats->poses_bounded);
   KESTREL_THROW_UNLESS(
       static_cast<double>(map.dims.x()) * map.dims.y() * map.dims.z() < 2147483648.0,
       "VolumetricGainEvaluator: map of " << map.dims.transpose()
@@ -430,6 +473,7 @@ PoseGains VolumetricGainEvaluator::Evaluate(const OccupancyGridView& map,
     cells_ = RayCells(longest, resolution_m_);
     have_geometry_ = true;
     have_templates_ = false;
+    ++generation_;
     have_miss_ = false;
   }
   const int n_sensors = static_cast<int>(config_.sensors.size());
@@ -456,6 +500,7 @@ PoseGains VolumetricGainEvaluator::Evaluate(const OccupancyGridView& map,
     } else if (have_miss_ && same(miss_offsets_m_)) {
       // A second position in a row at this offset: rebuild the templates for it.
       BuildTemplates(origins);
+      ++generation_;
       if (stats != nullptr) {
         ++stats->templates_built;
         stats->template_kernels = static_cast<long>(template_kernels_.size());
@@ -467,6 +512,11 @@ PoseGains VolumetricGainEvaluator::Evaluate(const OccupancyGridView& map,
       for (const Eigen::Vector3d& o : origins) miss_offsets_m_.push_back(OffsetInCell(o));
       have_miss_ = true;
     }
+  }
+  if (memo != nullptr && memo->generation != generation_) {
+    memo->generation = generation_;
+    memo->key.assign(directions_.size(), 0);
+    memo->gain.assign(directions_.size(), 0.0);
   }
   // Which bins some heading uses.
   const int bins = config_.azimuth_bins;
@@ -512,8 +562,8 @@ PoseGains VolumetricGainEvaluator::Evaluate(const OccupancyGridView& map,
       if (bin_used_[at] == 0) continue;
       double gain = 0.0, bound = 0.0;
       for (int row = 0; row < rows; ++row) {
-        const RayResult r =
-            EvaluateRay(map, s, Slot(s, row, b), o, cell, linear, use_template, with_gain, stats);
+        const RayResult r = EvaluateRay(map, s, Slot(s, row, b), o, cell, linear, use_template,
+                                        with_gain, stats, memo);
         gain += r.gain;
         bound += r.bound;
       }

@@ -135,6 +135,9 @@ struct VolumetricGainStats {
   long templated_rays{0};    ///< rays gathered along a template (the rest were cast per position)
   long templates_built{0};   ///< template sets built (each: every ray's cells and RayKernel)
   long template_kernels{0};  ///< distinct RayKernels in the last template set built
+  long poses_bounded{0};     ///< positions evaluated for their bounds only
+  long poses_gained{0};      ///< positions evaluated with their gains
+  long rays_memo_hits{0};    ///< rays whose I_ray came from a RayMemo
 };
 
 /// Per-heading results at one position, nats.
@@ -145,6 +148,17 @@ struct PoseGains {
   /// ray's first certain occupied cell, ln(n + 1)) (>= gain: E[H] >= 0, cells behind a certain
   /// occupied cell keep their prior under every hypothesis, and I_ray <= H(z) <= ln(n + 1)).
   std::vector<double> bound_nats;
+};
+
+/// The exact I_ray of each ray of one position, kept between evaluations (the caller owns one per
+/// position): a ray whose cells read the same priors again (after Certain) reuses its I_ray
+/// instead of evaluating eq. (7) anew, the same number bit for bit. Rays are recognised by a
+/// 64-bit hash of their cell count, path (template or cast) and prior bits: reuse is exact unless
+/// two different prior lists of one ray collide in 64 bits (about 2^-64 per comparison).
+struct RayMemo {
+  int64_t generation{-1};     ///< the evaluator's ray geometry it was filled under
+  std::vector<uint64_t> key;  ///< per slot: hash of the priors I_ray was evaluated on (0: none)
+  std::vector<double> gain;   ///< per slot: that I_ray, nats
 };
 
 /// Expected information gain of candidate poses from 3D rays through the exact map (file
@@ -162,8 +176,12 @@ class VolumetricGainEvaluator {
   /// the prior entropy, no expected-entropy evaluation). A position whose sensor origins lie
   /// outside the map gets 0.
   /// @throws std::invalid_argument if n_yaw < 1 or the map view is invalid.
+  ///
+  /// memo (optional, one per position): rays whose priors are those of the memo's entry reuse
+  /// its I_ray (the same bits as evaluating it), and their bound is that I_ray (an exact bound);
+  /// rays evaluated with_gain are stored.
   PoseGains Evaluate(const OccupancyGridView& map, const Eigen::Vector3d& position_m, int n_yaw,
-                     bool with_gain, VolumetricGainStats* stats = nullptr);
+                     bool with_gain, VolumetricGainStats* stats = nullptr, RayMemo* memo = nullptr);
 
   /// The bins b of sensor s in its field of view at heading yaw_rad.
   [[nodiscard]] std::vector<int> BinsInView(int sensor, double yaw_rad) const;
@@ -199,10 +217,12 @@ class VolumetricGainEvaluator {
   // The ray of `slot` from origin o (cell `cell`, linear index `linear`), by template or cast.
   RayResult EvaluateRay(const OccupancyGridView& map, int sensor, int slot,
                         const Eigen::Vector3d& o, const Eigen::Vector3i& cell, int64_t linear,
-                        bool use_template, bool with_gain, VolumetricGainStats* stats);
-  // I_ray of the n cells in prior_ with `kernel` (read only when with_gain), and the bound.
-  RayResult Finish(int sensor, const RayKernel& kernel, int n, double bound, bool with_gain,
-                   VolumetricGainStats* stats);
+                        bool use_template, bool with_gain, VolumetricGainStats* stats,
+                        RayMemo* memo);
+  // I_ray of the n cells in prior_ with `kernel` (read only when with_gain), and the bound;
+  // `key` is the ray's memo key (RayMemo).
+  RayResult Finish(int sensor, int slot, const RayKernel& kernel, int n, double bound, uint64_t key,
+                   bool with_gain, VolumetricGainStats* stats, RayMemo* memo);
   [[nodiscard]] int Slot(int sensor, int row, int bin) const {
     return (row_base_[static_cast<size_t>(sensor)] + row) * config_.azimuth_bins + bin;
   }
@@ -219,6 +239,7 @@ class VolumetricGainEvaluator {
   double resolution_m_{0.0};
   GridGeometry geometry_;  // bounded lattice of the map (the per-position casts)
   bool have_templates_{false};
+  int64_t generation_{0};  // bumped whenever the rays' cells or kernels may change (RayMemo)
   std::vector<Eigen::Vector3d> template_offset_m_;  // per sensor: origin offset inside its cell
   std::vector<Template> templates_;                 // per slot
   // Kernels of the templates: rays whose chords agree to 1e-12 m (mirror images of one another

@@ -279,17 +279,19 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
     p.xy = grid.CenterOf(grid.CellAt(cell));
     p.distance_m = result.field.distance_m[static_cast<size_t>(cell)];
     p.bump = Bump(p.distance_m, d_max);
-    // Exact reuse: nothing changed within the rays' reach since the cache entry was made.
-    auto cached = cache_.find(cell);
-    if (cached != cache_.end() && !Affected(grid.CellAt(cell)) &&
-        static_cast<int>(cached->second.bounds.size()) == n_yaw) {
+    // Exact reuse: nothing changed within the rays' reach since the cache entry was made (a new
+    // entry has no bounds).
+    CachedPose& c = cache_[cell];
+    if (!Affected(grid.CellAt(cell)) && static_cast<int>(c.bounds.size()) == n_yaw) {
       ++reused_positions_;
     } else {
-      const PoseGains b = gains_.Evaluate(input.map, Eigen::Vector3d(p.xy.x(), p.xy.y(), z), n_yaw,
-                                          false, &result.volumetric_stats);
-      cached = cache_.insert_or_assign(cell, CachedPose{b.bound_nats, {}}).first;
+      // The rays that read the same priors as at their last evaluation bound with their exact
+      // I_ray (RayMemo); the rest with the prior-entropy bound.
+      PoseGains b = gains_.Evaluate(input.map, Eigen::Vector3d(p.xy.x(), p.xy.y(), z), n_yaw, false,
+                                    &result.volumetric_stats, &c.memo);
+      c.bounds = std::move(b.bound_nats);
+      c.gains.clear();
     }
-    const CachedPose& c = cached->second;
     p.max_bound = *std::max_element(c.bounds.begin(), c.bounds.end());
     if (!c.gains.empty()) {
       p.gains = c.gains;
@@ -299,11 +301,13 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
   }
   auto evaluate = [&](Position* p) {
     if (p->evaluated) return;
-    const PoseGains g = gains_.Evaluate(input.map, Eigen::Vector3d(p->xy.x(), p->xy.y(), z), n_yaw,
-                                        true, &result.volumetric_stats);
+    CachedPose& entry = cache_[p->cell];
+    PoseGains g = gains_.Evaluate(input.map, Eigen::Vector3d(p->xy.x(), p->xy.y(), z), n_yaw, true,
+                                  &result.volumetric_stats, &entry.memo);
     p->gains = g.gain_nats;
     p->evaluated = true;
-    cache_.insert_or_assign(p->cell, CachedPose{g.bound_nats, g.gain_nats});
+    entry.bounds = std::move(g.bound_nats);
+    entry.gains = std::move(g.gain_nats);
   };
   // Exact argmax of gain x bump, in decreasing bound x bump.
   std::vector<size_t> order(positions.size());

@@ -35,7 +35,7 @@ GridGeometry GridGeometry::Fixed(const MapLimits& limits) {
   g.inv_resolution_ = 1.0 / limits.resolution_m;
   g.bounded_ = true;
   for (int axis = 0; axis < 3; ++axis) {
-    // ALGORITHMS.md section 1: ceil((max - min)/alpha) cells, the upper limit rounds up.
+    // docs/algorithms.md §1.1: ceil((max - min)/alpha) cells, the upper limit rounds up.
     g.upper_[axis] = static_cast<int32_t>(
         std::ceil((limits.max_m[axis] - limits.min_m[axis]) / limits.resolution_m));
   }

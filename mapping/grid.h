@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// 3D occupancy grids (ALGORITHMS.md section 1): cubic cells of edge `resolution_m` aligned to the
+/// 3D occupancy grids (docs/algorithms.md §1.1): cubic cells of edge `resolution_m` aligned to the
 /// lower map limit. Cell (i, j, k) spans [min + i*alpha, min + (i+1)*alpha) per axis (half-open),
 /// and a fixed map holds ceil((max - min)/alpha) cells per axis, so the upper limit rounds up.
 /// Two storages share that geometry and give identical numbers inside the common region:

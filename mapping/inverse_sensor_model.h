@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Exact inverse sensor model, eqs. (2)-(4) of Kaufman et al. 2018 (ALGORITHMS.md section 4), in
+/// Exact inverse sensor model, eqs. (2)-(4) of Kaufman et al. 2018 (docs/algorithms.md §4.1), in
 /// O(n_r) per ray. Symbols:
 ///   P_k     prior of the k-th cell along the ray, Pbar_k = 1 - P_k
 ///   pi_k    = P_k prod_{j<k} Pbar_j        probability that cell k is the first occupied cell
@@ -11,7 +11,7 @@
 /// One forward pass accumulates pi and S in double; a second writes P'_k, computed as
 /// eta P_k C_k with C_k = S_(k-1) + Pbar_(k-1) a_k (the same value; see ExactUpdate::Apply).
 ///
-/// Which cells are written (ALGORITHMS.md sections 3 and 4):
+/// Which cells are written (docs/algorithms.md §3.5, §4.2):
 ///  - a return z updates every cell of the ray, except that cells with d_k > z + c*sigma are left
 ///    out (the allowed shortcut; exact under the model's Gaussian window, see sensor_model.h), and
 ///    1/eta is completed with p_rand * u * prod_{j<=K} Pbar_j, K the last cell kept;
@@ -125,8 +125,7 @@ ExactUpdateResult ExactUpdate::Apply(const SensorModel& model, const Reading& re
   // cancellation). Over a leading run of cells whose a_k is the same constant A (for a return:
   // cells nearer than z_min or more than c sigma before z, where a_k = p_rand u), S_(k-1) =
   // A (1 - Pbar_(k-1)), hence C_k = A exactly and P'_k = (eta A) P_k: those cells need neither
-  // a_k nor a stored C_k, which is most of a ray (ALGORITHMS.md section 11, "the Gaussian only
-  // where it is not negligible").
+  // a_k nor a stored C_k, which is most of a ray (docs/algorithms.md §4.3).
   CheckInput(reading, n, scratch);
   ExactUpdateResult result;
   double* const c_term = scratch->c_term_.data();  // C_k
@@ -139,7 +138,7 @@ ExactUpdateResult ExactUpdate::Apply(const SensorModel& model, const Reading& re
   double tail_a;       // a_(nr+1), the empty ray's likelihood
   if (reading.kind == ReadingKind::kReturn) {
     const double z = reading.z_m;
-    // Shortcut: cells with d_k > z + c sigma are left out (ALGORITHMS.md section 4).
+    // Shortcut: cells with d_k > z + c sigma are left out (docs/algorithms.md §4.2).
     const double reach_m = model.GaussianReach(z);
     while (end > 0 && distance_m[end - 1] > reach_m) --end;
     run_a = model.spurious_density();
@@ -185,7 +184,7 @@ ExactUpdateResult ExactUpdate::Apply(const SensorModel& model, const Reading& re
       pbar_run *= 1.0 - p;
     }
     tail_a = model.empty_no_return_probability();
-    // Only cells with d_k >= z_min are written (ALGORITHMS.md section 3).
+    // Only cells with d_k >= z_min are written (docs/algorithms.md §3.5).
     const double z_min = model.config().z_min_m;
     while (result.first < end && distance_m[result.first] < z_min) ++result.first;
   }
@@ -202,7 +201,7 @@ ExactUpdateResult ExactUpdate::Apply(const SensorModel& model, const Reading& re
   return result;
 }
 
-/// Clamps p to [p_min, 1 - p_min] (ALGORITHMS.md section 1). Precondition: p not NaN (then the
+/// Clamps p to [p_min, 1 - p_min] (docs/algorithms.md §1.2). Precondition: p not NaN (then the
 /// min/max form compiles to two instructions).
 [[nodiscard]] inline double ClampProbability(double p, double p_min) {
   const double upper = 1.0 - p_min;

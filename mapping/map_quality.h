@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Map quality against ground truth (ALGORITHMS.md section 10), over the observable cells:
+/// Map quality against ground truth (docs/algorithms.md §12.2), over the observable cells:
 ///  - known fraction: known cells / observable cells, where a cell is known when P < P_init/2 or
 ///    P > 0.5, or, for maps whose lower clamp is above P_init/2 (OctoMap's 0.12), when it has
 ///    been observed at all (pass an `observed` mask);

@@ -20,19 +20,19 @@ struct MapperSensorConfig {
   std::string name{"xtion"};  ///< sensor name; selects the extrinsic X_BS in the vehicle file
   std::string channel{"DEPTH_XTION"};  ///< LCM channel
   std::string kind{"depth"};           ///< "depth" (depth_image_t) or "scan" (planar_scan_t)
-  SensorModelConfig model{SensorModelConfig::Xtion()};  ///< forward model (ALGORITHMS.md section 3)
+  SensorModelConfig model{SensorModelConfig::Xtion()};  ///< forward model (docs/algorithms.md §3.2)
   Pose3 X_BS;  ///< sensor frame in the body frame (from the vehicle file)
 };
 
 struct MapperConfig {
   std::string grid{"dense"};   ///< "dense" (the paper's fixed limits) or "growing" (8^3 blocks)
-  std::string model{"exact"};  ///< "exact" (ALGORITHMS.md section 4) or "log_odds" (baseline)
+  std::string model{"exact"};  ///< "exact" (docs/algorithms.md §4.1) or "log_odds" (baseline)
   MapLimits limits;            ///< map limits and resolution alpha (growing: lattice origin)
   OccupancyLimits occupancy;   ///< P_init and the clamp P_min
   LogOddsConfig log_odds;      ///< baseline parameters (model = log_odds)
   std::vector<MapperSensorConfig> sensors;  ///< default: the paper's Xtion and Hokuyo
   std::string pose_channel{"POSE_VICON"};   ///< pose_t of the vehicle body
-  PoseHistoryConfig pose_history;           ///< interpolation limits (DESIGN.md "Time")
+  PoseHistoryConfig pose_history;           ///< interpolation limits (docs/design.md §5.2)
 
   std::string map_channel{"MAP3D"};          ///< full snapshots, in chunks
   std::string delta_channel{"MAP3D_DELTA"};  ///< changed cells between snapshots
@@ -52,17 +52,18 @@ struct MapperConfig {
   /// Cast the rays of each scan on a second thread ahead of the in-order updates
   /// (ScanIntegrator::SetWorkerThread): the same map bit for bit. Each kind
   /// of scan goes through the thread only while that is faster (WorkerChoice). Off unless
-  /// configured: on this 2-vCPU machine the thread gives from below one thread's rays/s to 1.9x
-  /// it, in
-  /// spells (each ray's data crosses the cores, and what that costs depends on where the host
-  /// places the vCPUs) and takes up to twice the CPU. config/mapper.yaml turns it on; the sim
-  /// sheet turns it off (the simulator and the other processes share the two cores).
+  /// configured: on a 2-vCPU machine the thread's gain comes and goes in spells, down to below one
+  /// thread's rays/s (each ray's data crosses the cores, and what that costs depends on where the
+  /// host places the vCPUs; docs/STATUS.md, "Mapping"), and it takes up to twice the CPU.
+  /// config/mapper.yaml turns it on; the sim sheet turns it off (the simulator and the other
+  /// processes share the two cores).
   bool traversal_thread{false};
 
   /// The kernels that cast eight rays at a time, evaluate their forward models and store their
   /// posteriors (ScanIntegrator::Options::instruction_set): "" for the widest the CPU runs
-  /// (AVX-512 vector registers here: 1.6-2x the rays/s of the scalar kernels, bench/mapping),
-  /// "scalar" or "avx512". The same map bit for bit with each.
+  /// (AVX-512 vector registers where the CPU has them: faster than the scalar kernels,
+  /// bench/mapping; docs/STATUS.md, "Mapping"), "scalar" or "avx512". The same map bit for bit
+  /// with each.
   std::string instruction_set;
 
   /// @throws ConfigError-like std::invalid_argument naming the field, value and range.

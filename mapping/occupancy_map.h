@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// A 3D occupancy map (ALGORITHMS.md sections 1, 4 and 5): a grid (DenseGrid with the paper's
+/// A 3D occupancy map (docs/algorithms.md §1, §4 and §5): a grid (DenseGrid with the paper's
 /// fixed limits, or GrowingGrid), an OccupancyUpdater (Kestrel's exact model or the log-odds
 /// baseline) and the bookkeeping of what changed. It keeps cells only: rays come to it cast, in
 /// batches (RayCaster::CastBatch), from a ScanIntegrator (mapping/scan_integrator.h), which

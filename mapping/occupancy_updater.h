@@ -2,14 +2,14 @@
 /// @file
 /// How one ray's reading changes the cells it crosses, behind one interface so that Kestrel's
 /// exact model and an OctoMap-style log-odds baseline can be run on identical data:
-///  - ExactBayesUpdater: the exact inverse sensor model (ALGORITHMS.md section 4); cells store
-///    the probability P(m_i) as float, clamped to [P_min, 1 - P_min] (section 1).
+///  - ExactBayesUpdater: the exact inverse sensor model (docs/algorithms.md §4.1); cells store
+///    the probability P(m_i) as float, clamped to [P_min, 1 - P_min] (docs/algorithms.md §1.2).
 ///  - LogOddsUpdater: OctoMap's update (hit 0.7 / miss 0.4, clamping 0.12 / 0.97); cells store
 ///    log-odds as float. The cell holding a return's end point is a hit, every other cell the ray
 ///    crosses up to it a miss; "no return" clears the whole ray to z_max (OctoMap's maxrange).
-/// Each update reports which cells it changed, so that the map can keep H(map) (ALGORITHMS.md
-/// section 5) up to date per block of cells. Rays come cast in batches (RayCaster::CastBatch) and
-/// are updated one lane (ray) at a time, in order.
+/// Each update reports which cells it changed, so that the map can keep H(map)
+/// (docs/algorithms.md §5) up to date per chunk of cells. Rays come cast in batches
+/// (RayCaster::CastBatch) and are updated one lane (ray) at a time, in order.
 
 #include <cmath>
 #include <memory>
@@ -73,7 +73,7 @@ class OccupancyUpdater {
                                 int* changed) = 0;
 };
 
-/// Kestrel's exact update (ALGORITHMS.md section 4), float storage, double accumulation.
+/// Kestrel's exact update (docs/algorithms.md §4.1), float storage, double accumulation.
 class ExactBayesUpdater final : public OccupancyUpdater {
  public:
   /// Scratch for rays of up to `capacity` cells on a lattice of edge `resolution_m`.

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Pose/scan synchronisation (DESIGN.md "Time"): a short history of time-stamped poses X_WB and
+/// Pose/scan synchronisation (docs/design.md §5.2): a short history of time-stamped poses X_WB and
 /// interpolation (linear position, slerp orientation: common/se3.h Interpolate) at a scan's
 /// stamp. Pure: no clock; the caller passes times. Lookup results:
 ///  - kOk:      bracketing poses found, spaced at most max_gap_s apart; pose interpolated

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
-/// Batched ray casting on a second core (ALGORITHMS.md section 11, "traversal of the next rays on
-/// one core while the other applies updates in order"): a worker thread fills a ring of
+/// Batched ray casting on a second core (docs/algorithms.md §13: traversal of the next rays on
+/// one core while the other applies updates in order): a worker thread fills a ring of
 /// RayBatch slots, eight rays each (the source, then the prepare step: RayCaster::CastBatch and
 /// the map-independent work, e.g. a_k), while the caller consumes the slots strictly in order.
 /// Neither step on the worker reads the map, so the map is bit-identical to a single thread's.
@@ -12,10 +12,10 @@
 /// core (on a shared machine the other side may not be running). The worker and the slots are
 /// created once; Run allocates nothing.
 ///
-/// Measured on the 2-vCPU development machine (bench/mapping, BM_KestrelExactThreaded_*): in
-/// some spells 1.5-1.9x one thread's rays per wall second, in others below one thread (each
-/// ray's d_k, cell indices and a_k, about 1.3 KB, cross between the cores, and what that costs
-/// depends on where the host places the two vCPUs), so it is off by default.
+/// On the 2-vCPU development machine (bench/mapping, BM_KestrelExactThreaded_*) it is faster than
+/// one thread in some spells and slower in others (each ray's d_k, cell indices and a_k cross
+/// between the cores, and what that costs depends on where the host places the two vCPUs;
+/// docs/STATUS.md, "Mapping"), so it is off by default.
 
 #include <atomic>
 #include <condition_variable>

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// 3D ray traversal (ALGORITHMS.md section 2): Amanatides & Woo (1987) DDA from the sensor
+/// 3D ray traversal (docs/algorithms.md §2.1): Amanatides & Woo (1987) DDA from the sensor
 /// origin o along unit direction u for a length L (normally z_max). Lists ALL cells the segment
 /// [o, o + L u] passes through, in order of increasing distance, each with d_k, the distance
 /// from o to the midpoint of the segment's chord through the cell: d_k = (t_entry + t_exit)/2,

@@ -95,12 +95,12 @@ class ScanIntegrator {
 
   /// Casts the rays of IntegrateDepthImage and IntegratePlanarScan on a second thread, ahead of
   /// the updates, which stay in ray order: same map bit for bit. The worker casts batches and
-  /// evaluates their forward models (mapping/ray_batch_pipeline.h). Measured on the shared
-  /// 2-vCPU machine: from below one thread's rate to 1.9x it, in spells (each ray's data crosses
-  /// the cores, and what that costs depends on where the host places the vCPUs); so each kind of
-  /// scan (depth images, planar scans) goes through the worker only while that has been the
-  /// faster way (WorkerChoice, re-tried every 16th scan). Off by default (kestrel-mapper:
-  /// MapperConfig::traversal_thread); enabling creates the worker once.
+  /// evaluates their forward models (mapping/ray_batch_pipeline.h). On a shared 2-vCPU machine
+  /// its gain comes and goes in spells, down to below one thread's rate (each ray's data crosses
+  /// the cores, and what that costs depends on where the host places the vCPUs; docs/STATUS.md,
+  /// "Mapping"); so each kind of scan (depth images, planar scans) goes through the worker only
+  /// while that has been the faster way (WorkerChoice, re-tried every 16th scan). Off by default
+  /// (kestrel-mapper: MapperConfig::traversal_thread); enabling creates the worker once.
   void SetWorkerThread(bool enabled);
   /// Whether a worker thread is in use.
   [[nodiscard]] bool worker_thread() const { return pipeline_ != nullptr; }

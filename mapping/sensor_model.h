@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Per-sensor forward model p(z | r_k+) (ALGORITHMS.md section 3): a Gaussian around the distance
+/// Per-sensor forward model p(z | r_k+) (docs/algorithms.md §3.2): a Gaussian around the distance
 /// d_k of the first occupied cell, truncated to [z_min, z_max) and renormalised, mixed with a
 /// uniform spurious-return term, plus the discrete "no return" event.
 ///
@@ -12,12 +12,12 @@
 ///   first occupied cell nearer than z_min, beyond z_max, or no occupied cell (k = n_r + 1):
 ///     p(z | r_k+)    = p_rand * u
 ///     P(none | r_k+) = 1 - p_rand
-/// Gaussian window (Kestrel's choice, documented as part of the model): the Gaussian term is
-/// evaluated only for |z - d_k| <= cutoff_sigmas * sigma and taken as 0 beyond. With c >= 5 this
-/// drops at most 2*(1 - Phi(5)) = 5.7e-7 of the Gaussian's mass; c = +inf gives the untruncated
-/// model of ALGORITHMS.md section 3. The same window makes the section 4 shortcut (cells with
-/// d_k > z + c*sigma left out of a return's update) exact: their a_k is p_rand * u, the empty
-/// ray's, so their posteriors equal their priors.
+/// Gaussian window (Kestrel's choice, part of the model, docs/algorithms.md §3.3): the Gaussian
+/// term is evaluated only for |z - d_k| <= cutoff_sigmas * sigma and taken as 0 beyond. With c >= 5
+/// this drops at most 2*(1 - Phi(5)) = 5.7e-7 of the Gaussian's mass; c = +inf gives the
+/// untruncated model of docs/algorithms.md §3.2. The same window makes a shortcut exact
+/// (docs/algorithms.md §4.2: cells with d_k > z + c*sigma left out of a return's update): their
+/// a_k is p_rand * u, the empty ray's, so their posteriors equal their priors.
 ///
 /// Evaluation (switchable, SensorModelConfig::interpolated_gaussian, default on): the Gaussian
 /// exp(-x^2/2) on [0, c] and 1/(truncation mass) on [z_min, z_max] come from cubic Hermite tables

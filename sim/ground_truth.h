@@ -1,9 +1,9 @@
 #pragma once
 /// @file
-/// Ground truth for map quality (ALGORITHMS.md section 10): the world voxelised on a map grid,
+/// Ground truth for map quality (docs/algorithms.md §12.1): the world voxelised on a map grid,
 /// and the set of cells a sensor can observe from collision-free poses at the exploration height.
 ///
-/// Grid convention (ALGORITHMS.md section 1): cell (i, j, k) spans
+/// Grid convention (docs/algorithms.md §1.1): cell (i, j, k) spans
 /// [min + i*alpha, min + (i+1)*alpha) per axis; the count per axis is ceil((max - min)/alpha)
 /// (computed as ceil((max - min)/alpha - 1e-9), so an exact multiple does not gain a cell from
 /// rounding). Flat index = i + nx * (j + ny * k).
@@ -67,7 +67,7 @@ template <typename Visit>
 void WalkCells(const GridSpec& grid, const Eigen::Vector3d& o, const Eigen::Vector3d& u,
                double t_end_m, Visit&& visit);
 
-/// How the observable set is swept (ALGORITHMS.md section 10).
+/// How the observable set is swept (docs/algorithms.md §12.1).
 struct ObservabilityConfig {
   double pose_spacing_m{0.5};  ///< lattice step of candidate positions in x and y, m, > 0
   /// Radius of the sphere around a candidate position that must be clear of obstacles, m.

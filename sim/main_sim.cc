@@ -1,4 +1,4 @@
-// kestrel-sim: the Bullet quadrotor and depth-ray simulator as a process (DESIGN.md).
+// kestrel-sim: the Bullet quadrotor and depth-ray simulator as a process (docs/design.md §2.1).
 #include <chrono>
 #include <cstdio>
 #include <fstream>

@@ -4,7 +4,7 @@
 /// rotors from common/vehicle_config.h (positions and spin directions from ComputeRotorGeometry,
 /// the same derivation the controller's mixer uses), first-order motor lag on each rotor's
 /// thrust, linear body drag, a floor to stand on and Bullet contact detection against the world.
-/// Frames (DESIGN.md "Frames and the vehicle"): W x east, y north, z up, gravity -z_W; B x forward,
+/// Frames (docs/design.md §4): W x east, y north, z up, gravity -z_W; B x forward,
 /// y left, z up, thrust along +z_B.
 ///
 /// Equations (state p_W, v_W, q_WB, w_B, rotor thrusts T_i):

@@ -3,7 +3,7 @@
 /// Simulated sensors over the exact ray caster: an Xtion-like depth camera, Hokuyo-like planar
 /// LIDARs (URG-04LX, UTM-30LX), motion capture and an IMU. All randomness comes from SimRandom
 /// (sim/sim_random.h): the same seed gives the same data bit for bit, whatever the thread count.
-/// Frames (DESIGN.md "Frames and the vehicle"): W x east, y north, z up; camera S optical
+/// Frames (docs/design.md §4): W x east, y north, z up; camera S optical
 /// (z forward, x right, y down); LIDAR S x forward, z up; body B x forward, y left, z up.
 
 #include <algorithm>

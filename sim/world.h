@@ -2,7 +2,7 @@
 /// @file
 /// Simulated worlds: solid primitives (boxes, possibly rotated; vertical cylinders; half-spaces
 /// bounded by planes) with the map limits, the start pose and the exploration height of a run.
-/// World frame W: x east, y north, z up (DESIGN.md "Frames and the vehicle"). A world file is
+/// World frame W: x east, y north, z up (docs/design.md §4). A world file is
 /// YAML read through common/config.h; every error names the file, the key path (and the YAML line
 /// where one is known) and the reason.
 ///

@@ -1,5 +1,5 @@
 // Controller update cost. Run: build-control/bench/control/control_bench
-// The law runs at 200-500 Hz on the vehicle (issue 5): its budget is 2-5 ms per step.
+// The law runs at 200-500 Hz on the vehicle: its budget is 2-5 ms per step.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -15,7 +15,7 @@
 namespace kestrel {
 namespace {
 
-// A point of the paper's helix (ALGORITHMS.md section 9) with a perturbed state.
+// A point of the paper's helix (docs/algorithms.md §11.8) with a perturbed state.
 FlatOutput HelixPoint(double t) {
   const double w = 3.14159265358979323846;
   FlatOutput d;

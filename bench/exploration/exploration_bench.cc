@@ -1,4 +1,4 @@
-// One full replan of the explorer on the paper's simulation map (issue 6 "Benchmarks").
+// One full replan of the explorer on the paper's simulation map.
 //
 // The 3D map is built by Kestrel's exact mapper from synthetic frames of a closed room with
 // interior walls and a table (walls at x = +-3.9 m, y = +-5.9 m, floor z = 0, ceiling 2.4 m

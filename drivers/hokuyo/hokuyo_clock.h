@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Sensor-to-host time for the Hokuyo's 24-bit millisecond clock (PROTOCOLS.md "Clock"): unwrap
+/// Sensor-to-host time for the Hokuyo's 24-bit millisecond clock (docs/protocols.md §1.7): unwrap
 /// the counter, estimate the offset with TM1 round trips (median of sensor time minus the
 /// round-trip midpoint), and track the drift while streaming. Pure: times are passed in.
 

@@ -337,7 +337,7 @@ void HokuyoDriver::HandleScan(const scip::Reply& reply, int64_t now_utime) {
   scan.range_max_m = static_cast<float>(model_.dmax_mm * 1e-3);
   scan.ranges_m.reserve(data->ranges_mm.size());
   for (const uint32_t v : data->ranges_mm) {
-    // Error codes below DMIN: ALGORITHMS.md section 3 (no object -> 0, others -> NaN).
+    // Error codes below DMIN: docs/protocols.md §1.6 (no object -> 0, others -> NaN).
     switch (ClassifyRange(model_.name, model_.dmin_mm, model_.dmax_mm, v)) {
       case RangeClass::kReturn:
         scan.ranges_m.push_back(static_cast<float>(v * 1e-3));

@@ -3,7 +3,7 @@
 /// The Hokuyo driver as a state machine over a byte stream: no I/O and no clock of its own, so
 /// the node feeds it bytes and times and writes what it asks, and tests can drive it directly.
 ///
-/// Start-up, as the mature drivers (urg_node, hokuyo_node) do it (PROTOCOLS.md "Hokuyo LIDAR"):
+/// Start-up, as the mature drivers (urg_node, hokuyo_node) do it (docs/protocols.md §1.4):
 ///  1. "SCIP2.0": probe; switches a URG-04LX out of SCIP 1.1 ("0"), "0E" if already in 2.0;
 ///  2. "TM2": leave a time-adjust mode a previous session left on ("03": was not on);
 ///  3. "QT": stop a stream left running (its scans are skipped until the QT echo arrives);

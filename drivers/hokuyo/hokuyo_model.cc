@@ -63,7 +63,7 @@ RangeClass ClassifyRange(const std::string& model_name, int dmin_mm, int dmax_mm
                          unsigned value_mm) {
   if (value_mm >= static_cast<unsigned>(dmax_mm)) return RangeClass::kNoReturn;
   if (value_mm >= static_cast<unsigned>(dmin_mm)) return RangeClass::kReturn;
-  // Error codes (ALGORITHMS.md section 3): only "no object" says something about the ray.
+  // Error codes (docs/protocols.md §1.6): only "no object" says something about the ray.
   if (model_name.find("URG-04LX") != std::string::npos && value_mm == 0) {
     return RangeClass::kNoReturn;
   }

@@ -1,8 +1,8 @@
 #pragma once
 /// @file
-/// Hokuyo sensor models as their PP reply describes them (PROTOCOLS.md "Hokuyo LIDAR"), the
+/// Hokuyo sensor models as their PP reply describes them (docs/protocols.md §1.5), the
 /// step-to-angle convention, and the meaning of range values below DMIN (error codes), mapped
-/// to the planar_scan_t contract per ALGORITHMS.md section 3: a "no object" code or a range at or
+/// to the planar_scan_t contract per docs/protocols.md §1.6: a "no object" code or a range at or
 /// beyond DMAX is "no return" (0); interference and other codes carry no information (NaN).
 
 #include <optional>

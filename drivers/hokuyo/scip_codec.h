@@ -2,7 +2,7 @@
 /// @file
 /// A pure SCIP 2.0 codec (Hokuyo URG / UTM laser range finders): no I/O, no clock.
 ///
-/// Framing (PROTOCOLS.md "Hokuyo LIDAR"): the host sends a command line "XXparams[;tag]\n"; the
+/// Framing (docs/protocols.md §1.2): the host sends a command line "XXparams[;tag]\n"; the
 /// sensor replies with the echo of that line, a status line (2 status chars + 1 sum char; SCIP 1.1
 /// replies carry one status char and no sum), data lines each followed by a sum char, and an
 /// empty line, so every reply ends "\n\n". The sum char of a line is (sum of its bytes & 0x3F) +

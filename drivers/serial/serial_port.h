@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// A serial port on POSIX termios for USB CDC-ACM sensors (PROTOCOLS.md "Hokuyo LIDAR"): raw 8N1,
+/// A serial port on POSIX termios for USB CDC-ACM sensors (docs/protocols.md §1.1): raw 8N1,
 /// CLOCAL|CREAD, no echo, non-canonical, no flow control; an exclusive lock (flock and TIOCEXCL)
 /// so two drivers never share a device; poll()-based time-outs; a hang-up (POLLHUP, EIO, ENXIO,
 /// unplug) reported as IoStatus::kDisconnected so the caller can reopen.

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// USB discovery of Kestrel's sensors with libusb-1.0 (PROTOCOLS.md "USB discovery"): list the
+/// USB discovery of Kestrel's sensors with libusb-1.0 (docs/protocols.md §4.2): list the
 /// attached Hokuyo and Xtion devices (VID:PID, bus/address, serial, the CDC-ACM tty from sysfs),
 /// and watch hot-plug (libusb_hotplug_register_callback with ENUMERATE, callbacks on an event
 /// thread, double arrivals de-duplicated). Where libusb cannot start (a container without

@@ -5,7 +5,7 @@
 /// manufacturer, product) and the tty a CDC-ACM interface exposes
 /// (<device>/<name>:<config>.<interface>/tty/ttyACM<n>, or the older .../tty:ttyACM<n>).
 /// These functions only read files under the given root, so tests run them on a fake tree.
-/// PROTOCOLS.md "USB discovery: libusb-1.0".
+/// docs/protocols.md §4.1.
 
 #include <cstdint>
 #include <optional>

@@ -74,7 +74,7 @@ pose_t ViconBridge::MakePose(ObjectState* state, int64_t utime) const {
   }
   pose.orientation_wxyz[0] = 1.0;
   pose.orientation_wxyz[1] = pose.orientation_wxyz[2] = pose.orientation_wxyz[3] = 0.0;
-  pose.has_velocity = false;  // the bridge publishes poses as measured (DESIGN.md)
+  pose.has_velocity = false;  // the bridge publishes poses as measured (docs/design.md §2.4)
   return pose;
 }
 

@@ -3,7 +3,7 @@
 /// The pure core of kestrel-vicon: datagrams (with their host receive time) in, pose_t messages
 /// out. No socket, no clock, no LCM: the node feeds it and publishes what it returns.
 ///
-/// Behaviour (PROTOCOLS.md "Motion capture: Vicon", DESIGN.md "Motion-capture loss"):
+/// Behaviour (docs/protocols.md §3.3, docs/design.md §2.4):
 /// - Each configured object seen in an accepted frame gives one pose_t: position in m (mm / 1000),
 ///   orientation from the Euler angles (vicon_packet.h), utime = receive time - latency_s,
 ///   valid = true, has_velocity = false (filtering is the controller estimator's job).

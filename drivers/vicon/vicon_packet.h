@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// The Vicon Tracker "UDP Object Stream" datagram (PROTOCOLS.md "Motion capture: Vicon"): a pure
+/// The Vicon Tracker "UDP Object Stream" datagram (docs/protocols.md §3.1): a pure
 /// parser (untrusted bytes in, objects or a rejection reason out) and an encoder for the emitter.
 ///
 /// Layout, little endian, packed, no alignment:

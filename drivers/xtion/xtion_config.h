@@ -27,7 +27,7 @@ struct XtionConfig {
   double frame_timeout_s{1.0};     ///< no frame for this long while streaming = device lost
   double reopen_initial_s{0.25};   ///< first wait before reopening after a loss, s
   double reopen_max_s{4.0};        ///< back-off ceiling (the wait doubles per failure), s
-  double heartbeat_period_s{1.0};  ///< heartbeat period, s (<= 1 per DESIGN.md)
+  double heartbeat_period_s{1.0};  ///< heartbeat period, s (<= 1 s, docs/design.md §2.2)
 
   /// Checks the cross-field rules (supported mode, min < max, device id syntax).
   /// @throws std::invalid_argument whose text opens with the key, then value and accepted range.

@@ -22,7 +22,7 @@ int Store(const double* posterior, const float* priors, int first, int n, double
           const CellAt& cell_at, int* changed) {
   int m = 0;
   for (int i = 0; i < n; ++i) {
-    // ALGORITHMS.md section 1: clamp to [P_min, 1 - P_min] after each update. Branch-free:
+    // docs/algorithms.md §1.2: clamp to [P_min, 1 - P_min] after each update. Branch-free:
     // a cell held at its value (typically a free cell at the clamp) is rewritten unchanged
     // and not reported.
     const float stored = static_cast<float>(ClampProbability(posterior[i], p_min));

@@ -82,7 +82,7 @@ template <bool kLinear, bool kCells, bool kFirstCell = false>
   WalkEnd end;
   const auto store = [&](double t_out) {
     if constexpr (kCells) cells[at] = CellIndex{w->cell[0], w->cell[1], w->cell[2]};
-    distance[at] = 0.5 * (end.t_in + t_out);  // ALGORITHMS.md section 2: d_k at the chord midpoint
+    distance[at] = 0.5 * (end.t_in + t_out);  // docs/algorithms.md §2.2: d_k at the chord midpoint
     if constexpr (kLinear) linear_out[at] = w->linear;
     at += stride;
   };

@@ -190,11 +190,8 @@ TEST(VehicleConfig, LoadsAllKeysFromYaml) {
   EXPECT_EQ(config.X_BS_xtion.q.w(), 0.5);  // untouched default
 }
 
-// The repository root, from this file's path (the build passes absolute source paths).
-std::string SourceRoot() {
-  const std::string file = __FILE__;
-  return file.substr(0, file.rfind("tests/common/"));
-}
+// The repository root (KESTREL_SOURCE_ROOT, set by tests/common/CMakeLists.txt).
+std::string SourceRoot() { return KESTREL_SOURCE_ROOT; }
 
 // The shipped files load and agree with the paper's values.
 TEST(VehicleConfig, ShippedPaperFileHasPaperValues) {

@@ -18,9 +18,9 @@ namespace kestrel {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr double kControlDt_s = 0.0025;  // 400 Hz, within the 200-500 Hz
+constexpr double kControlDt_s = 0.0025;  // 400 Hz, within the vehicle's 200-500 Hz
 
-// The paper's elliptical helix (ALGORITHMS.md section 9): x_d = (0.4 t, 0.4 sin(pi t),
+// The paper's elliptical helix (docs/algorithms.md §11.8): x_d = (0.4 t, 0.4 sin(pi t),
 // 0.6 cos(pi t) + z0), b1d = (cos(pi t), sin(pi t), 0), i.e. yaw = pi t; derivatives in closed
 // form.
 FlatOutput Helix(double t, double z0) {

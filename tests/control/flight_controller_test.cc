@@ -1,7 +1,7 @@
 // Closed-loop flights of the whole controller logic (estimator, supervisor, law, mixer) against
 // the rigid-body model with a ground, exact IMU at 400 Hz and motion capture at 100 Hz arriving
 // 20 ms late: take-off, hold, land; e-stop; motion-capture loss shorter and longer than the land
-// time-out (issue 5, DESIGN.md "Motion-capture loss").
+// time-out (docs/design.md §2.4).
 #include "control/flight_controller.h"
 
 #include <gtest/gtest.h>
@@ -34,7 +34,7 @@ PiecewisePolynomialTrajectory Cubic(const Eigen::Vector3d& a, const Eigen::Vecto
   return *PiecewisePolynomialTrajectory::Create(start_s, {segment}, nullptr);
 }
 
-// The paper's helix (ALGORITHMS.md section 9) starting at (x0, 0, 0.6 + z0) as a piecewise
+// The paper's helix (docs/algorithms.md §11.8) starting at (x0, 0, 0.6 + z0) as a piecewise
 // polynomial: degree-11 Taylor expansions of the closed form over 0.1 s segments (truncation
 // below 1e-12 m), as an explorer would send it.
 PiecewisePolynomialTrajectory HelixTrajectory(double start_s, double x0, double z0) {

@@ -20,7 +20,7 @@ VehicleConfig Vehicle(const char* layout, double min_thrust_N) {
 }
 
 // Requests the rotors can produce come back exactly, as long as the thrust also lies within
-// [f_min(M_xy), f_max(M_xy)] (ALGORITHMS.md section 9 defines the collective range from the roll
+// [f_min(M_xy), f_max(M_xy)] (docs/algorithms.md §11.7 defines the collective range from the roll
 // and pitch moments alone; yaw never widens it).
 TEST(Mixer, FeasibleRequestsAreReproducedExactly) {
   for (const char* layout : {"x", "plus"}) {

@@ -40,7 +40,7 @@ RayEntropy Evaluate(const SensorModel& m, const Ray2D& ray, const std::vector<do
                                   prior.data(), ray.size, mode, method, &scratch, terms);
 }
 
-// ALGORITHMS.md section 6: the fast evaluation equals the direct (n+1)^2 one to 1e-9 relative on
+// docs/algorithms.md §6.4: the fast evaluation equals the direct (n+1)^2 one to 1e-9 relative on
 // random rays (both sensors, both weightings, E-sized and B-sized cells, rays that leave the map).
 TEST(InformationGain, FastEqualsDirect) {
   std::mt19937 rng(3);
@@ -171,7 +171,7 @@ TEST(InformationGain, LiteralWeightsAreMeasurementLikelihoods) {
   }
 }
 
-// Monte Carlo check of eq. (7) (issue 6): sample maps from the prior, a measurement from the
+// Monte Carlo check of eq. (7): sample maps from the prior, a measurement from the
 // forward model, snap it to the cell whose chord contains it (the discretisation behind the
 // weights) and average the posterior entropy H_k. Sampling error: 4 standard errors of the mean
 // (the test states it); discretisation error: zero for the snapped estimator by construction,

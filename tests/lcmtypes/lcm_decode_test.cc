@@ -83,7 +83,7 @@ TEST(LcmDecode, EverySchemaIsCovered) {
             testing::kNumMessageTypes + 3);  // + nested
 }
 
-// DESIGN.md: utime (int64, us) is the first field of every message.
+// docs/design.md §3.1: utime (int64, us) is the first field of every message.
 TEST(LcmDecode, UtimeIsTheFirstField) {
   ForEveryType([&](auto sample, const char* name) {
     sample.utime = 0x0102030405060708;

@@ -16,7 +16,7 @@ namespace {
 
 constexpr double kPmin = 1e-4;
 
-// Brute-force oracle (ALGORITHMS.md section 4): enumerate all 2^n occupancy patterns, weight
+// Brute-force oracle (docs/algorithms.md §4.4): enumerate all 2^n occupancy patterns, weight
 // each by its prior product and by p(z | pattern) from its first occupied cell, and return the
 // posterior marginal of every cell.
 std::vector<double> BruteForcePosteriors(const SensorModel& model, const Reading& reading,

@@ -1,5 +1,5 @@
 // Counts every operator new in this test binary, to show that applying a ray allocates nothing
-// once the map and its scratch exist (STYLE.md "No allocation per ray").
+// once the map and its scratch exist (docs/algorithms.md §4.5).
 #include <gtest/gtest.h>
 
 #include <atomic>

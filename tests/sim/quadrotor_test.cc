@@ -104,8 +104,8 @@ TEST(Quadrotor, PureTorqueSpinsAboutTheRightAxis) {
   }
 }
 
-// DESIGN.md numbering (X layout): rotor 1 is front-right and spins clockwise, so extra thrust
-// on it rolls left-side-up (w_x < 0), pitches nose-up (w_y < 0) and yaws counter-clockwise
+// docs/design.md §4 numbering (X layout): rotor 1 is front-right and spins clockwise, so extra
+// thrust on it rolls left-side-up (w_x < 0), pitches nose-up (w_y < 0) and yaws counter-clockwise
 // (w_z > 0: the drag reaction of a clockwise rotor).
 TEST(Quadrotor, RotorOneFollowsTheFrameConvention) {
   VehicleConfig vehicle;

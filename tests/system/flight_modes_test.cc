@@ -1,4 +1,4 @@
-// kestrel-controller's flight modes with the SIMULATOR's dynamics (issue 5): kestrel-sim's node
+// kestrel-controller's flight modes with the SIMULATOR's dynamics: kestrel-sim's node
 // and the controller node in one process, lockstep, over memq:// LCM, the paper-sized vehicle
 // (motor lag 0.02 s), the simulator's motion-capture noise and latency and IMU noise and bias.
 // Upside-down start (178 deg), take-off / hold / land, e-stop, motion capture lost for 1 s and
@@ -196,7 +196,7 @@ PiecewisePolynomialTrajectory Line(double start_s, const Eigen::Vector3d& start,
   return *PiecewisePolynomialTrajectory::Create(start_s, {seg}, nullptr);
 }
 
-// The paper's helix (ALGORITHMS.md section 9) as tests/system/helix_test.cc builds it: x_d =
+// The paper's helix (docs/algorithms.md §11.8) as tests/system/helix_test.cc builds it: x_d =
 // base + (0.4 t, 0.4 sin(pi t), 0.6 cos(pi t)), yaw = pi t, as 0.1 s pieces of degree-11 Taylor
 // expansions.
 PiecewisePolynomialTrajectory Helix(double start_s, const Eigen::Vector3d& base,
@@ -251,7 +251,7 @@ double FlyHelix(AttitudeErrorForm form, bool sensor_noise) {
   return rms_m;
 }
 
-// The helix stays within the issue's bounds with either attitude error: below 2 cm without sensor
+// The helix stays within these bounds with either attitude error: below 2 cm without sensor
 // noise, below 5 cm with it (motor lag 0.02 s, not compensated).
 TEST(FlightModes, HelixTracksWithEitherAttitudeError) {
   for (const AttitudeErrorForm form :

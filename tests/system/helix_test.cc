@@ -1,4 +1,4 @@
-// The paper's elliptical helix (ALGORITHMS.md section 9) flown by kestrel-controller's node in
+// The paper's elliptical helix (docs/algorithms.md §11.8) flown by kestrel-controller's node in
 // closed loop with the SIMULATOR's dynamics and sensors (kestrel-sim's node, lockstep, memq://):
 // motion capture with its noise, latency and dropouts, IMU with noise and bias, motor lag
 // tau = 0.02 s, the paper-sized vehicle. RMS position error after a 2 s transient.

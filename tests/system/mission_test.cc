@@ -1,7 +1,7 @@
-// The deterministic regression (issue 8): simulator, controller, mapper and explorer in one
+// The deterministic regression: simulator, controller, mapper and explorer in one
 // process over memq:// with the simulator's clock, the CI sensor profile (80 x 60 depth at 15 Hz).
 // Thresholds come from measured runs with a margin (docs/STATUS.md has the figures).
-#include "tests/system/mission.h"
+#include "tools/mission/mission.h"
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Replay (issue 8): a mission records every message as an LCM log; lcm-logplayer replays it over
+# Replay: a mission records every message as an LCM log; lcm-logplayer replays it over
 # UDP multicast (private network namespace) into a fresh kestrel-mapper process, whose map must
 # equal the live mapper's bit for bit (the live mapper applied every message).
 # Usage: replay_test.sh MISSION MAPPER IN_NETNS ROOT

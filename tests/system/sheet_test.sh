@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# The sim sheet through the runner (issue 8, multi-process): kestrel-procman starts the
+# The sim sheet through the runner, multi-process: kestrel-procman starts the
 # simulator, controller, mapper, explorer and logger as separate processes over UDP multicast in
 # a private network namespace and runs the sheet's "fly" script (take-off by kestrel-cmd);
-# flight_check then listens and asserts every process alive, message counts, entropy falling,
+# kestrel-flight-check then listens and asserts every process alive, message counts, entropy falling,
 # the vehicle moving. Finally the mapper is killed with -9 and must be respawned by the runner,
 # resuming from its checkpoint.
 # Usage: sheet_test.sh BUILD_DIR ROOT IN_NETNS SECONDS
@@ -19,7 +19,7 @@ exec "$in_netns" bash -c '
     --log-dir "$KESTREL_RUN/logs" 2>"$KESTREL_RUN/runner.log" &
   runner=$!
   status=0
-  "$build/tests/system/flight_check" "$LCM_DEFAULT_URL" "$seconds" || status=1
+  "$build/tools/flight_check/kestrel-flight-check" "$LCM_DEFAULT_URL" "$seconds" || status=1
   # Fault: kill -9 the mapper; the runner respawns it and it resumes from its checkpoint.
   mapper_pid=$(pgrep -f "^$build/mapping/kestrel-mapper " | head -1)
   kill -9 "$mapper_pid"

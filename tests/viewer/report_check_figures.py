@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Checks kestrel-report's figures against the data they were drawn from (issue 9's report test).
+"""Checks kestrel-report's figures against the data they were drawn from (the report test).
 
 For each figure: the PNG exists with the expected pixel size, and its pixels show content where
 the data says there is some, found through the transforms in the figure's .json sidecar:

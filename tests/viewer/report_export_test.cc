@@ -24,7 +24,7 @@
 #include "mapping/map_file.h"
 #include "sim/world.h"
 #include "sim/world_ray_caster.h"
-#include "tests/system/map_scorer.h"
+#include "tools/map_score/map_scorer.h"
 #include "viewer/report/report_export.h"
 
 namespace kestrel {

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Live viewer end to end (issue 9): a short simulated mission is recorded as an LCM log; in a
+# Live viewer end to end: a short simulated mission is recorded as an LCM log; in a
 # private network namespace lcm-logplayer replays it over UDP multicast into kestrel-viewer, and
 # headless Chromium (Debian's, driven by playwright-core from viewer/web/node_modules) opens the
 # page before the replay and another one after it. Both must show exactly the number of voxels

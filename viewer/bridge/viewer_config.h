@@ -14,7 +14,7 @@ namespace kestrel {
 struct ViewerConfig {
   std::string host{"127.0.0.1"};  ///< listen address; must be a loopback address (127.x.y.z)
   int port{8740};                 ///< TCP port of the page and WebSocket (0: any free port)
-  std::string web_root;           ///< folder with index.html ("" = the page staged by the build)
+  std::string web_root;           ///< folder with index.html ("" = installed, else built page)
   double update_rate_hz{10.0};    ///< update frames per second sent to the pages (coalesced)
   /// A page with more than this many bytes still unsent gets no updates; once it drained, it
   /// gets one fresh snapshot (its queue never grows without bound).

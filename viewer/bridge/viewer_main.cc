@@ -1,5 +1,6 @@
 // kestrel-viewer: the live viewer's bridge; Kestrel's channels in, a web page and WebSocket out.
 #include <csignal>
+#include <filesystem>
 #include <string>
 
 #include <lcm/lcm-cpp.hpp>
@@ -21,6 +22,22 @@ const char* const kUsage =
 #ifndef KESTREL_VIEWER_WEB_ROOT
 #define KESTREL_VIEWER_WEB_ROOT ""
 #endif
+#ifndef KESTREL_VIEWER_INSTALLED_WEB_ROOT
+#define KESTREL_VIEWER_INSTALLED_WEB_ROOT "../share/kestrel/web"
+#endif
+
+// The page when web_root is "": an installed kestrel-viewer's own (relative to its folder),
+// else the page staged by the build.
+std::string DefaultWebRoot() {
+  std::error_code error;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", error);
+  if (!error) {
+    const std::filesystem::path installed =
+        (exe.parent_path() / KESTREL_VIEWER_INSTALLED_WEB_ROOT).lexically_normal();
+    if (std::filesystem::exists(installed / "index.html", error)) return installed.string();
+  }
+  return KESTREL_VIEWER_WEB_ROOT;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -32,8 +49,7 @@ int main(int argc, char** argv) {
         }
         const kestrel::ViewerConfig config = kestrel::LoadViewerConfig(node);
         node.CheckNoUnknownKeys();
-        const std::string web_root =
-            config.web_root.empty() ? std::string(KESTREL_VIEWER_WEB_ROOT) : config.web_root;
+        const std::string web_root = config.web_root.empty() ? DefaultWebRoot() : config.web_root;
         std::signal(SIGPIPE, SIG_IGN);  // a page gone mid-send is an error code, not a signal
         lcm::LCM lcm(args.lcm_url);
         if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""kestrel_report.py: the paper's figures from the CSV files of kestrel-report-export (issue 9).
+"""kestrel_report.py: the paper's figures from the CSV files of kestrel-report-export.
 
 Draws, with Debian's python3-matplotlib (Agg backend, no display):
   fig1_map3d.png          the 3D occupancy grid (cells with P above the threshold, coloured by

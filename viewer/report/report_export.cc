@@ -94,7 +94,7 @@ struct PlanCopy {
   exploration_status_t msg;
 };
 
-/// The ground truth of section 10 on the map lattice (as tests/system/map_scorer.cc builds it).
+/// The ground truth of section 10 on the map lattice (as tools/map_score/map_scorer.cc builds it).
 struct Truth {
   GridSpec grid;
   std::vector<uint8_t> occupied;
@@ -257,7 +257,7 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
           t.grid = GridSpec{origin, chunk.resolution_m, dims};
           t.occupied = VoxelizeWorld(*world, t.grid);
           const WorldRayCaster caster(*world);
-          ObservabilityConfig oc;  // as tests/system/map_scorer.cc
+          ObservabilityConfig oc;  // as tools/map_score/map_scorer.cc
           oc.max_range_m = config.sensor_range_m;
           oc.elevation_min_rad = -0.5 * config.vertical_fov_rad;
           oc.elevation_max_rad = 0.5 * config.vertical_fov_rad;

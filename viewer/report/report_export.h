@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// kestrel-report's data step (issue 9): reads a recorded run (an LCM log), rebuilds the mapper's
+/// kestrel-report's data step: reads a recorded run (an LCM log), rebuilds the mapper's
 /// 3D map from its MAP3D snapshots and MAP3D_DELTA messages (MapReplica), and writes plain CSV
 /// files that kestrel_report.py draws as the paper's figures (Figs. 1-3, 5-7):
 ///
@@ -8,7 +8,7 @@
 ///  - timeseries.csv   one row per MAP_STATUS (or per map update when the log has none): map
 ///                     entropy H (eq. (6), as the mapper reported it and recomputed from the
 ///                     replica), known fraction and accuracy against the world's ground truth
-///                     (ALGORITHMS.md section 10, the logic of kestrel-map-score) and the known
+///                     (docs/algorithms.md §12.2, the logic of kestrel-map-score) and the known
 ///                     fraction of the whole lattice;
 ///  - trajectory.csv   the flown path (POSE_VICON, valid poses, one per trajectory period);
 ///  - plans.csv, candidates.csv   every EXPLORATION_STATUS and its candidate poses;

@@ -15,7 +15,7 @@
 
 namespace kestrel::oni_plugin {
 
-/// Xtion / PS1080 field of view: 58 x 45 degrees (PROTOCOLS.md), in radians.
+/// Xtion / PS1080 field of view: 58 x 45 degrees (docs/protocols.md §2.1), in radians.
 inline constexpr double kHorizontalFovRad = 58.0 * 3.14159265358979323846 / 180.0;
 inline constexpr double kVerticalFovRad = 45.0 * 3.14159265358979323846 / 180.0;
 /// Largest depth the plugin reports, metres (PS1080 reports up to 10000 mm); farther is 0.

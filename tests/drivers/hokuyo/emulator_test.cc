@@ -1,5 +1,5 @@
 // The emulator spoken to through a real pty with the codec and a SerialPort: the SCIP 1.1
-// switch, PP values (checked against the numbers of PROTOCOLS.md, typed here), TM modes, the
+// switch, PP values (checked against docs/protocols.md §1.5's numbers, typed here), TM modes, the
 // streaming rate, scan intervals, faults and hang-up.
 #include "drivers/hokuyo/emulator.h"
 
@@ -83,7 +83,7 @@ TEST(HokuyoEmulator, Urg04lxStartsInScip11AndSwitches) {
   EXPECT_EQ(scip::ParseParameters(*reply).at("PROT"), "SCIP 2.0");
 }
 
-// PP values as PROTOCOLS.md lists them (typed here, not taken from the emulator's tables).
+// PP values as docs/protocols.md §1.5 lists them (typed here, not from the emulator's tables).
 TEST(HokuyoEmulator, ServesProtocolParametersOfBothProfiles) {
   struct Expected {
     HokuyoModel model;

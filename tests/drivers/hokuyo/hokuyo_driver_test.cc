@@ -198,10 +198,7 @@ TEST(HokuyoConfig, ValidateNamesKeyValueAndRange) {
   EXPECT_THROW(c.Validate(), ConfigError);
 }
 
-std::string SourceRoot() {
-  const std::string file = __FILE__;
-  return file.substr(0, file.rfind("tests/drivers/"));
-}
+std::string SourceRoot() { return KESTREL_SOURCE_ROOT; }
 
 TEST(HokuyoConfig, ShippedFilesLoad) {
   for (const char* name : {"config/drivers/hokuyo.yaml", "config/drivers/hokuyo_utm30lx.yaml"}) {

@@ -1,5 +1,5 @@
 // Tests of the pure SCIP 2.0 codec: golden bytes from the specification's worked examples
-// (PROTOCOLS.md), replies built by hand, and encode/decode round trips on random values.
+// (docs/protocols.md §1.3), replies built by hand, and encode/decode round trips on random values.
 #include "drivers/hokuyo/scip_codec.h"
 
 #include <random>

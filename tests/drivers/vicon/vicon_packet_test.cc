@@ -1,6 +1,6 @@
 // The Vicon UDP object stream parser against datagrams built by hand, byte by byte, from the
-// documented layout (PROTOCOLS.md), not with the encoder; the Euler convention against rotations
-// computed by hand; every class of malformed datagram.
+// documented layout (docs/protocols.md §3.1), not with the encoder; the Euler convention against
+// rotations computed by hand; every class of malformed datagram.
 #include "drivers/vicon/vicon_packet.h"
 
 #include <gtest/gtest.h>

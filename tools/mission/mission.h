@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// The whole system in one process (issue 8, "deterministic"): kestrel-sim's SimNode, the
+/// The whole system in one process, deterministic: kestrel-sim's SimNode, the
 /// controller, the mapper and the explorer over memq:// with the simulator's clock, in lockstep.
 /// The same seed gives the same messages and the same map, bit for bit. Used by the CI
 /// regression (tests/system/mission_test.cc), scripts/regress and scripts/demo's summary.
@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "exploration/planner.h"
 #include "mapping/map_quality.h"
 
 namespace kestrel {
@@ -34,7 +35,7 @@ struct MissionConfig {
   std::string octomap_path;      ///< final map exported for OctoMap tools (.bt or .ot) if set
   std::string ply_path;          ///< occupied cells as a PLY point cloud if set
   bool verbose{false};           ///< progress lines on stderr
-  // Faults (issue 8), injected between the simulator and the other nodes.
+  // Faults, injected between the simulator and the other nodes.
   double sensor_drop_fraction{0.0};  ///< drop this fraction of depth images and scans (seeded)
   double mocap_outage_at_s{-1.0};    ///< motion capture lost from this time (s after start)...
   double mocap_outage_s{0.0};        ///< ...for this long (poses not delivered)
@@ -72,6 +73,11 @@ struct MissionResult {
   std::string landing;      ///< "returned home (...)" or "landed elsewhere: ..."
   double plan_median_s{0};  ///< median wall time of an exploration replan
   double plan_max_s{0};     ///< slowest exploration replan
+  /// Median of each planner stage over the exploration replans (PlanTimings), s.
+  PlanTimings plan_stage_median_s;
+  double plan_positions_bounded_median{0};  ///< volumetric: positions bounded per replan
+  double plan_positions_gained_median{0};   ///< volumetric: positions evaluated exactly
+  double plan_ray_memo_fraction{0};         ///< volumetric: rays whose I_ray came from a memo
   /// Largest |z - h| of the true vehicle while exploring or flying home, m (h: the exploration
   /// height): trajectories stay in the plane their checks assume.
   double max_height_error_m{0};
@@ -82,7 +88,7 @@ struct MissionResult {
   bool first_plan_chose_goal{false};
   /// Simulated time of that first exploration plan, s from the start (-1: none).
   double first_plan_time_s{-1};
-  /// The vehicle's (x, y) left the collision cell (ALGORITHMS.md section 7, edge alpha_C from the
+  /// The vehicle's (x, y) left the collision cell (docs/algorithms.md §7.1, edge alpha_C from the
   /// map's lower corner) that holds the take-off point, at some time of the flight.
   bool left_start_collision_cell{false};
   /// An EXPLORATION_STATUS message said DONE (what processes watching the explorer rely on).

@@ -1,4 +1,4 @@
-#include "tests/system/map_scorer.h"
+#include "tools/map_score/map_scorer.h"
 
 namespace kestrel {
 

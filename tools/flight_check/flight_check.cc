@@ -1,7 +1,7 @@
-// flight_check: listens to a running system for SECONDS and checks that it is flying and
+// kestrel-flight-check: listens to a running system for SECONDS and checks that it is flying and
 // mapping: every process's heartbeat, message counts, map entropy falling, the vehicle moving,
 // no collision. Prints what it saw; exits 0 when every check passes.
-//   flight_check URL SECONDS [--until-landed] [--csv FILE] [--hover HEIGHT_M]
+//   kestrel-flight-check URL SECONDS [--until-landed] [--csv FILE] [--hover HEIGHT_M]
 // --until-landed: stop listening as soon as the explorer is done and the controller is idle
 // again (the whole exploration), and require that it happened. --csv: MAP_STATUS over time.
 #include <chrono>
@@ -23,7 +23,9 @@
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: flight_check URL SECONDS [--until-landed] [--csv FILE]\n");
+    std::fprintf(stderr,
+                 "usage: kestrel-flight-check URL SECONDS [--until-landed] [--csv FILE]\n"
+                 "                            [--hover HEIGHT_M]\n");
     return 2;
   }
   bool until_landed = false;

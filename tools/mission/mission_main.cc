@@ -1,8 +1,8 @@
-// kestrel-mission: the whole system in one process, deterministic (tests/system/mission.h).
+// kestrel-mission: the whole system in one process, deterministic (tools/mission/mission.h).
 #include <cstdio>
 
 #include "common/process.h"
-#include "tests/system/mission.h"
+#include "tools/mission/mission.h"
 
 namespace {
 const char* const kUsage =

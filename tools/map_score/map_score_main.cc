@@ -1,11 +1,11 @@
 // kestrel-map-score: scores a saved Kestrel map against the simulator's ground truth of a world
-// (ALGORITHMS.md section 10: known fraction, accuracy, Brier score, ROC AUC over the observable
+// (docs/algorithms.md §12.2: known fraction, accuracy, Brier score, ROC AUC over the observable
 // cells). The map's lattice must be the world's (map limits and resolution).
 #include <cstdio>
 
 #include "common/process.h"
 #include "mapping/map_file.h"
-#include "tests/system/map_scorer.h"
+#include "tools/map_score/map_scorer.h"
 
 namespace {
 const char* const kUsage =

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Map quality against the simulator's ground truth (ALGORITHMS.md section 10) on the mapper's
+/// Map quality against the simulator's ground truth (docs/algorithms.md §12) on the mapper's
 /// lattice: the world voxelised on it, and the observable cells from a dense sweep of
 /// collision-free poses at the exploration height.
 

@@ -1,4 +1,4 @@
-#include "tests/system/mission.h"
+#include "tools/mission/mission.h"
 
 #include <algorithm>
 #include <chrono>
@@ -22,7 +22,7 @@
 #include "mapping/mapper_node.h"
 #include "sim/ground_truth.h"
 #include "sim/sim_node.h"
-#include "tests/system/map_scorer.h"
+#include "tools/map_score/map_scorer.h"
 
 namespace kestrel {
 
@@ -38,6 +38,14 @@ ConfigNode Load(const std::string& root, const std::string& file,
   ConfigNode node = ConfigNode::LoadFile(Resolve(root, file));
   for (const auto& o : overrides) node.ApplyOverride(o);
   return node;
+}
+
+// The upper median (the element at size / 2 once sorted) of v, 0 if v is empty.
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto middle = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), middle, v.end());
+  return *middle;
 }
 
 }  // namespace
@@ -364,6 +372,27 @@ MissionResult RunMission(const MissionConfig& mc) {
     std::sort(times.begin(), times.end());
     r.plan_median_s = times[times.size() / 2];
     r.plan_max_s = times.back();
+    auto stage_median = [&](double PlanTimings::*stage) {
+      std::vector<double> v;
+      for (const PlanTimings& t : explorer.plan_timings()) v.push_back(t.*stage);
+      return Median(std::move(v));
+    };
+    r.plan_stage_median_s.projection_s = stage_median(&PlanTimings::projection_s);
+    r.plan_stage_median_s.dijkstra_s = stage_median(&PlanTimings::dijkstra_s);
+    r.plan_stage_median_s.gain_s = stage_median(&PlanTimings::gain_s);
+    r.plan_stage_median_s.trajectory_s = stage_median(&PlanTimings::trajectory_s);
+    r.plan_stage_median_s.total_s = stage_median(&PlanTimings::total_s);
+    std::vector<double> bounded, gained;
+    long rays = 0, hits = 0;
+    for (const VolumetricGainStats& g : explorer.plan_gain_stats()) {
+      bounded.push_back(static_cast<double>(g.poses_bounded));
+      gained.push_back(static_cast<double>(g.poses_gained));
+      rays += g.rays;
+      hits += g.rays_memo_hits;
+    }
+    r.plan_positions_bounded_median = Median(std::move(bounded));
+    r.plan_positions_gained_median = Median(std::move(gained));
+    r.plan_ray_memo_fraction = rays > 0 ? static_cast<double>(hits) / static_cast<double>(rays) : 0;
   }
   r.scans_applied = mapper.scans_applied();
   r.mapper_applied_every_message = mapper.applied_every_message();
@@ -405,6 +434,14 @@ std::string MissionSummary(const MissionResult& r) {
     << "plans: " << r.plans << ", planning wall time " << r.planning_wall_s << " s ("
     << (r.plans > 0 ? 1000.0 * r.planning_wall_s / r.plans : 0) << " ms per plan; replan median "
     << 1000.0 * r.plan_median_s << " ms, max " << 1000.0 * r.plan_max_s << " ms)\n"
+    << "replan stage medians: projection and traversability "
+    << 1000.0 * r.plan_stage_median_s.projection_s << " ms, distance field "
+    << 1000.0 * r.plan_stage_median_s.dijkstra_s << " ms, gain "
+    << 1000.0 * r.plan_stage_median_s.gain_s << " ms, trajectory "
+    << 1000.0 * r.plan_stage_median_s.trajectory_s << " ms\n"
+    << "replan gain: median " << r.plan_positions_bounded_median << " positions bounded and "
+    << r.plan_positions_gained_median << " evaluated exactly per replan; "
+    << 100.0 * r.plan_ray_memo_fraction << "% of rays reused from their memo\n"
     << "scans applied: " << r.scans_applied
     << ", every message applied: " << (r.mapper_applied_every_message ? "yes" : "no") << "\n"
     << "map entropy: " << r.final_entropy_nats << " nats, map hash " << std::hex << r.map_hash

@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Installs the build into a fresh prefix (cmake --install BUILD --prefix PREFIX, as a packager
+# does) and checks the layout: every process, the CMake package, headers, configuration, process
+# sheets whose binaries resolve from <prefix>/share/kestrel, the viewer page, the lcm-spy jar and
+# the Python message types. The fixture of the other packaging_* tests.
+# Usage: install_test.sh CMAKE BUILD_DIR PREFIX
+set -euo pipefail
+cmake=$1; build=$2; prefix=$3
+rm -rf "$prefix"
+"$cmake" --install "$build" --prefix "$prefix" >"$prefix.log" 2>&1 ||
+  { tail -20 "$prefix.log"; echo "FAIL: cmake --install"; exit 1; }
+failures=0
+need() {  # path under the prefix that must exist
+  if [[ ! -e "$prefix/$1" ]]; then echo "FAIL: missing $1"; failures=$((failures + 1)); fi
+}
+for p in kestrel-procman kestrel-controller kestrel-mapper kestrel-explorer kestrel-sim \
+         kestrel-cmd kestrel-flight-check kestrel-map-score kestrel-mission; do
+  [[ -x "$prefix/bin/$p" ]] || { echo "FAIL: bin/$p is not an installed executable"; failures=$((failures + 1)); }
+done
+for f in lib/cmake/Kestrel/KestrelConfig.cmake lib/cmake/Kestrel/KestrelConfigVersion.cmake \
+         lib/cmake/Kestrel/KestrelTargets.cmake include/kestrel/mapping/occupancy_map.h \
+         include/kestrel/common/se3.h include/kestrel/kestrel/pose_t.hpp \
+         share/kestrel/config/mapper.yaml share/kestrel/config/vehicle/paper.yaml \
+         share/kestrel/config/worlds/lasr.yaml share/kestrel/config/sim/sim_ci.yaml \
+         share/kestrel/sheets/sim.procman share/kestrel/sheets/host.procman \
+         share/kestrel/sheets/vehicle.procman share/doc/kestrel-host/copyright; do
+  need "$f"
+done
+# Optional parts, present when their area was built.
+[[ ! -x "$build/viewer/bridge/kestrel-viewer" ]] || need share/kestrel/web/index.html
+[[ ! -f "$build/lcmtypes/kestrel_lcmtypes.jar" ]] || need share/java/kestrel_lcmtypes.jar
+[[ ! -d "$build/lcmtypes/python/kestrel" ]] || need lib/python3/dist-packages/kestrel/pose_t.py
+
+# Every command of every installed sheet starts a binary that resolves from share/kestrel with
+# the sheet's own default ($KESTREL_BIN unset), or a program on PATH (lcm-logger).
+cd "$prefix/share/kestrel"
+for sheet in sheets/*.procman; do
+  while read -r program; do
+    resolved=$(env -u KESTREL_BIN -u KESTREL_BUILD sh -c "echo $program")
+    if [[ $resolved == */* ]]; then
+      [[ -x $resolved ]] || { echo "FAIL: $sheet runs $resolved, not installed"; failures=$((failures + 1)); continue; }
+      [[ $(cd "$(dirname "$resolved")" && pwd) == "$prefix/bin" ]] ||
+        { echo "FAIL: $sheet runs $resolved, outside $prefix/bin"; failures=$((failures + 1)); }
+    else
+      command -v "$resolved" >/dev/null || { echo "FAIL: $sheet runs $resolved, not on PATH"; failures=$((failures + 1)); }
+    fi
+  done < <(sed -nE 's/^ *exec = "([^ ]+).*/\1/p' "$sheet")
+done
+files=$(find "$prefix" -type f | wc -l)
+echo "installed $files files, $(du -sh "$prefix" | cut -f1) into $prefix"
+[[ $failures -eq 0 ]] && echo "PASS: install layout" || { echo "$failures failures"; exit 1; }
