@@ -50,8 +50,8 @@ int ExactBayesUpdater::UpdateLane(const SensorModel& model, const Reading& readi
   const LaneView likelihood{batch.has_likelihood ? batch.likelihood.data() + lane : nullptr};
   float* const priors = lane_priors_.data();
   double* const posteriors = lane_posteriors_.data();
-  // Section 4 with the cells read once (their indices and values kept in order), then the
-  // write step for the cells written (the kernels': eight at a time on AVX-512).
+  // docs/algorithms.md §4.1 with the cells read once (their indices and values kept in order), then
+  // the write step for the cells written (the kernels': eight at a time on AVX-512).
   const ExactUpdateResult r = ExactUpdate::Apply(
       model, reading, distance, n,
       [&](int k) {

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// Integrates depth images, planar scans and single readings into an occupancy map
-/// (ALGORITHMS.md sections 2-4), the way OctoMap's computeUpdate stands apart from its tree: the
+/// (docs/algorithms.md §2-§4), the way OctoMap's computeUpdate stands apart from its tree: the
 /// integrator turns readings into rays, casts them in batches of eight (RayCaster::CastBatch),
 /// evaluates their forward models together (OccupancyUpdater::PrecomputeBatch), on this thread
 /// or on its one worker thread, and hands each batch to the map (OccupancyMap::UpdateRays),

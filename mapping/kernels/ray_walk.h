@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// One ray's DDA walk (ray_caster.h, ALGORITHMS.md section 2), shared by RayCaster::Cast and the
+/// One ray's DDA walk (ray_caster.h, docs/algorithms.md §2.1), shared by RayCaster::Cast and the
 /// batch kernels (kernels.h): the state after a ray's set-up (RayCaster::StartWalk), one step,
 /// and the walk that stores each cell. Internal to mapping/.
 
