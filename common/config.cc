@@ -96,17 +96,38 @@ void ConfigNode::ApplyOverride(const std::string& assignment) {
       throw ConfigError(file() + ": override '" + assignment + "' has an empty key");
     parts.push_back(part);
   }
+  // A key of a mapping, or the index of an existing element of a sequence ("sensors.0.name").
+  auto element_index = [&](const YAML::Node& sequence, const std::string& part) {
+    size_t used = 0;
+    int index = -1;
+    try {
+      index = std::stoi(part, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != part.size() || index < 0 || static_cast<size_t>(index) >= sequence.size()) {
+      throw ConfigError(file() + ": override '" + assignment + "': '" + part +
+                        "' is not an index of a sequence of " + std::to_string(sequence.size()) +
+                        " elements");
+    }
+    return static_cast<size_t>(index);
+  };
   // yaml-cpp nodes are handles: walk with fresh handles, assigning into the tree.
   std::vector<YAML::Node> chain{node_};
   for (size_t i = 0; i + 1 < parts.size(); ++i) {
-    YAML::Node next = chain.back()[parts[i]];
-    if (next.IsDefined() && !next.IsNull() && !next.IsMap()) {
+    const YAML::Node& here = chain.back();
+    YAML::Node next = here.IsSequence() ? here[element_index(here, parts[i])] : here[parts[i]];
+    if (next.IsDefined() && !next.IsNull() && !next.IsMap() && !next.IsSequence()) {
       throw ConfigError(file() + ": override '" + assignment + "': '" + parts[i] +
-                        "' is not a mapping");
+                        "' is neither a mapping nor a sequence");
     }
     chain.push_back(next);
   }
-  chain.back()[parts.back()] = value;
+  if (chain.back().IsSequence()) {
+    chain.back()[element_index(chain.back(), parts.back())] = value;
+  } else {
+    chain.back()[parts.back()] = value;
+  }
 }
 
 std::string ConfigNode::KeyPath(const std::string& key) const {

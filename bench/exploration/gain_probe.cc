@@ -5,6 +5,8 @@
 //        gain_probe --plan MAP_FILE X Y Z [REPEAT [BINS XTION_ROWS SPACING_M]]
 //        (one volumetric replan, timed by stage)
 //        gain_probe --traversability MAP_FILE X Y Z [whole [BAND_M]]   (fine traversability)
+//        gain_probe --cells MAP_FILE X Y Z0 Z1 [HALF_CELLS]   (P of the cells around (X, Y) per
+//        layer)
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -92,9 +94,43 @@ int Traversable(int argc, char** argv) {
   return 0;
 }
 
+// P of the cells within HALF_CELLS of (x, y), one block per layer from z0 to z1, north up, as
+// two digits (P x 100, '##' for P > 0.99); the cell containing (x, y) in brackets.
+int Cells(int argc, char** argv) {
+  const LoadedMap<DenseOccupancyMap> loaded = LoadDenseMap(argv[2]);
+  const GridGeometry& g = loaded.map->grid().geometry();
+  const double x = std::atof(argv[3]), y = std::atof(argv[4]);
+  const double z0 = std::atof(argv[5]), z1 = std::atof(argv[6]);
+  const int half = argc > 7 ? std::atoi(argv[7]) : 4;
+  for (double z = z0; z <= z1 + 1e-9; z += g.resolution_m()) {
+    const std::optional<CellIndex> c = g.CellOf(Eigen::Vector3d(x, y, z));
+    if (!c) continue;
+    std::printf("layer z %.3f m (cell x %d..%d, y %d..%d):\n", g.CenterOf(*c).z(), c->x - half,
+                c->x + half, c->y - half, c->y + half);
+    for (int dy = half; dy >= -half; --dy) {
+      std::printf("  y %6.3f ", g.CenterOf(CellIndex{c->x, c->y + dy, c->z}).y());
+      for (int dx = -half; dx <= half; ++dx) {
+        const CellIndex n{c->x + dx, c->y + dy, c->z};
+        const double p = g.Contains(n) ? loaded.map->ProbabilityAt(n) : -1.0;
+        const bool own = dx == 0 && dy == 0;
+        if (p < 0) {
+          std::printf(own ? "[--]" : " -- ");
+        } else if (p > 0.99) {
+          std::printf(own ? "[##]" : " ## ");
+        } else {
+          std::printf(own ? "[%02d]" : " %02d ", static_cast<int>(p * 100));
+        }
+      }
+      std::printf("\n");
+    }
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (argc >= 7 && std::string(argv[1]) == "--cells") return Cells(argc, argv);
   if (argc >= 6 && std::string(argv[1]) == "--plan") return PlanOnce(argc, argv);
   if (argc >= 6 && std::string(argv[1]) == "--traversability") return Traversable(argc, argv);
   if (argc < 6) {

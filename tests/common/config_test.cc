@@ -131,5 +131,24 @@ TEST(Config, CommandLineOverridesReplaceAndAreChecked) {
   ExpectConfigError([&] { root.ApplyOverride("novalue"); }, {"novalue", "key.path=value"});
 }
 
+TEST(Config, OverridesIndexSequences) {
+  ConfigNode root = ConfigNode::FromString(
+      "sensors:\n  - {name: xtion, model: {sigma_m: 0.25}}\n  - {name: hokuyo, model: {sigma_m: "
+      "0.1}}\n",
+      "mapper.yaml");
+  root.ApplyOverride("sensors.1.model.sigma_m=0.03");
+  const std::vector<ConfigNode> sensors = root.Elements("sensors");
+  ASSERT_EQ(sensors.size(), 2u);
+  double sigma = 0.0;
+  sensors[1].Child("model").Read("sigma_m", &sigma);
+  EXPECT_EQ(sigma, 0.03);
+  sensors[0].Child("model").Read("sigma_m", &sigma);
+  EXPECT_EQ(sigma, 0.25);
+  ExpectConfigError([&] { root.ApplyOverride("sensors.2.model.sigma_m=1"); },
+                    {"'2'", "not an index", "2 elements"});
+  ExpectConfigError([&] { root.ApplyOverride("sensors.x.name=a"); }, {"'x'", "not an index"});
+  ExpectConfigError([&] { root.ApplyOverride("sensors.-1.name=a"); }, {"'-1'", "not an index"});
+}
+
 }  // namespace
 }  // namespace kestrel

@@ -26,6 +26,19 @@ class MapScorer {
                                  double p_init) const;
   [[nodiscard]] const GridSpec& grid() const { return grid_; }
 
+  /// Where the observable cells that are not known lie: counts per column bin of bin_m x bin_m
+  /// (row-major from the grid's minimum corner, x fastest), per grid layer, and split into
+  /// cells never updated (P == p_init) and cells updated but still between P_init/2 and 0.5.
+  struct UnknownCells {
+    int bins_x{0}, bins_y{0};
+    std::vector<size_t> per_bin;    ///< bins_x * bins_y
+    std::vector<size_t> per_layer;  ///< grid.dims.z()
+    size_t never_updated{0};
+    size_t updated{0};
+  };
+  [[nodiscard]] UnknownCells Unknown(const std::function<double(const CellIndex&)>& probability,
+                                     double p_init, double bin_m) const;
+
  private:
   GridSpec grid_;
   std::vector<uint8_t> truth_;
