@@ -5,8 +5,8 @@
 #include <limits>
 
 #include "common/check.h"
-#include "mapping/avx512.h"
-#include "mapping/lanes.h"
+#include "mapping/kernels/avx512.h"
+#include "mapping/kernels/kernels.h"
 #include "mapping/occupancy_updater.h"
 
 namespace kestrel {
@@ -321,7 +321,7 @@ RayEntropy ExpectedEntropy::Fast(const SensorModel& model, const double* entry_m
 RayEntropy ExpectedEntropy::Evaluate(const SensorModel& model, const RayKernel& kernel,
                                      const double* prior, int n, WeightMode mode,
                                      ExpectedEntropyScratch* scratch, EntropySum sum) {
-  static const bool kHaveLanes = lanes::BestIsa() == lanes::Isa::kAvx512;
+  static const bool kHaveLanes = kernels::Best().isa == kernels::Isa::kAvx512;
   const bool lanes = sum == EntropySum::kLanes && kHaveLanes;
   KESTREL_THROW_UNLESS(n >= 0 && n <= kernel.size(),
                        "ExpectedEntropy::Evaluate: n = " << n << ", kernel of " << kernel.size());

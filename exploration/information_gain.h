@@ -70,7 +70,7 @@ enum class GainMethod {
 /// How ExpectedEntropy::Evaluate sums the binary entropies of a hypothesis's posteriors.
 enum class EntropySum {
   kScalar,  ///< BinaryEntropy cell by cell, in order (the default: the same bits everywhere)
-  /// Eight cells at once where the CPU has AVX-512 (lanes::BestIsa), with a log accurate to a
+  /// Eight cells at once where the CPU has AVX-512 (kernels::Best), with a log accurate to a
   /// few ulp and eight partial sums (also for the chord weights q_k): equal to kScalar to ~1e-15
   /// relative, not bit for bit, and the bits depend on the instruction set. Elsewhere kScalar.
   kLanes,

@@ -56,6 +56,16 @@ GridGeometry GridGeometry::Unbounded(const Eigen::Vector3d& origin_m, double res
   return g;
 }
 
+GridGeometry GridGeometry::WithBounds(const CellIndex& lower, const CellIndex& upper) const {
+  KESTREL_THROW_UNLESS(lower.x < upper.x && lower.y < upper.y && lower.z < upper.z,
+                       "grid window: lower bounds must lie below the upper ones");
+  GridGeometry g = *this;
+  g.bounded_ = true;
+  g.lower_ = lower;
+  g.upper_ = upper;
+  return g;
+}
+
 int64_t GridGeometry::AxisIndexOf(int axis, double v) const {
   int64_t i = static_cast<int64_t>(std::floor((v - origin_m_[axis]) * inv_resolution_));
   // The product may round across a boundary; settle it against Boundary() itself so that the
@@ -113,11 +123,14 @@ GrowingGrid::Block* GrowingGrid::CreateBlock(uint64_t key, uint32_t* index) {
   return raw;
 }
 
-GrowingGrid::Block* GrowingGrid::FindOrCreateBlock(const CellIndex& block_origin) {
+GrowingGrid::Block* GrowingGrid::FindOrCreateBlock(const CellIndex& block_origin, uint32_t* index) {
   const uint64_t key = BlockKeyOf(block_origin);
   const auto it = index_of_.find(key);
-  uint32_t index;
-  return it != index_of_.end() ? blocks_[it->second].get() : CreateBlock(key, &index);
+  uint32_t created;
+  if (index == nullptr) index = &created;
+  if (it == index_of_.end()) return CreateBlock(key, index);
+  *index = it->second;
+  return blocks_[it->second].get();
 }
 
 float GrowingGrid::Get(const CellIndex& c) const {
@@ -133,50 +146,6 @@ size_t GrowingGrid::memory_bytes() const {
   // Block payload plus an estimate of one hash node (key, pointer, next) and one bucket each.
   return blocks_.size() * (sizeof(Block) + 6 * sizeof(void*)) +
          index_of_.bucket_count() * sizeof(void*);
-}
-
-GrowingGrid::Block* GrowingGrid::Accessor::Lookup(uint64_t key, bool create, uint32_t* index) {
-  const size_t slot = SlotOf(key);
-  if (cache_keys_[slot] == key) {
-    *index = cache_indices_[slot];
-    return cache_blocks_[slot];
-  }
-  const auto it = grid_->index_of_.find(key);
-  Block* block = nullptr;
-  if (it != grid_->index_of_.end()) {
-    *index = it->second;
-    block = grid_->blocks_[it->second].get();
-  } else if (create) {
-    block = grid_->CreateBlock(key, index);
-  }
-  if (block != nullptr) {
-    cache_keys_[slot] = key;
-    cache_blocks_[slot] = block;
-    cache_indices_[slot] = *index;
-  }
-  return block;
-}
-
-float* GrowingGrid::Accessor::FindOrCreate(const CellIndex& c) {
-  const uint64_t key = BlockKeyOf(c);
-  if (key != last_key_) {
-    last_block_ = Lookup(key, /*create=*/true, &last_index_);
-    last_key_ = key;
-  }
-  return &last_block_->values[OffsetInBlock(c)];
-}
-
-const float* GrowingGrid::Accessor::Find(const CellIndex& c) {
-  const uint64_t key = BlockKeyOf(c);
-  if (key != last_key_) {
-    uint32_t index;
-    Block* block = Lookup(key, /*create=*/false, &index);
-    if (block == nullptr) return nullptr;
-    last_block_ = block;
-    last_index_ = index;
-    last_key_ = key;
-  }
-  return &last_block_->values[OffsetInBlock(c)];
 }
 
 }  // namespace kestrel

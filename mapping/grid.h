@@ -6,7 +6,7 @@
 /// Two storages share that geometry and give identical numbers inside the common region:
 ///  - DenseGrid: the paper's fixed limits, one float per cell in one array (x fastest).
 ///  - GrowingGrid: unbounded, cells allocated in 8x8x8 blocks on first touch, found through a
-///    hash map; a GrowingGrid::Accessor caches the last block (one accessor per thread).
+///    hash map.
 /// Cell values are plain floats; what they mean (a probability, a log-odds) belongs to the
 /// updater that writes them (mapping/occupancy_map.h).
 
@@ -72,6 +72,10 @@ class GridGeometry {
   /// (-kUnboundedCells, kUnboundedCells) so that index arithmetic cannot overflow.
   /// @throws std::invalid_argument unless resolution_m > 0 and origin_m is finite.
   static GridGeometry Unbounded(const Eigen::Vector3d& origin_m, double resolution_m);
+  /// The same lattice (every point in the same cell) with the bounds [lower, upper) per axis: a
+  /// window of it (OccupancyMap::CastLattice).
+  /// @throws std::invalid_argument unless lower < upper on every axis.
+  [[nodiscard]] GridGeometry WithBounds(const CellIndex& lower, const CellIndex& upper) const;
 
   /// Edge alpha of a cell, m.
   [[nodiscard]] double resolution_m() const { return resolution_m_; }
@@ -81,7 +85,7 @@ class GridGeometry {
   [[nodiscard]] const CellIndex& lower() const { return lower_; }
   /// One past the largest valid index per axis (the cell count for a fixed map).
   [[nodiscard]] const CellIndex& upper() const { return upper_; }
-  /// Whether the grid has fixed limits.
+  /// Whether the grid has fixed limits (or is a window, WithBounds).
   [[nodiscard]] bool bounded() const { return bounded_; }
   /// Whether `other` is the same lattice with the same bounds (same cell of every point).
   [[nodiscard]] bool SameLattice(const GridGeometry& other) const {
@@ -174,42 +178,6 @@ class GrowingGrid {
     float values[kBlockCells];
   };
 
-  /// Caches the last block touched, so consecutive cells of a ray skip the hash lookup, and a
-  /// small direct-mapped table of recently used blocks (rays of one scan share blocks). Valid
-  /// while its grid lives and is not moved; one per thread. Blocks are never freed or moved, so
-  /// returned pointers stay valid.
-  class Accessor {
-   public:
-    /// An accessor of `grid` (not owned).
-    explicit Accessor(GrowingGrid* grid) : grid_(grid) {
-      std::fill(std::begin(cache_keys_), std::end(cache_keys_), ~uint64_t{0});
-    }
-    /// Pointer to the value of `c`, allocating its block on first touch.
-    [[nodiscard]] float* FindOrCreate(const CellIndex& c);
-    /// Pointer to the value of `c`, or nullptr if its block was never touched.
-    [[nodiscard]] const float* Find(const CellIndex& c);
-    /// Creation index (GrowingGrid::block) of the block of the last cell found or created.
-    [[nodiscard]] uint32_t last_block_index() const { return last_index_; }
-
-   private:
-    static constexpr int kCacheBits = 8;
-    // Slot of a key in the direct-mapped cache (Fibonacci hashing).
-    [[nodiscard]] static size_t SlotOf(uint64_t key) {
-      return static_cast<size_t>((key * 0x9E3779B97F4A7C15ull) >> (64 - kCacheBits));
-    }
-    // The block of `key` from the caches or the hash map (nullptr if absent and !create); its
-    // creation index goes to *index.
-    Block* Lookup(uint64_t key, bool create, uint32_t* index);
-
-    GrowingGrid* grid_;
-    uint64_t last_key_{~uint64_t{0}};
-    Block* last_block_{nullptr};
-    uint32_t last_index_{0};
-    uint64_t cache_keys_[1 << kCacheBits];
-    Block* cache_blocks_[1 << kCacheBits]{};
-    uint32_t cache_indices_[1 << kCacheBits]{};
-  };
-
   /// An empty grid aligned to `origin_m` with edge `resolution_m`.
   /// @throws std::invalid_argument unless resolution_m > 0 and origin_m is finite.
   GrowingGrid(const Eigen::Vector3d& origin_m, double resolution_m, float initial_value);
@@ -245,8 +213,9 @@ class GrowingGrid {
     std::sort(order.begin(), order.end());
     for (const auto& [key, index] : order) f(BlockOriginOf(key), *blocks_[index]);
   }
-  /// The block holding `block_origin` (a multiple of kBlockEdge per axis), created if needed.
-  Block* FindOrCreateBlock(const CellIndex& block_origin);
+  /// The block holding `block_origin` (a multiple of kBlockEdge per axis), created if needed;
+  /// its creation index (block()) goes to *index when index is not null.
+  Block* FindOrCreateBlock(const CellIndex& block_origin, uint32_t* index = nullptr);
 
   /// Key of the block holding `c` (21 bits per axis, biased).
   [[nodiscard]] static uint64_t BlockKeyOf(const CellIndex& c) {

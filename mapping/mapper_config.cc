@@ -26,6 +26,9 @@ void MapperConfig::Validate() const {
                        "grid = '" << grid << "' must be dense or growing");
   KESTREL_THROW_UNLESS(model == "exact" || model == "log_odds",
                        "model = '" << model << "' must be exact or log_odds");
+  KESTREL_THROW_UNLESS(
+      instruction_set.empty() || instruction_set == "scalar" || instruction_set == "avx512",
+      "instruction_set = '" << instruction_set << "' must be empty, scalar or avx512");
   limits.Validate();
   occupancy.Validate();
   log_odds.Validate();
@@ -111,7 +114,7 @@ MapperConfig LoadMapperConfig(const ConfigNode& node) {
   node.Read("max_queue", &c.max_queue, Range::Closed(1, 100000));
   node.Read("max_backlog_s", &c.max_backlog_s, Range::Positive());
   node.Read("traversal_thread", &c.traversal_thread);
-  node.Read("ray_batches", &c.ray_batches);
+  node.Read("instruction_set", &c.instruction_set, {"", "scalar", "avx512"});
   try {
     c.Validate();
   } catch (const std::invalid_argument& e) {

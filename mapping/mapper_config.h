@@ -50,7 +50,7 @@ struct MapperConfig {
   double max_backlog_s{0.5};  ///< backlog beyond which rays are decimated (status shows it)
 
   /// Cast the rays of each scan on a second thread ahead of the in-order updates
-  /// (OccupancyMap::SetTraversalThread): the same map bit for bit. With ray batches, each kind
+  /// (ScanIntegrator::SetWorkerThread): the same map bit for bit. Each kind
   /// of scan goes through the thread only while that is faster (WorkerChoice). Off unless
   /// configured: on a 2-vCPU machine the thread's gain comes and goes in spells, down to below one
   /// thread's rays/s (each ray's data crosses the cores, and what that costs depends on where the
@@ -59,12 +59,12 @@ struct MapperConfig {
   /// processes share the two cores).
   bool traversal_thread{false};
 
-  /// Cast eight rays at a time, and evaluate their forward models and store their posteriors in
-  /// vector registers, where the CPU has AVX-512 (OccupancyMap::SetRayBatches): the same map bit
-  /// for bit, and faster than one ray at a time (bench/mapping; docs/STATUS.md, "Mapping").
-  /// false: one by one.
-  /// A traversal thread, when on, takes precedence (its rays go one by one).
-  bool ray_batches{true};
+  /// The kernels that cast eight rays at a time, evaluate their forward models and store their
+  /// posteriors (ScanIntegrator::Options::instruction_set): "" for the widest the CPU runs
+  /// (AVX-512 vector registers where the CPU has them: faster than the scalar kernels,
+  /// bench/mapping; docs/STATUS.md, "Mapping"), "scalar" or "avx512". The same map bit for bit
+  /// with each.
+  std::string instruction_set;
 
   /// @throws ConfigError-like std::invalid_argument naming the field, value and range.
   void Validate() const;

@@ -48,12 +48,7 @@ MapperNode::MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& c
   } else {
     CreateEmptyMap();
   }
-  std::visit(
-      [this](auto& m) {
-        m->SetTraversalThread(config_.traversal_thread);
-        if (!config_.ray_batches) m->SetRayBatches(false);  // else the map's default (AVX-512)
-      },
-      map_);
+  CreateIntegrator();
   auto on_error = [this](const std::string& channel, const std::string& reason) {
     skipped_.Count("malformed", channel + ": " + reason);
   };
@@ -89,6 +84,12 @@ void MapperNode::CreateEmptyMap() {
   } else {
     map_ = MakeExactGrowingMap(config_.limits, config_.occupancy, max_range);
   }
+}
+
+void MapperNode::CreateIntegrator() {
+  const ScanIntegrator::Options options{config_.traversal_thread, config_.instruction_set};
+  integrator_ =
+      std::visit([&](auto& m) { return std::make_unique<ScanIntegrator>(m.get(), options); }, map_);
 }
 
 void MapperNode::LoadCheckpoint() {
@@ -260,39 +261,36 @@ void MapperNode::Apply(const Pending& p, const Pose3& X_WB) {
   const Pose3 X_WS = X_WB * sensor.X_BS;
   const int k = ray_stride_;
   ScanStats stats;
-  std::visit(
-      [&](auto& map) {
-        if (p.depth) {
-          const depth_image_t& img = *p.depth;
-          const auto* depth = reinterpret_cast<const uint16_t*>(img.data.data());
-          // Every k-th pixel in both directions; pixel centres stay exact with scaled intrinsics.
-          DepthIntrinsics in{img.fx_px / k, img.fy_px / k, img.cx_px / k, img.cy_px / k};
-          if (k == 1) {
-            stats = map->ApplyDepthImage(X_WS, in, depth, img.width, img.height, img.depth_scale_m,
-                                         model);
-          } else {
-            const int w = (img.width + k - 1) / k, h = (img.height + k - 1) / k;
-            std::vector<uint16_t> sub(static_cast<size_t>(w) * static_cast<size_t>(h));
-            for (int v = 0; v < h; ++v) {
-              for (int u = 0; u < w; ++u) sub[v * w + u] = depth[(v * k) * img.width + u * k];
-            }
-            stats = map->ApplyDepthImage(X_WS, in, sub.data(), w, h, img.depth_scale_m, model);
-          }
-        } else {
-          const planar_scan_t& s = *p.scan;
-          if (k == 1) {
-            stats = map->ApplyPlanarScan(X_WS, s.angle_min_rad, s.angle_step_rad, s.ranges_m.data(),
-                                         s.num_ranges, model);
-          } else {
-            std::vector<float> sub;
-            for (int i = 0; i < s.num_ranges; i += k) sub.push_back(s.ranges_m[i]);
-            stats = map->ApplyPlanarScan(X_WS, s.angle_min_rad,
-                                         s.angle_step_rad * static_cast<float>(k), sub.data(),
-                                         static_cast<int>(sub.size()), model);
-          }
-        }
-      },
-      map_);
+  ScanIntegrator* const integrator = integrator_.get();
+  if (p.depth) {
+    const depth_image_t& img = *p.depth;
+    const auto* depth = reinterpret_cast<const uint16_t*>(img.data.data());
+    // Every k-th pixel in both directions; pixel centres stay exact with scaled intrinsics.
+    DepthIntrinsics in{img.fx_px / k, img.fy_px / k, img.cx_px / k, img.cy_px / k};
+    if (k == 1) {
+      stats = integrator->IntegrateDepthImage(X_WS, in, depth, img.width, img.height,
+                                              img.depth_scale_m, model);
+    } else {
+      const int w = (img.width + k - 1) / k, h = (img.height + k - 1) / k;
+      std::vector<uint16_t> sub(static_cast<size_t>(w) * static_cast<size_t>(h));
+      for (int v = 0; v < h; ++v) {
+        for (int u = 0; u < w; ++u) sub[v * w + u] = depth[(v * k) * img.width + u * k];
+      }
+      stats = integrator->IntegrateDepthImage(X_WS, in, sub.data(), w, h, img.depth_scale_m, model);
+    }
+  } else {
+    const planar_scan_t& s = *p.scan;
+    if (k == 1) {
+      stats = integrator->IntegratePlanarScan(X_WS, s.angle_min_rad, s.angle_step_rad,
+                                              s.ranges_m.data(), s.num_ranges, model);
+    } else {
+      std::vector<float> sub;
+      for (int i = 0; i < s.num_ranges; i += k) sub.push_back(s.ranges_m[i]);
+      stats = integrator->IntegratePlanarScan(X_WS, s.angle_min_rad,
+                                              s.angle_step_rad * static_cast<float>(k), sub.data(),
+                                              static_cast<int>(sub.size()), model);
+    }
+  }
   rays_total_ += stats.rays_applied;
   cells_total_ += stats.cells_updated;
   ++map_seq_;
@@ -378,8 +376,7 @@ void MapperNode::PublishSnapshot() {
   ForEachBlock([&](const CellIndex& origin, const std::vector<float>& p) {
     blocks.emplace_back(origin, p);
   });
-  published_.clear();
-  for (const auto& [origin, p] : blocks) published_[{origin.x, origin.y, origin.z}] = p;
+  std::visit([](auto& m) { m->ClearChanges(); }, map_);  // the next delta starts here
   const int per_chunk = config_.snapshot_blocks_per_chunk;
   const int num_chunks =
       std::max<int>(1, (static_cast<int>(blocks.size()) + per_chunk - 1) / per_chunk);
@@ -423,20 +420,19 @@ void MapperNode::PublishSnapshot() {
 void MapperNode::PublishDelta() {
   if (map_seq_ == last_delta_map_seq_) return;
   const GridGeometry& g = geometry();
-  const float untouched = static_cast<float>(std::visit(
-      [](const auto& m) { return m->updater().ProbabilityOf(m->grid().initial_value()); }, map_));
   map3d_delta_t msg{};
-  ForEachBlock([&](const CellIndex& origin, const std::vector<float>& p) {
-    auto& previous = published_[{origin.x, origin.y, origin.z}];
-    if (previous.empty()) previous.assign(kBlockCells, untouched);
-    for (int i = 0; i < kBlockCells; ++i) {
-      if (p[i] == previous[i]) continue;
-      msg.cells.push_back({origin.x + (i & 7), origin.y + ((i >> 3) & 7), origin.z + (i >> 6)});
-      msg.probabilities.push_back(p[i]);
-      previous[i] = p[i];
-    }
-  });
-  if (msg.cells.size() > kMaxDeltaCells) {
+  const bool too_large = std::visit(
+      [&](const auto& m) {
+        if (m->ChangedCellCount() > kMaxDeltaCells) return true;
+        const OccupancyUpdater& updater = m->updater();
+        m->ForEachChangedCell([&](const CellIndex& c, float stored) {
+          msg.cells.push_back({c.x, c.y, c.z});
+          msg.probabilities.push_back(static_cast<float>(updater.ProbabilityOf(stored)));
+        });
+        return false;
+      },
+      map_);
+  if (too_large) {
     PublishSnapshot();  // cheaper to resend everything
     return;
   }
@@ -448,6 +444,7 @@ void MapperNode::PublishDelta() {
   msg.resolution_m = g.resolution_m();
   msg.num_cells = static_cast<int32_t>(msg.cells.size());
   lcm_.publish(config_.delta_channel, &msg);
+  std::visit([](auto& m) { m->ClearChanges(); }, map_);
   last_delta_map_seq_ = map_seq_;
 }
 

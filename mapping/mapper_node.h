@@ -10,7 +10,8 @@
 /// pairs exactly as live); scans older than the
 /// history, across a pose gap, malformed, or already in the checkpoint (sequence number) are
 /// counted by reason and skipped. Outputs: full snapshots in chunks (MAP3D) at a low rate, deltas
-/// of the changed cells in between (MAP3D_DELTA), MAP_STATUS and a heartbeat.
+/// of the changed cells in between (MAP3D_DELTA: the cells the map tracked as changed since the
+/// last delta or snapshot, OccupancyMap::ForEachChangedCell), MAP_STATUS and a heartbeat.
 ///
 /// Overload policy (documented in config/mapper.yaml): when the oldest queued scan is more than
 /// max_backlog_s behind the newest input, the next scans apply only every k-th ray (k doubles
@@ -19,7 +20,6 @@
 
 #include <cstdint>
 #include <deque>
-#include <map>
 #include <memory>
 #include <string>
 #include <variant>
@@ -37,6 +37,7 @@
 #include "mapping/map_file.h"
 #include "mapping/mapper_config.h"
 #include "mapping/occupancy_map.h"
+#include "mapping/scan_integrator.h"
 
 namespace kestrel {
 
@@ -105,6 +106,8 @@ class MapperNode {
   void Apply(const Pending& p, const Pose3& X_WB);
   void CreateEmptyMap();
   void LoadCheckpoint();
+  // The integrator into map_ (after map_ was made or loaded).
+  void CreateIntegrator();
   /// Calls f(block_origin_cell, probabilities[512]) for every block holding any observed cell.
   template <class F>
   void ForEachBlock(F&& f) const;
@@ -114,6 +117,7 @@ class MapperNode {
   const Clock& clock_;
   std::vector<SensorModel> models_;
   MapPtr map_;
+  std::unique_ptr<ScanIntegrator> integrator_;  // into map_
   PoseHistory poses_;
   std::deque<Pending> queue_;
   StreamSequences sequences_;
@@ -141,8 +145,6 @@ class MapperNode {
   int64_t last_delta_utime_{-1};
   int64_t last_snapshot_utime_{-1};
   int64_t last_checkpoint_utime_{-1};
-  // Last published probability per block (the base of the next delta), keyed by block origin.
-  std::map<std::tuple<int32_t, int32_t, int32_t>, std::vector<float>> published_;
 };
 
 }  // namespace kestrel

@@ -1,52 +1,42 @@
 #pragma once
 /// @file
-/// A 3D occupancy map that applies whole scans ray by ray (docs/algorithms.md §1-§5): a grid
-/// (DenseGrid with the paper's fixed limits, or GrowingGrid), a ray caster over its lattice, and
-/// an OccupancyUpdater (Kestrel's exact model or the log-odds baseline). The map entropy
-/// H(map) = sum_i H(P(m_i)) (eqs. 5-6) is kept per block of 512 cells (the GrowingGrid's 8^3
-/// blocks; runs of 512 consecutive cells of a DenseGrid's array, so a cell's block is its linear
-/// index / 512): a ray marks the blocks of the cells it changed, and a query
-/// recomputes the marked blocks' sums and adds all block sums in block order. The result is a
-/// function of the cell values only (not of when it is queried), costs no logarithm per cell
-/// update, and is O(changed blocks x 512 + blocks) per query; for a GrowingGrid it sums the
-/// allocated cells (each new block adds 512 H(P_init)).
+/// A 3D occupancy map (docs/algorithms.md §1, §4 and §5): a grid (DenseGrid with the paper's
+/// fixed limits, or GrowingGrid), an OccupancyUpdater (Kestrel's exact model or the log-odds
+/// baseline) and the bookkeeping of what changed. It keeps cells only: rays come to it cast, in
+/// batches (RayCaster::CastBatch), from a ScanIntegrator (mapping/scan_integrator.h), which
+/// turns depth images, scans and single readings into rays.
 ///
-/// Order is fixed, so the same inputs give a bit-identical map: images row-major (v outer, u
-/// inner), scans in ascending angle, one ray fully applied before the next. No allocation per
-/// ray (the scratch is sized at construction from max_range_m); a GrowingGrid allocates a block
-/// the first time a ray touches it.
+/// Bookkeeping is per chunk of 512 cells: a GrowingGrid's 8^3 block (chunk c is the block
+/// created c-th), or a run of 512 consecutive cells of a DenseGrid's array (a cell's chunk is
+/// its linear index / 512). ("Block" means only an 8^3 cube of cells.) The map entropy
+/// H(map) = sum_i H(P(m_i)) (eqs. 5-6) is kept per chunk: a ray marks the chunks of the cells it
+/// changed, and a query recomputes the marked chunks' sums and adds all chunk sums in chunk
+/// order. The result is a function of the cell values only (not of when it is queried), costs
+/// no logarithm per cell update, and is O(changed chunks x 512 + chunks) per query; for a
+/// GrowingGrid it sums the allocated cells (each new block adds 512 H(P_init)). The map also
+/// tracks which cells changed since the last ClearChanges, a bit per cell (like OctoMap's
+/// changed keys), so that a caller can publish them without a copy of the map.
 ///
-/// Batches (DenseGrid, SetRayBatches): ApplyDepthImage and ApplyPlanarScan cast eight rays at
-/// once in vector registers (RayCaster::CastBatch) and evaluate their forward models together
-/// (OccupancyUpdater::PrecomputeBatch), on this thread or on the traversal thread, then update
-/// the eight rays one after the other, in order. Neither step reads the map, so the map is the
-/// one ray-by-ray updates give, bit for bit (tests/mapping/occupancy_map_test.cc).
+/// Rays are updated one fully before the next, in batch and lane order; no allocation per ray (the
+/// scratch is sized at construction from max_range_m); a GrowingGrid allocates a block the first
+/// time a ray touches it. A GrowingGrid's rays are cast on a window of the lattice around their
+/// origin (CastLattice), whose linear indices the map resolves to blocks through a table of the
+/// window's blocks.
 
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <type_traits>
 #include <vector>
 
 #include "common/se3.h"
 #include "mapping/grid.h"
 #include "mapping/occupancy_updater.h"
-#include "mapping/ray_batch_pipeline.h"
 #include "mapping/ray_caster.h"
 #include "mapping/sensor_model.h"
-#include "mapping/traversal_pipeline.h"
 
 namespace kestrel {
-
-/// Pinhole intrinsics of a depth camera, pixels. Pixel (u, v) (column, row; centres at integer
-/// coordinates, OpenCV convention) looks along ((u - cx)/fx, (v - cy)/fy, 1) in the optical
-/// frame S (z forward, x right, y down).
-struct DepthIntrinsics {
-  double fx{0.0};  ///< focal length along x, px
-  double fy{0.0};  ///< focal length along y, px
-  double cx{0.0};  ///< principal point x, px
-  double cy{0.0};  ///< principal point y, px
-};
 
 /// What applying one scan did.
 struct ScanStats {
@@ -65,6 +55,10 @@ struct ScanStats {
   }
 };
 
+namespace kernels {
+struct Kernels;  // one instruction set's kernels (kernels/kernels.h)
+}  // namespace kernels
+
 /// The map over a grid type (DenseGrid or GrowingGrid). Neither copyable nor movable (scratch
 /// pointers into the grid).
 template <class Grid>
@@ -72,41 +66,30 @@ class OccupancyMap {
  public:
   /// A map over `grid` (whose cells should hold updater->initial_value()) whose sensors reach at
   /// most `max_range_m` (sizes the per-ray scratch).
-  /// @throws std::invalid_argument if updater is null or max_range_m is not positive.
+  /// @throws std::invalid_argument if updater is null or max_range_m is not positive, or for a
+  /// GrowingGrid if ceil(max_range_m / resolution) exceeds 507 cells (the window of CastLattice
+  /// is at most 1024 cells per axis).
   OccupancyMap(Grid grid, std::unique_ptr<OccupancyUpdater> updater, double max_range_m);
   OccupancyMap(const OccupancyMap&) = delete;
   OccupancyMap& operator=(const OccupancyMap&) = delete;
 
-  /// Applies one reading along a ray from origin_W along unit direction_W (W frame): classifies
-  /// `range_m` with the sensor model (mapping/sensor_model.h), drops invalid readings (returns
-  /// them counted in rays_invalid), casts the ray and updates its cells.
-  /// @throws std::invalid_argument if direction_W is not unit, origin not finite, or the
-  /// sensor's z_max exceeds max_range_m.
-  ScanStats ApplyRay(const Eigen::Vector3d& origin_W, const Eigen::Vector3d& direction_W,
-                     double range_m, const SensorModel& model);
+  /// The lattice to cast rays from origin_W on (RayCaster::CastBatch) for UpdateRays: a
+  /// DenseGrid's own; for a GrowingGrid, the block-aligned window of its lattice that holds every
+  /// cell within max_range_m of the origin (cut by nothing: the same cells and d_k as the whole
+  /// lattice), whose linear indices UpdateRays turns into blocks.
+  /// @throws std::invalid_argument if a GrowingGrid's window would leave its lattice (an origin
+  /// within a window's edge of the +-2^23-cell index limit).
+  [[nodiscard]] GridGeometry CastLattice(const Eigen::Vector3d& origin_W) const;
+  /// Updates the cells of the rays of `batch` (cast on CastLattice of their origin, maybe
+  /// prepared by updater().PrecomputeBatch) for readings[0 .. batch.count) (kReturn or kNoReturn),
+  /// one ray after the other in lane order: each sees its predecessors' posteriors. Marks the
+  /// changed cells and their chunks (file comment) and adds to *stats (rays_applied,
+  /// rays_no_return, cells_updated). The same cells bit for bit with every instruction set's
+  /// `kernels`.
+  void UpdateRays(const Reading* readings, const RayBatch& batch, const SensorModel& model,
+                  const kernels::Kernels& kernels, ScanStats* stats);
 
-  /// Same with an already classified reading (kInvalid is counted and dropped).
-  ScanStats ApplyReading(const Eigen::Vector3d& origin_W, const Eigen::Vector3d& direction_W,
-                         const Reading& reading, const SensorModel& model);
-
-  /// Applies a depth image, row-major. depth[v * width + u] * depth_scale_m is the depth along
-  /// the optical axis (m), converted to the range along the pixel's ray; 0 means "no return".
-  /// X_WS is the pose of the optical frame S in W.
-  /// @throws std::invalid_argument on non-positive sizes (or more than 2^30 pixels), fx/fy/scale
-  /// not positive and finite, a non-finite pose or |q| outside (0.5, 1.5).
-  ScanStats ApplyDepthImage(const Pose3& X_WS, const DepthIntrinsics& intrinsics,
-                            const uint16_t* depth, int width, int height, double depth_scale_m,
-                            const SensorModel& model);
-
-  /// Applies a planar scan in ascending angle: beam i looks along angle_min_rad + i *
-  /// angle_step_rad about z of the LIDAR frame S (x forward, z up); ranges_m[i] is classified by
-  /// the model (+inf or >= z_max: no return; NaN, negative, < z_min: invalid).
-  /// @throws std::invalid_argument unless angle_step_rad > 0, the angles are finite, the pose is
-  /// finite and |q| in (0.5, 1.5).
-  ScanStats ApplyPlanarScan(const Pose3& X_WS, double angle_min_rad, double angle_step_rad,
-                            const float* ranges_m, int count, const SensorModel& model);
-
-  /// H(map), nats, from the block sums (file comment); recomputes the blocks changed since the
+  /// H(map), nats, from the chunk sums (file comment); recomputes the chunks changed since the
   /// last query (so a const call writes a cache: not for concurrent calls).
   [[nodiscard]] double entropy_nats() const;
   /// H(map) recomputed from every cell (O(cells)), for tests and checks.
@@ -119,102 +102,119 @@ class OccupancyMap {
   [[nodiscard]] const Grid& grid() const { return grid_; }
   /// The grid, mutable (loading a map; call ResetEntropy() afterwards).
   [[nodiscard]] Grid& mutable_grid() { return grid_; }
-  /// Marks every block for entropy recomputation (after cells were written through
-  /// mutable_grid(), e.g. when loading a map).
+  /// Marks every chunk for entropy recomputation (after cells were written through
+  /// mutable_grid(), e.g. when loading a map; such writes are not changes for
+  /// ForEachChangedCell).
   void ResetEntropy();
+
+  /// Calls f(cell, stored value) for every cell an update changed since the last ClearChanges
+  /// (or construction): its stored bit pattern changed (it may have changed back since). Chunk
+  /// by chunk in the order they first changed, cells ascending within a chunk: the same order
+  /// for the same inputs. O(changed chunks x 8 + changed cells).
+  template <class F>
+  void ForEachChangedCell(F&& f) const;
+  /// The number of cells ForEachChangedCell visits.
+  [[nodiscard]] size_t ChangedCellCount() const;
+  /// Forgets the changes (e.g. once they are published).
+  void ClearChanges();
   /// The update rule.
   [[nodiscard]] const OccupancyUpdater& updater() const { return *updater_; }
   /// Longest ray the scratch holds, m.
-  [[nodiscard]] double max_range_m() const { return ray_.max_length_m; }
-
-  /// Casts the rays of ApplyDepthImage and ApplyPlanarScan on a second thread, ahead of the
-  /// updates, which stay in ray order: same map bit for bit. With ray batches (SetRayBatches)
-  /// the worker casts batches and evaluates their forward models (mapping/ray_batch_pipeline.h);
-  /// otherwise it casts rays one by one and the two threads balance themselves
-  /// (mapping/traversal_pipeline.h). On a shared 2-vCPU machine its gain comes and goes in spells,
-  /// down to below one thread's rate (each ray's data crosses the cores, and what that costs
-  /// depends on where the host places the vCPUs; docs/STATUS.md, "Mapping"); so with batches each
-  /// kind of scan (depth images, planar scans) goes through the worker only while that has been the
-  /// faster way (WorkerChoice, re-tried every 16th scan). Off by default (kestrel-mapper:
-  /// MapperConfig::traversal_thread); enabling creates the worker once.
-  void SetTraversalThread(bool enabled);
-  /// Whether a traversal thread is in use.
-  [[nodiscard]] bool traversal_thread() const {
-    return pipeline_ != nullptr || batch_pipeline_ != nullptr;
-  }
-
-  /// Casts the rays of ApplyDepthImage and ApplyPlanarScan eight at a time, compiled for `isa`
-  /// (file comment; DenseGrid only): same map bit for bit. Default: on where the CPU has
-  /// AVX-512 (lanes::BestIsa), where it is faster than one ray at a time (measured:
-  /// bench/mapping); the baseline kernels run the scalar code lane by lane, so elsewhere off.
-  /// @throws std::invalid_argument if the CPU does not run `isa`.
-  void SetRayBatches(bool enabled, lanes::Isa isa = lanes::BestIsa());
-  /// Whether rays are cast in batches (SetRayBatches).
-  [[nodiscard]] bool ray_batches() const { return batch_isa_.has_value(); }
+  [[nodiscard]] double max_range_m() const { return max_range_m_; }
 
  private:
-  // What ApplyRays applies (the batch worker's choice is kept per kind).
-  enum ScanKind : int { kDepthImage = 0, kPlanarScan = 1 };
-  float* CellPointer(const CellIndex& c);
-  // DenseGrid: the first cell value (nullptr for a GrowingGrid).
-  float* DenseValues();
-  // Entropy block of the k-th cell of the ray last passed to ApplyCastRay.
-  uint32_t EntropyBlockOf(const RayCells& ray, int k) const;
-  // DenseGrid: entropy block of the cell with linear index `linear` (file comment).
-  static uint32_t DenseBlockOf(int64_t linear) {
-    return static_cast<uint32_t>(linear >> kDenseBlockShift);
-  }
-  static constexpr int kDenseBlockShift = 9;  // 512 cells per DenseGrid entropy block
-  // Sum of H over the cells of entropy block b.
-  double BlockEntropy(uint32_t b) const;
-  // Marks block b for recomputation.
-  void MarkDirty(uint32_t b) const {
-    if (block_dirty_[b] == 0) {
-      block_dirty_[b] = 1;
-      dirty_blocks_.push_back(b);
+  static constexpr int kChunkShift = 9;  // 512 cells per chunk (file comment)
+  static constexpr uint32_t kChunkMask = (1u << kChunkShift) - 1;
+  static constexpr int kWordsPerChunk = (1 << kChunkShift) / 64;  // changed-cell bits
+  // Sum of H over the cells of chunk c.
+  double ChunkEntropy(uint32_t c) const;
+  // Marks chunk c for entropy recomputation.
+  void MarkStale(uint32_t c) const {
+    if (chunk_stale_[c] == 0) {
+      chunk_stale_[c] = 1;
+      stale_chunks_.push_back(c);
     }
   }
-  // Grows the block arrays to the grid's block count (GrowingGrid), new blocks dirty.
-  void SyncBlocks();
-  // Updates the cells of an already cast ray; adds to *stats.
-  void ApplyCastRay(const Reading& reading, const RayCells& ray, const SensorModel& model,
-                    ScanStats* stats);
-  // Applies rays 0..count-1 described by source(i, &spec), pipelined, batched or one by one
-  // (defined and used in occupancy_map.cc only).
-  template <class Source>
-  ScanStats ApplyRays(ScanKind kind, int count, const Source& source, const SensorModel& model);
-  // ApplyRays in batches of eight (file comment), from source(i, BatchRaySpec*).
-  template <class Source>
-  void ApplyRayBatches(int count, const Source& source, const SensorModel& model, ScanStats* stats);
-  // Updates the rays of a cast batch in order; adds to *stats.
-  void ApplyBatch(const Reading* readings, const RayBatch& batch, const SensorModel& model,
-                  ScanStats* stats);
-  // Whether ApplyRays casts in batches (a DenseGrid with batches on).
-  [[nodiscard]] bool Batched() const;
-  // Creates or drops the workers to match traversal_thread_ and the batches.
-  void ConfigureWorkers();
+  // Marks cell `cell` (0 .. 511) of chunk c changed, and the chunk for entropy recomputation.
+  void MarkChanged(uint32_t c, uint32_t cell) {
+    MarkStale(c);
+    if (chunk_changed_[c] == 0) {
+      chunk_changed_[c] = 1;
+      changed_chunks_.push_back(c);
+    }
+    changed_bits_[size_t{c} * kWordsPerChunk + (cell >> 6)] |= uint64_t{1} << (cell & 63);
+  }
+  // Grows the chunk arrays to the grid's chunk count (GrowingGrid: its blocks), new chunks
+  // stale.
+  void SyncChunks();
+  // The cell `cell` (0 .. 511) of chunk c, and its stored value.
+  [[nodiscard]] CellIndex CellOfChunk(uint32_t c, uint32_t cell) const;
+  [[nodiscard]] float StoredInChunk(uint32_t c, uint32_t cell) const {
+    if constexpr (std::is_same_v<Grid, GrowingGrid>) {
+      return grid_.block(c).values[cell];
+    } else {
+      return grid_.values()[(size_t{c} << kChunkShift) + cell];
+    }
+  }
+  // GrowingGrid: makes `window` (a CastLattice) the one the window table describes.
+  void UseWindow(const GridGeometry& window);
+  // GrowingGrid: looks up (or creates) the block of the window table's slot `slot`.
+  void ResolveWindowBlock(uint32_t slot);
+  // GrowingGrid: the window table's slot of the block holding the cell with window linear
+  // index `cell` = x + E (y + E z) (kernels::ResolveWindowCellsFn).
+  [[nodiscard]] uint32_t WindowSlotOf(int32_t cell) const {
+    const int s = window_shift_;
+    const int b = s - GrowingGrid::kBlockShift;  // log2 of the window's blocks per axis
+    const int32_t mask = (int32_t{1} << s) - 1;
+    const int32_t x = cell & mask, y = (cell >> s) & mask, z = cell >> (2 * s);
+    return static_cast<uint32_t>((x >> GrowingGrid::kBlockShift) |
+                                 ((y >> GrowingGrid::kBlockShift) << b) |
+                                 ((z >> GrowingGrid::kBlockShift) << (2 * b)));
+  }
 
   Grid grid_;
   std::unique_ptr<OccupancyUpdater> updater_;
-  RayCaster caster_;
-  RayCells ray_;
-  RayBatch batch_;
-  std::optional<lanes::Isa> batch_isa_;  // batches on, compiled for this instruction set
-  std::vector<float*> cell_pointers_;
-  std::vector<int> changed_;          // indices k of the cells the last ray changed
-  std::vector<uint32_t> cell_block_;  // GrowingGrid: block index of each cell of the ray
-  // Lazy entropy (file comment): per-block sums, dirty flags and list, cached total.
-  mutable std::vector<double> block_entropy_;
-  mutable std::vector<uint8_t> block_dirty_;
-  mutable std::vector<uint32_t> dirty_blocks_;
+  double max_range_m_;
+  std::vector<int> changed_;  // indices k of the cells the last ray changed
+  // Lazy entropy (file comment): per-chunk sums, stale flags and list, cached total.
+  mutable std::vector<double> chunk_entropy_;
+  mutable std::vector<uint8_t> chunk_stale_;
+  mutable std::vector<uint32_t> stale_chunks_;
   mutable double entropy_nats_{0.0};
-  // GrowingGrid only: cached block access.
-  std::unique_ptr<GrowingGrid::Accessor> accessor_;
-  bool traversal_thread_{false};
-  WorkerChoice choices_[2];  // per ScanKind: with the batch worker or without (ApplyRays)
-  std::unique_ptr<TraversalPipeline> pipeline_;       // thread, rays one by one
-  std::unique_ptr<RayBatchPipeline> batch_pipeline_;  // thread, batches
+  // Changes since ClearChanges (file comment): a bit per cell (kWordsPerChunk words per chunk),
+  // per-chunk flags and the chunks in the order they first changed.
+  std::vector<uint64_t> changed_bits_;
+  std::vector<uint8_t> chunk_changed_;
+  std::vector<uint32_t> changed_chunks_;
+  // GrowingGrid only: the cast window (CastLattice), 2^window_shift_ cells per axis from
+  // window_lower_ (a multiple of the block edge), within window_reach_ cells of the origin cell
+  // and beyond; its blocks in x-fastest order (their cells, null until looked up, and creation
+  // indices), the slots filled since UseWindow, and the cells of the batch being updated, in its
+  // layout: addresses, and slot * 512 + offset in the block (kernels::ResolveWindowCellsFn).
+  int window_reach_{0};
+  int window_shift_{0};
+  CellIndex window_lower_;
+  bool window_set_{false};
+  std::vector<float*> window_blocks_;
+  std::vector<uint32_t> window_indices_;
+  std::vector<uint32_t> window_filled_;
+  std::vector<float*> cell_pointers_;
+  std::vector<uint32_t> cell_slots_;
 };
+
+template <class Grid>
+template <class F>
+void OccupancyMap<Grid>::ForEachChangedCell(F&& f) const {
+  for (const uint32_t c : changed_chunks_) {
+    for (int w = 0; w < kWordsPerChunk; ++w) {
+      for (uint64_t bits = changed_bits_[size_t{c} * kWordsPerChunk + w]; bits != 0;
+           bits &= bits - 1) {
+        const uint32_t cell = static_cast<uint32_t>(64 * w + __builtin_ctzll(bits));
+        f(CellOfChunk(c, cell), StoredInChunk(c, cell));
+      }
+    }
+  }
+}
 
 /// The paper's map: fixed limits, dense storage.
 using DenseOccupancyMap = OccupancyMap<DenseGrid>;

@@ -7,8 +7,9 @@
 ///  - LogOddsUpdater: OctoMap's update (hit 0.7 / miss 0.4, clamping 0.12 / 0.97); cells store
 ///    log-odds as float. The cell holding a return's end point is a hit, every other cell the ray
 ///    crosses up to it a miss; "no return" clears the whole ray to z_max (OctoMap's maxrange).
-/// Each UpdateRay reports which cells it changed, so that the map can keep H(map)
-/// (docs/algorithms.md §5) up to date per block of cells.
+/// Each update reports which cells it changed, so that the map can keep H(map)
+/// (docs/algorithms.md §5) up to date per chunk of cells. Rays come cast in batches
+/// (RayCaster::CastBatch) and are updated one lane (ray) at a time, in order.
 
 #include <cmath>
 #include <memory>
@@ -20,6 +21,10 @@
 #include "mapping/sensor_model.h"
 
 namespace kestrel {
+
+namespace kernels {
+struct Kernels;  // one instruction set's kernels (kernels/kernels.h)
+}  // namespace kernels
 
 /// Binary entropy H(p) = -p ln p - (1-p) ln(1-p), nats (eq. 5); H(0) = H(1) = 0.
 [[nodiscard]] inline double BinaryEntropy(double p) {
@@ -45,28 +50,27 @@ class OccupancyUpdater {
   /// How far (m) the ray must be cast for this reading (kReturn or kNoReturn).
   [[nodiscard]] virtual double CastLength(const SensorModel& model,
                                           const Reading& reading) const = 0;
-  /// Work for this reading that reads no map (e.g. forward-model values), done on the traversal
-  /// thread when there is one; results go into *ray. Must be thread-safe (const, no scratch).
-  virtual void PrecomputeRay(const SensorModel& /*model*/, const Reading& /*reading*/,
-                             RayCells* /*ray*/) const {}
-  /// Updates the stored values *cells[k] of the ray's cells (k < ray.size) for `reading`;
-  /// writes the indices k of the cells whose stored value changed, ascending, to changed[0 .. m)
-  /// (room for ray.size entries) and returns m; adds the cells written to *cells_written.
-  virtual int UpdateRay(const SensorModel& model, const Reading& reading, const RayCells& ray,
-                        float* const* cells, uint64_t* cells_written, int* changed) = 0;
-  /// Same as UpdateRay for cells stored at base[ray.linear_index[k]] (a DenseGrid's values;
-  /// precondition: ray.has_linear_index), without a pointer per cell.
-  virtual int UpdateRayLinear(const SensorModel& model, const Reading& reading, const RayCells& ray,
-                              float* base, uint64_t* cells_written, int* changed) = 0;
-  /// Work for the readings of a cast batch that reads no map, eight rays at once with `isa`
-  /// (ExactBayesUpdater: a_k, SensorModel::FillLikelihoods, where that is faster).
+  /// Work for the readings of a cast batch that reads no map, eight rays at once with `kernels`
+  /// (ExactBayesUpdater: a_k, SensorModel::FillLikelihoods, where that is faster); done on the
+  /// scan integrator's worker thread when there is one. Must be thread-safe (const, no scratch).
   virtual void PrecomputeBatch(const SensorModel& /*model*/, const Reading* /*readings*/,
-                               lanes::Isa /*isa*/, RayBatch* /*batch*/) const {}
-  /// Same as UpdateRayLinear for lane `lane` of a batch cast by RayCaster::CastBatch (and maybe
-  /// PrecomputeBatch): the same cells and values as UpdateRayLinear on that ray alone.
+                               const kernels::Kernels& /*kernels*/, RayBatch* /*batch*/) const {}
+  /// Updates the stored values of the cells of lane `lane` of a batch cast by
+  /// RayCaster::CastBatch (and maybe PrecomputeBatch) for `reading` (kReturn or kNoReturn):
+  /// cell k (k < batch.size[lane]) is stored at base[batch.linear_index[RayBatch::At(k, lane)]]
+  /// (a DenseGrid's values). Writes the indices k of the cells whose stored value changed,
+  /// ascending, to changed[0 .. m) (room for batch.size[lane] entries) and returns m; adds the
+  /// cells written to *cells_written. The same values with every instruction set's `kernels`.
   virtual int UpdateBatchLane(const SensorModel& model, const Reading& reading,
-                              const RayBatch& batch, int lane, float* base, uint64_t* cells_written,
+                              const RayBatch& batch, int lane, float* base,
+                              const kernels::Kernels& kernels, uint64_t* cells_written,
                               int* changed) = 0;
+  /// Same as UpdateBatchLane with cell k stored at *cells[RayBatch::At(k, 0)] (cells in the
+  /// batch's layout, from the lane's first; a GrowingGrid's blocks).
+  virtual int UpdateBatchLaneAt(const SensorModel& model, const Reading& reading,
+                                const RayBatch& batch, int lane, float* const* cells,
+                                const kernels::Kernels& kernels, uint64_t* cells_written,
+                                int* changed) = 0;
 };
 
 /// Kestrel's exact update (docs/algorithms.md §4.1), float storage, double accumulation.
@@ -81,33 +85,32 @@ class ExactBayesUpdater final : public OccupancyUpdater {
   /// A return needs the cells up to z + c sigma (the shortcut) plus one cell diagonal, so the
   /// last kept cell's chord is complete; "no return" runs to z_max.
   [[nodiscard]] double CastLength(const SensorModel& model, const Reading& reading) const override;
-  /// Fills ray->likelihood with a_k (ExactUpdate::ForwardLikelihoods).
-  void PrecomputeRay(const SensorModel& model, const Reading& reading,
-                     RayCells* ray) const override;
-  int UpdateRay(const SensorModel& model, const Reading& reading, const RayCells& ray,
-                float* const* cells, uint64_t* cells_written, int* changed) override;
-  int UpdateRayLinear(const SensorModel& model, const Reading& reading, const RayCells& ray,
-                      float* base, uint64_t* cells_written, int* changed) override;
   /// Fills batch->likelihood where SensorModel::FillLikelihoods can (has_likelihood).
-  void PrecomputeBatch(const SensorModel& model, const Reading* readings, lanes::Isa isa,
-                       RayBatch* batch) const override;
+  void PrecomputeBatch(const SensorModel& model, const Reading* readings,
+                       const kernels::Kernels& kernels, RayBatch* batch) const override;
   int UpdateBatchLane(const SensorModel& model, const Reading& reading, const RayBatch& batch,
-                      int lane, float* base, uint64_t* cells_written, int* changed) override;
+                      int lane, float* base, const kernels::Kernels& kernels,
+                      uint64_t* cells_written, int* changed) override;
+  int UpdateBatchLaneAt(const SensorModel& model, const Reading& reading, const RayBatch& batch,
+                        int lane, float* const* cells, const kernels::Kernels& kernels,
+                        uint64_t* cells_written, int* changed) override;
   /// The clamp and prior.
   [[nodiscard]] const OccupancyLimits& limits() const { return limits_; }
 
  private:
-  // The update of n cells at distances distance_m[k] (a_k in likelihood[k] if it holds values)
-  // with cell k's value at cell_at(k) (a float&).
-  template <class Distance, class Likelihood, class CellAt>
-  int Update(const SensorModel& model, const Reading& reading, const Distance& distance_m, int n,
-             Likelihood likelihood, const CellAt& cell_at, uint64_t* cells_written, int* changed);
+  // The update of lane `lane` of `batch` (a_k from the batch if it holds them): cell k's stored
+  // value from read_cell(k) (once, in order), then store(posteriors, priors, first, count)
+  // writes the posteriors of the cells written and returns the number changed.
+  template <class ReadCell, class Store>
+  int UpdateLane(const SensorModel& model, const Reading& reading, const RayBatch& batch, int lane,
+                 const ReadCell& read_cell, const Store& store, uint64_t* cells_written);
 
   OccupancyLimits limits_;
   double diagonal_m_;  // sqrt(3) alpha: the longest chord through one cell, m
   InverseSensorModelScratch scratch_;
-  // UpdateBatchLane on AVX-512: the lane's cell indices, priors (as stored) and posteriors.
+  // UpdateBatchLane(At): the lane's cell indices or addresses, priors (as stored) and posteriors.
   std::vector<int32_t> lane_cells_;
+  std::vector<float*> lane_pointers_;
   std::vector<float> lane_priors_;
   std::vector<double> lane_posteriors_;
 };
@@ -137,12 +140,12 @@ class LogOddsUpdater final : public OccupancyUpdater {
   }
   /// A return: to z (the end-point cell is the last); "no return": z_max.
   [[nodiscard]] double CastLength(const SensorModel& model, const Reading& reading) const override;
-  int UpdateRay(const SensorModel& model, const Reading& reading, const RayCells& ray,
-                float* const* cells, uint64_t* cells_written, int* changed) override;
-  int UpdateRayLinear(const SensorModel& model, const Reading& reading, const RayCells& ray,
-                      float* base, uint64_t* cells_written, int* changed) override;
   int UpdateBatchLane(const SensorModel& model, const Reading& reading, const RayBatch& batch,
-                      int lane, float* base, uint64_t* cells_written, int* changed) override;
+                      int lane, float* base, const kernels::Kernels& kernels,
+                      uint64_t* cells_written, int* changed) override;
+  int UpdateBatchLaneAt(const SensorModel& model, const Reading& reading, const RayBatch& batch,
+                        int lane, float* const* cells, const kernels::Kernels& kernels,
+                        uint64_t* cells_written, int* changed) override;
   /// The parameters.
   [[nodiscard]] const LogOddsConfig& config() const { return config_; }
 

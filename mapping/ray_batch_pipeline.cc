@@ -19,14 +19,10 @@ void WorkerChoice::Record(bool worker, uint64_t rays, double seconds) {
   r = r == 0.0 ? rate : 0.75 * r + 0.25 * rate;
 }
 
-RayBatchPipeline::RayBatchPipeline(const GridGeometry& geometry, double max_length_m,
-                                   lanes::Isa isa)
-    : caster_(geometry), isa_(isa) {
-  KESTREL_THROW_UNLESS(caster_.LinearIndexable(),
-                       "RayBatchPipeline: needs a bounded lattice of fewer than 2^31 cells");
+RayBatchPipeline::RayBatchPipeline(double max_length_m, double resolution_m) {
   slots_.reserve(kSlots);
   for (int i = 0; i < kSlots; ++i) {
-    slots_.push_back(std::make_unique<Slot>(max_length_m, geometry.resolution_m()));
+    slots_.push_back(std::make_unique<Slot>(max_length_m, resolution_m));
   }
   worker_ = std::thread([this] { WorkerLoop(); });
 }
@@ -79,8 +75,7 @@ void RayBatchPipeline::WorkerLoop() {
       try {
         const int lanes_used =
             GatherLanes(*source, count, &next, segments, slot.readings, &slot.invalid);
-        caster_.CastBatch(segments, lanes_used, &slot.batch, isa_);
-        (*prepare)(slot.readings, &slot.batch);
+        (*prepare)(segments, slot.readings, lanes_used, &slot.batch);
       } catch (...) {
         slot.error = std::current_exception();
       }

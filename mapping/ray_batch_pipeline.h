@@ -2,9 +2,11 @@
 /// @file
 /// Batched ray casting on a second core (docs/algorithms.md §13: traversal of the next rays on
 /// one core while the other applies updates in order): a worker thread fills a ring of
-/// RayBatch slots, eight rays each (the source, RayCaster::CastBatch and the map-independent
-/// prepare step, e.g. a_k), while the caller consumes the slots strictly in order. Neither step
-/// on the worker reads the map, so the map is bit-identical to a single thread's.
+/// RayBatch slots, eight rays each (the source, then the prepare step: RayCaster::CastBatch and
+/// the map-independent work, e.g. a_k), while the caller consumes the slots strictly in order.
+/// Neither step on the worker reads the map, so the map is bit-identical to a single thread's.
+/// The scan integrator's one worker pipeline (mapping/scan_integrator.h); RunInline does the
+/// same steps on the caller's thread alone.
 ///
 /// Hand-over is by one atomic state per slot; a side that waits spins briefly, then yields its
 /// core (on a shared machine the other side may not be running). The worker and the slots are
@@ -25,24 +27,26 @@
 #include <thread>
 #include <vector>
 
+#include "mapping/lanes.h"
 #include "mapping/ray_caster.h"
 #include "mapping/sensor_model.h"
 
 namespace kestrel {
 
-/// One ray to cast and its reading; a kInvalid reading is not cast.
-struct BatchRaySpec {
+/// One ray to integrate: the segment to cast and the reading along it; a kInvalid reading is
+/// not cast.
+struct RaySpec {
   RaySegment segment;  ///< what to cast
   Reading reading;     ///< the reading along it
 };
 
-/// Takes rays *next, *next + 1, ... (below count) from source(index, BatchRaySpec*) until eight
+/// Takes rays *next, *next + 1, ... (below count) from source(index, RaySpec*) until eight
 /// carry information: their segments and readings fill the lanes, in order; the invalid ones
 /// are skipped and added to *invalid. Returns the lanes filled (0 once the rays run out).
 template <class Source>
 int GatherLanes(const Source& source, int count, int* next, RaySegment segments[lanes::kLanes],
                 Reading readings[lanes::kLanes], uint64_t* invalid) {
-  BatchRaySpec spec;
+  RaySpec spec;
   int lanes_used = 0;
   for (; *next < count && lanes_used < lanes::kLanes; ++*next) {
     source(*next, &spec);
@@ -83,31 +87,44 @@ class RayBatchPipeline {
   /// Slots in the ring (eight rays each).
   static constexpr int kSlots = 32;
 
-  /// One ray to cast (filled by the source on the worker).
-  using RaySpec = BatchRaySpec;
   /// Fills the spec of ray `index` (runs on the worker; must only read shared data).
   using Source = std::function<void(int index, RaySpec* spec)>;
-  /// Map-independent work on a cast batch (runs on the worker), e.g. a_k.
-  using Prepare = std::function<void(const Reading* readings, RayBatch* batch)>;
+  /// Casts the lanes' segments into *batch and does the map-independent work on it (runs on the
+  /// worker), e.g. a_k.
+  using Prepare = std::function<void(const RaySegment* segments, const Reading* readings, int count,
+                                     RayBatch* batch)>;
   /// Consumes a batch on the caller's thread, in ray order: its lanes' readings, the batch,
   /// and the invalid readings skipped since the previous batch.
   using Sink =
       std::function<void(const Reading* readings, const RayBatch& batch, uint64_t invalid)>;
 
-  /// A worker casting through the lattice `geometry` (which must be LinearIndexable) rays up to
-  /// `max_length_m` long with instruction set `isa`.
-  /// @throws std::invalid_argument if the lattice has no linear indices.
-  RayBatchPipeline(const GridGeometry& geometry, double max_length_m, lanes::Isa isa);
+  /// A worker whose slots hold rays up to `max_length_m` long on lattices of edge
+  /// `resolution_m`.
+  RayBatchPipeline(double max_length_m, double resolution_m);
   ~RayBatchPipeline();
   RayBatchPipeline(const RayBatchPipeline&) = delete;
   RayBatchPipeline& operator=(const RayBatchPipeline&) = delete;
 
   /// Runs rays 0..count-1 of `source`: cast and prepared on the worker, consumed by `sink` here
-  /// in order. Exceptions from the source, the caster, prepare or the sink are rethrown here
-  /// after the worker has stopped on this job.
+  /// in order. Exceptions from the source, prepare or the sink are rethrown here after the
+  /// worker has stopped on this job.
   void Run(int count, const Source& source, const Prepare& prepare, const Sink& sink);
-  /// The instruction set the worker casts with.
-  [[nodiscard]] lanes::Isa isa() const { return isa_; }
+
+  /// The same steps on this thread alone, with `batch` as the one slot: the same batches reach
+  /// the sink, in the same order.
+  template <class SourceFn, class PrepareFn, class SinkFn>
+  static void RunInline(int count, const SourceFn& source, const PrepareFn& prepare,
+                        const SinkFn& sink, RayBatch* batch) {
+    RaySegment segments[lanes::kLanes];
+    Reading readings[lanes::kLanes];
+    int next = 0;
+    while (next < count) {
+      uint64_t invalid = 0;
+      const int lanes_used = GatherLanes(source, count, &next, segments, readings, &invalid);
+      prepare(segments, readings, lanes_used, batch);
+      sink(readings, *batch, invalid);
+    }
+  }
 
  private:
   enum SlotState : int { kFree = 0, kFilled = 1 };
@@ -125,8 +142,6 @@ class RayBatchPipeline {
   // Waits until slot.state == want, or the job is cancelled (returns false).
   bool WaitFor(const Slot& slot, int want) const;
 
-  RayCaster caster_;
-  lanes::Isa isa_;
   std::vector<std::unique_ptr<Slot>> slots_;
   std::atomic<bool> cancel_{false};
   // Job hand-over, guarded by mutex_.

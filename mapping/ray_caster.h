@@ -32,8 +32,11 @@
 namespace kestrel {
 
 namespace detail {
-struct RayWalk;  // one ray's traversal state (ray_caster.cc)
+struct RayWalk;  // one ray's traversal state (kernels/ray_walk.h)
 }  // namespace detail
+namespace kernels {
+struct Kernels;  // one instruction set's kernels (kernels/kernels.h)
+}  // namespace kernels
 
 /// Caller-owned scratch for one ray: the cells crossed and their d_k. Sized once, reused for
 /// every ray, so that casting allocates nothing.
@@ -49,17 +52,13 @@ struct RayCells {
   std::vector<CellIndex> cells;    ///< r_1 .. r_n, in order of increasing distance
   std::vector<double> distance_m;  ///< d_k, m, distance from o to the chord midpoint
   /// When has_linear_index: the cell's index in a DenseGrid over the caster's (bounded) lattice,
-  /// x + nx (y + ny z) (DenseGrid::LinearIndexOf), kept by the caster with one addition per step.
+  /// x + nx (y + ny z) (DenseGrid::LinearIndexOf), kept by the caster with one addition per step;
+  /// x, y, z and nx, ny count from the lattice's lower bound (0 for a fixed map).
   /// 32 bits: lattices of 2^31 cells or more get no linear index.
   std::vector<int32_t> linear_index;
-  /// a_k per cell when has_likelihood: forward-model values computed off the map (on the
-  /// traversal thread) by OccupancyUpdater::PrecomputeRay; Cast clears has_likelihood.
-  std::vector<double> likelihood;
   int size{0};                   ///< n_r, the number of valid entries
   bool left_bounds{false};       ///< whether the ray ended at the grid bounds before its length
-  bool has_likelihood{false};    ///< whether likelihood[0 .. size) is filled
   bool has_linear_index{false};  ///< whether linear_index[0 .. size) is filled (bounded lattice)
-  bool has_cells{true};          ///< whether cells[0 .. size) is filled (CastLinearOnly: not)
   double max_length_m;           ///< longest ray this scratch holds, m
   /// The in-bounds cell of the last origin cast with this scratch on the lattice
   /// last_origin_lattice (rays of one scan share their origin, and GridGeometry::CellOf is the
@@ -80,7 +79,8 @@ struct RaySegment {
 /// Caller-owned scratch for up to lanes::kLanes rays cast together (RayCaster::CastBatch) on a
 /// bounded lattice: the k-th cell of lane (ray) l is at [k * kLanes + l] of every array, so eight
 /// rays step in one vector register. Holds what RayCells holds with has_linear_index and
-/// without cells, and optionally a_k. Sized once.
+/// without cells, and optionally a_k. Sized once. The one ray type of the scan integrator
+/// (mapping/scan_integrator.h): a single ray is a batch of one lane.
 struct RayBatch {
   /// Scratch for rays of length up to `max_length_m` on a lattice of edge `resolution_m`.
   /// @throws std::invalid_argument unless both are positive and finite.
@@ -99,11 +99,12 @@ struct RayBatch {
   std::vector<double> likelihood;
   bool has_likelihood{false};  ///< whether likelihood holds a_k for the rays of the last cast
   int count{0};                ///< lanes in use, the rays of the last CastBatch
-  lanes::Isa isa{lanes::Isa::kBaseline};  ///< instruction set of the last CastBatch
-  int size[lanes::kLanes]{};              ///< n_r per lane
-  bool left_bounds[lanes::kLanes]{};      ///< per lane, as RayCells::left_bounds
-  int longest{0};                         ///< max of size[]: the rows of the arrays in use
-  double max_length_m;                    ///< longest ray this scratch holds, m
+  /// The lattice and bounds of the last CastBatch: linear indices count from lattice.lower().
+  GridGeometry lattice;
+  int size[lanes::kLanes]{};          ///< n_r per lane
+  bool left_bounds[lanes::kLanes]{};  ///< per lane, as RayCells::left_bounds
+  int longest{0};                     ///< max of size[]: the rows of the arrays in use
+  double max_length_m;                ///< longest ray this scratch holds, m
   /// Cell of the last origin cast on the lattice last_origin_lattice (as in RayCells).
   Eigen::Vector3d last_origin_W{
       Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN())};
@@ -132,19 +133,14 @@ class RayCaster {
   /// (has_linear_index).
   int CastWithLinearIndex(const Eigen::Vector3d& origin_W, const Eigen::Vector3d& direction_W,
                           double length_m, RayCells* out) const;
-  /// Like CastWithLinearIndex, but when the linear index is filled the cells are not
-  /// (has_cells false): fewer bytes per cell when another thread consumes the ray. On a lattice
-  /// without linear indices it is Cast.
-  int CastLinearOnly(const Eigen::Vector3d& origin_W, const Eigen::Vector3d& direction_W,
-                     double length_m, RayCells* out) const;
 
   /// Casts rays[0 .. count) (count <= lanes::kLanes) together, eight lanes stepping in one
   /// vector register: lane l gets exactly the d_k, linear indices and left_bounds that
-  /// CastWithLinearIndex gives rays[l], bit for bit, on every instruction set (lanes.h).
-  /// Precondition: LinearIndexable(); checks as Cast.
+  /// CastWithLinearIndex gives rays[l], bit for bit, with every instruction set's `kernels`
+  /// (kernels/kernels.h). Precondition: LinearIndexable(); checks as Cast.
   /// @throws std::invalid_argument when a precondition fails.
   void CastBatch(const RaySegment* rays, int count, RayBatch* out,
-                 lanes::Isa isa = lanes::BestIsa()) const;
+                 const kernels::Kernels& kernels) const;
 
   /// The lattice.
   [[nodiscard]] const GridGeometry& geometry() const { return geometry_; }
@@ -159,7 +155,7 @@ class RayCaster {
                  double max_length_m, int capacity, Eigen::Vector3d* last_origin_W,
                  CellIndex* last_origin_cell, GridGeometry* last_origin_lattice,
                  detail::RayWalk* walk) const;
-  template <bool kLinear, bool kCells = true>
+  template <bool kLinear>
   int CastImpl(const Eigen::Vector3d& o, const Eigen::Vector3d& u, double length_m,
                RayCells* out) const;
 

@@ -32,9 +32,11 @@
 #include <cstdint>
 #include <vector>
 
-#include "mapping/lanes.h"
-
 namespace kestrel {
+
+namespace kernels {
+struct Kernels;  // one instruction set's kernels (kernels/kernels.h)
+}  // namespace kernels
 
 /// Parameters of one range sensor's forward model. Defaults: the paper's Xtion.
 struct SensorModelConfig {
@@ -186,11 +188,12 @@ class SensorModel {
   /// rows k < rows, likelihood[k * kLanes + l] = ReturnLikelihood(readings[l].z_m, d) for a
   /// return and NoReturnProbability(d) otherwise, d = distance_m[k * kLanes + l], bit for bit.
   /// Lanes at or beyond count and invalid readings get NoReturnProbability (values nobody
-  /// reads). Only with the tables (interpolated_gaussian) and on AVX-512, where it is faster
-  /// than evaluating a_k cell by cell inside the update; returns whether it filled likelihood
-  /// (otherwise the caller evaluates a_k itself). distance_m must be finite in rows < rows.
+  /// reads). Only with the tables (interpolated_gaussian) and with kernels that have it
+  /// (AVX-512), where it is faster than evaluating a_k cell by cell inside the update; returns
+  /// whether it filled likelihood (otherwise the caller evaluates a_k itself). distance_m must
+  /// be finite in rows < rows.
   bool FillLikelihoods(const Reading* readings, int count, const double* distance_m, int rows,
-                       double* likelihood, lanes::Isa isa = lanes::BestIsa()) const;
+                       double* likelihood, const kernels::Kernels& kernels) const;
 
   /// P(none | r_k+) for the first occupied cell at distance d_m.
   [[nodiscard]] double NoReturnProbability(double d_m) const {

@@ -25,6 +25,7 @@
 #include "exploration/planner.h"
 #include "exploration/volumetric_gain.h"
 #include "mapping/occupancy_map.h"
+#include "mapping/scan_integrator.h"
 
 namespace kestrel {
 namespace {
@@ -98,6 +99,7 @@ std::unique_ptr<DenseOccupancyMap> BuildMap(bool everywhere) {
   MapLimits limits;  // the paper's simulation map
   OccupancyLimits occupancy;
   auto map = MakeExactDenseMap(limits, occupancy, 4.0);
+  ScanIntegrator integrator(map.get());
   const SensorModel xtion(SensorModelConfig::Xtion());
   const SensorModel hokuyo(SensorModelConfig::Hokuyo());
   const Pose3 X_BC{Eigen::Vector3d(0.15, 0.0, 0.05), Eigen::Quaterniond(0.5, -0.5, 0.5, -0.5)};
@@ -119,7 +121,7 @@ std::unique_ptr<DenseOccupancyMap> BuildMap(bool everywhere) {
               r < 4.0 ? static_cast<uint16_t>(std::lround(z * 1000.0)) : 0;
         }
       }
-      map->ApplyDepthImage(X_WC, k, depth.data(), w, h, 0.001, xtion);
+      integrator.IntegrateDepthImage(X_WC, k, depth.data(), w, h, 0.001, xtion);
       const Pose3 X_WL = X_WB * X_BL;
       std::vector<float> ranges(682);
       const double a0 = -0.5 * 239.77 * M_PI / 180.0, da = 239.77 * M_PI / 180.0 / 681;
@@ -129,7 +131,7 @@ std::unique_ptr<DenseOccupancyMap> BuildMap(bool everywhere) {
         ranges[static_cast<size_t>(j)] =
             r < 4.0 ? static_cast<float>(r) : std::numeric_limits<float>::infinity();
       }
-      map->ApplyPlanarScan(X_WL, a0, da, ranges.data(), 682, hokuyo);
+      integrator.IntegratePlanarScan(X_WL, a0, da, ranges.data(), 682, hokuyo);
     }
   }
   return map;

@@ -2,10 +2,10 @@
 // exact model (dense and growing grid), Kestrel's log-odds baseline, and OctoMap's
 // insertPointCloud (liboctomap, discretize = false, maxrange 4 m), 0.075 m cells, the paper's map
 // x -4..4, y -6..6, z -0.15..1.5 m. One iteration applies one frame; frames cycle.
-// Counters: rays/s (returns and "no return" rays to 4 m) and cell updates/s. The exact model
-// casts eight rays at a time on CPUs with AVX-512 (OccupancyMap::SetRayBatches); *OneByOne* casts
-// them one by one (the same map), as on CPUs without it. The *Threaded*
-// variants (traversal thread on) are timed in wall time and also report rays/busiest_cpu_s: rays
+// Counters: rays/s (returns and "no return" rays to 4 m) and cell updates/s. Rays are cast eight
+// at a time (ScanIntegrator) with the widest kernels the CPU runs (AVX-512 here); *Scalar* forces
+// the scalar kernels (the same map), as on CPUs without AVX-512. The *Threaded*
+// variants (worker thread on) are timed in wall time and also report rays/busiest_cpu_s: rays
 // per CPU second of the busier of the two threads, the rate on two otherwise idle cores (the
 // machine is shared, so wall time overstates their cost).
 #include <benchmark/benchmark.h>
@@ -18,7 +18,7 @@
 #include <memory>
 
 #include "bench/mapping/synthetic_scene.h"
-#include "mapping/occupancy_map.h"
+#include "mapping/scan_integrator.h"
 
 namespace kestrel::bench {
 namespace {
@@ -63,8 +63,7 @@ class BusiestThreadTimer {
   double main0_;
 };
 
-template <class Map>
-void RunDepth(benchmark::State& state, Map* map) {
+void RunDepth(benchmark::State& state, ScanIntegrator* integrator) {
   const auto& frames =
       DepthFramesOf(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   const SensorModel xtion(SensorModelConfig::Xtion());
@@ -73,10 +72,10 @@ void RunDepth(benchmark::State& state, Map* map) {
   const BusiestThreadTimer busiest;
   for (auto _ : state) {
     const DepthFrame& frame = frames[f++ % frames.size()];
-    total += map->ApplyDepthImage(frame.X_WS, frame.intrinsics, frame.depth.data(), frame.width,
-                                  frame.height, frame.depth_scale_m, xtion);
+    total += integrator->IntegrateDepthImage(frame.X_WS, frame.intrinsics, frame.depth.data(),
+                                             frame.width, frame.height, frame.depth_scale_m, xtion);
   }
-  if (map->traversal_thread()) {
+  if (integrator->worker_thread()) {
     state.counters["rays/busiest_cpu_s"] =
         static_cast<double>(total.rays_applied) / busiest.Seconds();
   }
@@ -90,8 +89,7 @@ void RunDepth(benchmark::State& state, Map* map) {
       static_cast<double>(total.rays_no_return) / static_cast<double>(total.rays_applied);
 }
 
-template <class Map>
-void RunScan(benchmark::State& state, Map* map) {
+void RunScan(benchmark::State& state, ScanIntegrator* integrator) {
   const auto& frames = ScanFrames();
   const SensorModel hokuyo(SensorModelConfig::Hokuyo());
   ScanStats total;
@@ -99,11 +97,11 @@ void RunScan(benchmark::State& state, Map* map) {
   const BusiestThreadTimer busiest;
   for (auto _ : state) {
     const ScanFrame& frame = frames[f++ % frames.size()];
-    total += map->ApplyPlanarScan(frame.X_WS, frame.angle_min_rad, frame.angle_step_rad,
-                                  frame.ranges_m.data(), static_cast<int>(frame.ranges_m.size()),
-                                  hokuyo);
+    total += integrator->IntegratePlanarScan(frame.X_WS, frame.angle_min_rad, frame.angle_step_rad,
+                                             frame.ranges_m.data(),
+                                             static_cast<int>(frame.ranges_m.size()), hokuyo);
   }
-  if (map->traversal_thread()) {
+  if (integrator->worker_thread()) {
     state.counters["rays/busiest_cpu_s"] =
         static_cast<double>(total.rays_applied) / busiest.Seconds();
   }
@@ -115,46 +113,60 @@ void RunScan(benchmark::State& state, Map* map) {
       static_cast<double>(total.cells_updated) / static_cast<double>(total.rays_applied);
 }
 
+// The scalar kernels: the path of CPUs without AVX-512.
+const ScanIntegrator::Options kScalar{false, "scalar"};
+// A worker thread casts ahead of the updates.
+const ScanIntegrator::Options kThreaded{true, ""};
+
 void BM_KestrelExact_Depth(benchmark::State& state) {
   auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  RunDepth(state, map.get());
+  ScanIntegrator integrator(map.get());
+  RunDepth(state, &integrator);
 }
-// Rays cast one by one (SetRayBatches(false)), the path of CPUs without AVX-512.
-void BM_KestrelExactOneByOne_Depth(benchmark::State& state) {
+void BM_KestrelExactScalar_Depth(benchmark::State& state) {
   auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  map->SetRayBatches(false);
-  RunDepth(state, map.get());
+  ScanIntegrator integrator(map.get(), kScalar);
+  RunDepth(state, &integrator);
 }
 void BM_KestrelExactThreaded_Depth(benchmark::State& state) {
   auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  map->SetTraversalThread(true);
-  RunDepth(state, map.get());
+  ScanIntegrator integrator(map.get(), kThreaded);
+  RunDepth(state, &integrator);
 }
 void BM_KestrelExactGrowing_Depth(benchmark::State& state) {
   auto map = MakeExactGrowingMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  RunDepth(state, map.get());
+  ScanIntegrator integrator(map.get());
+  RunDepth(state, &integrator);
+}
+void BM_KestrelExactGrowingScalar_Depth(benchmark::State& state) {
+  auto map = MakeExactGrowingMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  ScanIntegrator integrator(map.get(), kScalar);
+  RunDepth(state, &integrator);
 }
 void BM_KestrelLogOdds_Depth(benchmark::State& state) {
   auto map = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
-  RunDepth(state, map.get());
+  ScanIntegrator integrator(map.get());
+  RunDepth(state, &integrator);
 }
 void BM_KestrelExact_Scan682(benchmark::State& state) {
   auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  RunScan(state, map.get());
+  ScanIntegrator integrator(map.get());
+  RunScan(state, &integrator);
 }
-void BM_KestrelExactOneByOne_Scan682(benchmark::State& state) {
+void BM_KestrelExactScalar_Scan682(benchmark::State& state) {
   auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  map->SetRayBatches(false);
-  RunScan(state, map.get());
+  ScanIntegrator integrator(map.get(), kScalar);
+  RunScan(state, &integrator);
 }
 void BM_KestrelExactThreaded_Scan682(benchmark::State& state) {
   auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  map->SetTraversalThread(true);
-  RunScan(state, map.get());
+  ScanIntegrator integrator(map.get(), kThreaded);
+  RunScan(state, &integrator);
 }
 void BM_KestrelLogOdds_Scan682(benchmark::State& state) {
   auto map = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
-  RunScan(state, map.get());
+  ScanIntegrator integrator(map.get());
+  RunScan(state, &integrator);
 }
 
 // OctoMap input: the same rays as end points (no-return rays as points beyond maxrange, which
@@ -242,7 +254,7 @@ BENCHMARK(BM_KestrelExact_Depth)
     ->Args({320, 240})
     ->Args({640, 480})
     ->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_KestrelExactOneByOne_Depth)
+BENCHMARK(BM_KestrelExactScalar_Depth)
     ->Args({160, 120})
     ->Args({320, 240})
     ->Args({640, 480})
@@ -254,6 +266,7 @@ BENCHMARK(BM_KestrelExactThreaded_Depth)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_KestrelExactGrowing_Depth)->Args({160, 120})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_KestrelExactGrowingScalar_Depth)->Args({160, 120})->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_KestrelLogOdds_Depth)
     ->Args({160, 120})
     ->Args({320, 240})
@@ -265,7 +278,7 @@ BENCHMARK(BM_OctoMap_Depth)
     ->Args({640, 480})
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_KestrelExact_Scan682)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_KestrelExactOneByOne_Scan682)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_KestrelExactScalar_Scan682)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_KestrelExactThreaded_Scan682)->Unit(benchmark::kMicrosecond)->UseRealTime();
 BENCHMARK(BM_KestrelLogOdds_Scan682)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_OctoMap_Scan682)->Unit(benchmark::kMicrosecond);

@@ -7,7 +7,8 @@
 // frames (default 16) inside a callgrind instrumentation window and prints rays, cells, the
 // CPU time of every thread of the process, the wall time, rays per CPU second, and the map hash
 // and entropy (identical inputs must give identical hashes, whatever `threads` is).
-// threads = 2 enables the traversal thread.
+// threads = 2 enables the scan integrator's worker thread. KESTREL_ISA=scalar forces the scalar
+// kernels.
 #if __has_include(<valgrind/callgrind.h>)
 #include <valgrind/callgrind.h>
 #else  // without valgrind's header (Debian package valgrind) the window marks are no-ops
@@ -35,7 +36,7 @@ double CpuSeconds(clockid_t clock) {
 
 template <class Map>
 int Run(Map* map, const std::string& kind, int frames, int threads) {
-  map->SetTraversalThread(threads >= 2);
+  ScanIntegrator integrator(map, ScanIntegrator::Options{threads >= 2, ""});
   const SensorModel xtion(SensorModelConfig::Xtion());
   const SensorModel hokuyo(SensorModelConfig::Hokuyo());
   std::vector<DepthFrame> depth;
@@ -54,12 +55,13 @@ int Run(Map* map, const std::string& kind, int frames, int threads) {
   const auto apply = [&](int f) {
     if (!scans.empty()) {
       const ScanFrame& s = scans[static_cast<size_t>(f % kFrames)];
-      return map->ApplyPlanarScan(s.X_WS, s.angle_min_rad, s.angle_step_rad, s.ranges_m.data(),
-                                  static_cast<int>(s.ranges_m.size()), hokuyo);
+      return integrator.IntegratePlanarScan(s.X_WS, s.angle_min_rad, s.angle_step_rad,
+                                            s.ranges_m.data(), static_cast<int>(s.ranges_m.size()),
+                                            hokuyo);
     }
     const DepthFrame& d = depth[static_cast<size_t>(f % kFrames)];
-    return map->ApplyDepthImage(d.X_WS, d.intrinsics, d.depth.data(), d.width, d.height,
-                                d.depth_scale_m, xtion);
+    return integrator.IntegrateDepthImage(d.X_WS, d.intrinsics, d.depth.data(), d.width, d.height,
+                                          d.depth_scale_m, xtion);
   };
   for (int f = 0; f < kFrames; ++f) apply(f);  // warm-up: steady-state map
   ScanStats total;
@@ -74,7 +76,7 @@ int Run(Map* map, const std::string& kind, int frames, int threads) {
   CALLGRIND_STOP_INSTRUMENTATION;
   const double cpu = CpuSeconds(CLOCK_PROCESS_CPUTIME_ID) - cpu0;
   const double main_cpu = CpuSeconds(CLOCK_THREAD_CPUTIME_ID) - main0;
-  // With a traversal thread, the rate on two otherwise idle cores is bounded by the busier
+  // With a worker thread, the rate on two otherwise idle cores is bounded by the busier
   // thread: rays / max(main thread CPU, other threads' CPU).
   const double busiest = std::max(main_cpu, cpu - main_cpu);
   const double wall =

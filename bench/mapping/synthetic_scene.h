@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "common/se3.h"
-#include "mapping/occupancy_map.h"
+#include "mapping/scan_integrator.h"
 
 namespace kestrel::bench {
 

@@ -87,9 +87,10 @@ TEST(GrowingGrid, AllocatesBlocksOnFirstTouch) {
   EXPECT_EQ(grid.Get(CellIndex{5, 5, 5}), 0.7f);
   EXPECT_EQ(grid.Get(CellIndex{-1, 0, 0}), 0.3f);
   EXPECT_EQ(grid.Get(CellIndex{-2, 0, 0}), 0.1f);
-  GrowingGrid::Accessor accessor(&grid);
-  EXPECT_EQ(*accessor.FindOrCreate(CellIndex{7, 0, 1}), 0.2f);
-  EXPECT_EQ(accessor.Find(CellIndex{100, 0, 0}), nullptr);
+  uint32_t index = 99;
+  const GrowingGrid::Block* block = grid.FindOrCreateBlock(CellIndex{0, 0, 0}, &index);
+  EXPECT_EQ(index, 0u);  // created first
+  EXPECT_EQ(block->values[GrowingGrid::OffsetInBlock(CellIndex{7, 0, 1})], 0.2f);
   EXPECT_EQ(grid.block_count(), 2u);
   std::vector<CellIndex> origins;
   grid.ForEachBlock(
@@ -99,12 +100,11 @@ TEST(GrowingGrid, AllocatesBlocksOnFirstTouch) {
   EXPECT_EQ(origins[1], (CellIndex{0, 0, 0}));
 }
 
-// Random writes through the accessor, the growing grid's Set and a dense grid agree cell by cell.
+// Random writes through the blocks, the growing grid's Set and a dense grid agree cell by cell.
 TEST(GrowingGrid, MatchesDenseGridOnRandomWrites) {
   const MapLimits limits;
   DenseGrid dense(limits, 0.1f);
   GrowingGrid growing(limits.min_m, limits.resolution_m, 0.1f);
-  GrowingGrid::Accessor accessor(&growing);
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> value(0.0f, 1.0f);
   for (int n = 0; n < 20000; ++n) {
@@ -113,7 +113,8 @@ TEST(GrowingGrid, MatchesDenseGridOnRandomWrites) {
     const float v = value(rng);
     dense.Set(c, v);
     if (n % 2 == 0) {
-      *accessor.FindOrCreate(c) = v;
+      const CellIndex block_origin{c.x & ~7, c.y & ~7, c.z & ~7};
+      growing.FindOrCreateBlock(block_origin)->values[GrowingGrid::OffsetInBlock(c)] = v;
     } else {
       growing.Set(c, v);
     }

@@ -12,6 +12,8 @@
 
 #include <octomap/OcTree.h>
 
+#include "mapping/scan_integrator.h"
+
 namespace kestrel {
 namespace {
 
@@ -22,12 +24,13 @@ std::string TempPath(const std::string& name) {
 template <class Map>
 void FillRandom(Map* map, uint32_t seed, int rays = 3000) {
   const SensorModel xtion(SensorModelConfig::Xtion());
+  ScanIntegrator integrator(map);
   std::mt19937 rng(seed);
   std::normal_distribution<double> n(0.0, 1.0);
   for (int i = 0; i < rays; ++i) {
     const Eigen::Vector3d u = Eigen::Vector3d(n(rng), n(rng), 0.2 * n(rng)).normalized();
-    map->ApplyRay(Eigen::Vector3d(0.1, 0.2, 0.7), u,
-                  std::uniform_real_distribution<double>(0.6, 4.5)(rng), xtion);
+    integrator.IntegrateRay(Eigen::Vector3d(0.1, 0.2, 0.7), u,
+                            std::uniform_real_distribution<double>(0.6, 4.5)(rng), xtion);
   }
 }
 

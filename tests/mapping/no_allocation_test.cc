@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "mapping/occupancy_map.h"
+#include "mapping/scan_integrator.h"
 
 namespace {
 std::atomic<uint64_t> g_allocations{0};
@@ -39,12 +40,16 @@ TEST(NoAllocation, CounterSeesAllocations) {
   EXPECT_EQ(v.size(), 100u);
 }
 
-// Given a map and sensor models, When thousands of rays, a depth image and a scan are applied,
-// Then no allocation happens (dense exact, dense log-odds; growing exact once its blocks exist).
+// Given a map, its integrator and sensor models, When thousands of rays, a depth image and a scan
+// are applied, Then no allocation happens (dense exact, dense log-odds; growing exact once its
+// blocks exist; with the worker thread).
 TEST(NoAllocation, ApplyingRaysAllocatesNothing) {
   auto exact = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
   auto log_odds = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
   auto growing = MakeExactGrowingMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  ScanIntegrator into_exact(exact.get());
+  ScanIntegrator into_log_odds(log_odds.get());
+  ScanIntegrator into_growing(growing.get());
   const SensorModel xtion(SensorModelConfig::Xtion());
   const SensorModel hokuyo(SensorModelConfig::Hokuyo());
   std::vector<uint16_t> depth(80 * 60);
@@ -55,23 +60,24 @@ TEST(NoAllocation, ApplyingRaysAllocatesNothing) {
   Pose3 X_WS;
   X_WS.p = Eigen::Vector3d(0.1, 0.2, 0.7);
   const DepthIntrinsics in{75.0, 75.0, 40.0, 30.0};
-  const auto apply_all = [&](auto* map) {
+  const auto apply_all = [&](ScanIntegrator* integrator) {
     for (int i = 0; i < 2000; ++i) {
       const double a = 0.01 * i;
-      map->ApplyRay(X_WS.p, Eigen::Vector3d(std::cos(a), std::sin(a), 0.0), 0.5 + 0.001 * i,
-                    i % 2 ? xtion : hokuyo);
+      integrator->IntegrateRay(X_WS.p, Eigen::Vector3d(std::cos(a), std::sin(a), 0.0),
+                               0.5 + 0.001 * i, i % 2 ? xtion : hokuyo);
     }
-    map->ApplyDepthImage(X_WS, in, depth.data(), 80, 60, 0.001, xtion);
-    map->ApplyPlanarScan(X_WS, -2.0, 0.006, ranges.data(), 682, hokuyo);
+    integrator->IntegrateDepthImage(X_WS, in, depth.data(), 80, 60, 0.001, xtion);
+    integrator->IntegratePlanarScan(X_WS, -2.0, 0.006, ranges.data(), 682, hokuyo);
   };
-  apply_all(growing.get());  // allocates its blocks
+  apply_all(&into_growing);  // allocates its blocks
   auto threaded = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  threaded->SetTraversalThread(true);  // creates the worker and its batches once
+  // Creates the worker and its batches once.
+  ScanIntegrator into_threaded(threaded.get(), ScanIntegrator::Options{true, ""});
   const uint64_t before = g_allocations.load();
-  apply_all(exact.get());
-  apply_all(log_odds.get());
-  apply_all(growing.get());   // same rays again: blocks exist
-  apply_all(threaded.get());  // scans cast on the worker thread
+  apply_all(&into_exact);
+  apply_all(&into_log_odds);
+  apply_all(&into_growing);   // same rays again: blocks exist
+  apply_all(&into_threaded);  // scans cast on the worker thread
   EXPECT_EQ(g_allocations.load(), before);
 }
 

@@ -9,6 +9,8 @@
 #include <set>
 #include <tuple>
 
+#include "mapping/kernels/kernels.h"
+
 namespace kestrel {
 namespace {
 
@@ -75,41 +77,37 @@ std::vector<OracleCell> OracleRay(const GridGeometry& g, const Eigen::Vector3d& 
   return out;
 }
 
-// Checks Cast, CastWithLinearIndex and CastLinearOnly against the oracle: the cells in order
-// (when filled), d_k, whether the ray left the bounds before L (the last chord ends before L),
-// and for a bounded lattice the linear index x + nx (y + ny z) of every cell.
+// Checks Cast and CastWithLinearIndex against the oracle: the cells in order, d_k, whether the
+// ray left the bounds before L (the last chord ends before L), and for a bounded lattice the
+// linear index x + nx (y + ny z) of every cell, counted from the lower bound.
 void ExpectMatchesOracle(const GridGeometry& g, const Eigen::Vector3d& o, const Eigen::Vector3d& u,
                          double L, RayCells* scratch) {
   const RayCaster caster(g);
   const std::vector<OracleCell> expected =
       g.CellOf(o) ? OracleRay(g, o, u, L) : std::vector<OracleCell>{};
-  for (const int mode : {0, 1, 2}) {
-    const bool linear = mode > 0;
-    const int n = mode == 0   ? caster.Cast(o, u, L, scratch)
-                  : mode == 1 ? caster.CastWithLinearIndex(o, u, L, scratch)
-                              : caster.CastLinearOnly(o, u, L, scratch);
+  for (const bool linear : {false, true}) {
+    const int n =
+        linear ? caster.CastWithLinearIndex(o, u, L, scratch) : caster.Cast(o, u, L, scratch);
     ASSERT_EQ(n, static_cast<int>(expected.size()))
         << "o = " << o.transpose() << " u = " << u.transpose() << " L = " << L;
     ASSERT_EQ(scratch->has_linear_index, linear && g.bounded());
-    ASSERT_EQ(scratch->has_cells, !(mode == 2 && g.bounded()));
     if (!expected.empty()) {
       ASSERT_EQ(scratch->left_bounds, expected.back().t_hi < L)
           << "o = " << o.transpose() << " u = " << u.transpose() << " L = " << L;
     }
     for (int k = 0; k < n; ++k) {
-      if (scratch->has_cells) {
-        ASSERT_EQ(scratch->cells[k], expected[k].cell)
-            << "k = " << k << " o = " << o.transpose() << " u = " << u.transpose();
-      }
+      ASSERT_EQ(scratch->cells[k], expected[k].cell)
+          << "k = " << k << " o = " << o.transpose() << " u = " << u.transpose();
       ASSERT_NEAR(scratch->distance_m[k], 0.5 * (expected[k].t_lo + expected[k].t_hi), 1e-12);
       if (k > 0) {
         ASSERT_GE(scratch->distance_m[k], scratch->distance_m[k - 1]);
       }
       if (scratch->has_linear_index) {
         const CellIndex& c = expected[k].cell;
+        const CellIndex& lo = g.lower();
+        const int64_t nx = g.upper().x - lo.x, ny = g.upper().y - lo.y;
         ASSERT_EQ(scratch->linear_index[k],
-                  int64_t{c.x} +
-                      int64_t{g.upper().x} * (int64_t{c.y} + int64_t{g.upper().y} * int64_t{c.z}));
+                  (c.x - lo.x) + nx * ((c.y - lo.y) + ny * int64_t{c.z - lo.z}));
       }
     }
   }
@@ -210,8 +208,8 @@ void ExpectBatchesMatchSingleRays(const GridGeometry& g, double max_length, int 
                                   const Direction& direction_of) {
   const RayCaster caster(g);
   RayCells single(max_length, g.resolution_m());
-  for (const lanes::Isa isa : lanes::SupportedIsas()) {
-    SCOPED_TRACE(lanes::IsaName(isa));
+  for (const kernels::Kernels* isa : kernels::Supported()) {
+    SCOPED_TRACE(isa->name);
     RayBatch batch(max_length, g.resolution_m());
     for (int b = 0; b < batches; ++b) {
       const int count = 1 + b % lanes::kLanes;
@@ -227,8 +225,9 @@ void ExpectBatchesMatchSingleRays(const GridGeometry& g, double max_length, int 
                                ? std::uniform_real_distribution<double>(0.0, max_length)(rng)
                                : max_length;
       }
-      caster.CastBatch(rays, count, &batch, isa);
+      caster.CastBatch(rays, count, &batch, *isa);
       ASSERT_EQ(batch.count, count);
+      ASSERT_TRUE(batch.lattice.SameLattice(g));
       int longest = 0;
       for (int l = 0; l < count; ++l) {
         const int n = caster.CastWithLinearIndex(rays[l].origin_W, rays[l].direction_W,
@@ -293,21 +292,56 @@ TEST(RayCaster, BatchesStepTiedAxesTogether) {
       [&](int) { return RandomSpecialDirection(rng); });
 }
 
+// A window of an unbounded lattice (GridGeometry::WithBounds, the growing map's CastLattice):
+// against the oracle on the window (linear indices from its lower corner, which lies at negative
+// indices), and batches against single rays; rays that stay inside the window get exactly the
+// unbounded lattice's cells and d_k.
+TEST(RayCaster, WindowsOfAnUnboundedLattice) {
+  const GridGeometry lattice = GridGeometry::Unbounded(Eigen::Vector3d(0.01, -0.02, 0.03), 0.075);
+  const GridGeometry window = lattice.WithBounds(CellIndex{-64, -72, -40}, CellIndex{0, 56, 88});
+  EXPECT_TRUE(window.bounded());
+  EXPECT_TRUE(RayCaster(window).LinearIndexable());
+  RayCells scratch(4.0, window.resolution_m());
+  RayCells whole(4.0, window.resolution_m());
+  std::mt19937 rng(13);
+  const Eigen::Vector3d lo(-4.8, -5.4, -3.0), hi(0.0, 4.2, 6.6);
+  int inside = 0;
+  for (int n = 0; n < 2000; ++n) {
+    const Eigen::Vector3d o = RandomOrigin(rng, window, lo, hi, n % 4);
+    const Eigen::Vector3d u = n % 2 ? RandomUnit(rng) : RandomSpecialDirection(rng);
+    ExpectMatchesOracle(window, o, u, 4.0, &scratch);
+    if (HasFatalFailure()) return;
+    if (scratch.size > 0 && !scratch.left_bounds) {
+      ++inside;
+      ASSERT_EQ(RayCaster(lattice).Cast(o, u, 4.0, &whole), scratch.size);
+      for (int k = 0; k < scratch.size; ++k) {
+        ASSERT_EQ(whole.cells[k], scratch.cells[k]);
+        ASSERT_EQ(whole.distance_m[k], scratch.distance_m[k]);
+      }
+    }
+  }
+  EXPECT_GT(inside, 100);
+  ExpectBatchesMatchSingleRays(
+      window, 4.0, 200, rng, [&](int l) { return RandomOrigin(rng, window, lo, hi, l % 4); },
+      [&](int) { return RandomUnit(rng); });
+}
+
 TEST(RayCaster, BatchRejectsBadInput) {
   const GridGeometry g = GridGeometry::Fixed(MapLimits{});
   const RayCaster caster(g);
   RayBatch batch(4.0, g.resolution_m());
+  const kernels::Kernels& k = kernels::Best();
   RaySegment rays[lanes::kLanes + 1];
-  EXPECT_THROW(caster.CastBatch(rays, lanes::kLanes + 1, &batch), std::invalid_argument);
-  EXPECT_THROW(caster.CastBatch(rays, -1, &batch), std::invalid_argument);
+  EXPECT_THROW(caster.CastBatch(rays, lanes::kLanes + 1, &batch, k), std::invalid_argument);
+  EXPECT_THROW(caster.CastBatch(rays, -1, &batch, k), std::invalid_argument);
   rays[0].length_m = 5.0;  // longer than the scratch
-  EXPECT_THROW(caster.CastBatch(rays, 1, &batch), std::invalid_argument);
+  EXPECT_THROW(caster.CastBatch(rays, 1, &batch, k), std::invalid_argument);
   rays[0].length_m = 1.0;
   rays[0].direction_W = Eigen::Vector3d(1.0, 1.0, 0.0);  // not unit
-  EXPECT_THROW(caster.CastBatch(rays, 1, &batch), std::invalid_argument);
+  EXPECT_THROW(caster.CastBatch(rays, 1, &batch, k), std::invalid_argument);
   const RayCaster unbounded(GridGeometry::Unbounded(Eigen::Vector3d::Zero(), 0.1));
   rays[0].direction_W = Eigen::Vector3d::UnitX();
-  EXPECT_THROW(unbounded.CastBatch(rays, 1, &batch), std::invalid_argument);
+  EXPECT_THROW(unbounded.CastBatch(rays, 1, &batch, k), std::invalid_argument);
 }
 
 TEST(RayCaster, EndsAtMapLimits) {

@@ -8,6 +8,7 @@
 
 #include "kestrel/pose_t.hpp"
 #include "mapping/occupancy_map.h"
+#include "mapping/scan_integrator.h"
 #include "mapping/sensor_model.h"
 
 namespace {
@@ -29,7 +30,9 @@ int main() {
   const double h0 = map->entropy_nats();
 
   const Eigen::Vector3d origin(0.01, 0.02, 0.51);
-  const kestrel::ScanStats stats = map->ApplyRay(origin, Eigen::Vector3d::UnitX(), 1.5, xtion);
+  kestrel::ScanIntegrator integrator(map.get());
+  const kestrel::ScanStats stats =
+      integrator.IntegrateRay(origin, Eigen::Vector3d::UnitX(), 1.5, xtion);
   const kestrel::GridGeometry& g = map->grid().geometry();
   const double p_free = map->ProbabilityAt(*g.CellOf(origin + Eigen::Vector3d(0.7, 0, 0)));
   const double p_hit = map->ProbabilityAt(*g.CellOf(origin + Eigen::Vector3d(1.5, 0, 0)));
