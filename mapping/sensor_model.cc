@@ -10,11 +10,24 @@ namespace kestrel {
 
 SensorModelConfig SensorModelConfig::Xtion() {
   SensorModelConfig c;
-  c.sigma_m = 0.25;
+  c.sigma_m = 0.1;
+  c.z_min_m = 0.61;
   return c;
 }
 
 SensorModelConfig SensorModelConfig::Hokuyo() {
+  SensorModelConfig c;
+  c.sigma_m = 0.05;
+  return c;
+}
+
+SensorModelConfig SensorModelConfig::PaperXtion() {
+  SensorModelConfig c;
+  c.sigma_m = 0.25;
+  return c;
+}
+
+SensorModelConfig SensorModelConfig::PaperHokuyo() {
   SensorModelConfig c;
   c.sigma_m = 0.1;
   return c;

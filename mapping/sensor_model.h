@@ -48,11 +48,15 @@ struct SensorModelConfig {
   double cutoff_sigmas{5.0};  ///< Gaussian window c in sigmas (>= 5, or +inf for none)
   bool interpolated_gaussian{true};  ///< Hermite tables instead of exp/erfc (file comment)
 
-  /// The paper's Asus Xtion: sigma 0.25 m (inflated for pose error and distortion), 0.5..4 m.
+  /// Kestrel's Asus Xtion (config/mapper.yaml; docs/algorithms.md §3.4, §3.6): sigma 0.1 m,
+  /// 0.61..4 m along the ray (the device's 0.5 m minimum is axial: 0.61 m along a corner ray).
   [[nodiscard]] static SensorModelConfig Xtion();
-  /// The paper's Hokuyo URG-04LX: sigma 0.1 m. The device ranges 0.02..5.6 m; the paper maps
-  /// with 0.5..4 m for both sensors, and so do these defaults.
+  /// Kestrel's Hokuyo URG-04LX: sigma 0.05 m over 0.5..4 m (the device ranges 0.02..5.6 m).
   [[nodiscard]] static SensorModelConfig Hokuyo();
+  /// The paper's Xtion: sigma 0.25 m (inflated for pose error and distortion), 0.5..4 m.
+  [[nodiscard]] static SensorModelConfig PaperXtion();
+  /// The paper's Hokuyo: sigma 0.1 m, 0.5..4 m.
+  [[nodiscard]] static SensorModelConfig PaperHokuyo();
 
   /// @throws std::invalid_argument naming the key, value and accepted range: sigma_m > 0,
   /// 0 <= z_min_m < z_max_m (finite), p_rand in (0, 1), p_miss in (0, 1), cutoff_sigmas >= 5.

@@ -120,7 +120,7 @@ void ExpectMatchesBruteForce(const SensorModel& model, const Reading& reading,
 TEST(InverseSensorModel, MatchesBruteForceEnumeration) {
   std::mt19937 rng(1234);
   for (const SensorModelConfig& config :
-       {SensorModelConfig::Xtion(), SensorModelConfig::Hokuyo()}) {
+       {SensorModelConfig::PaperXtion(), SensorModelConfig::PaperHokuyo()}) {
     const SensorModel model(config);
     for (int trial = 0; trial < 300; ++trial) {
       const int n = 1 + static_cast<int>(rng() % 14);
@@ -157,7 +157,7 @@ TEST(InverseSensorModel, MatchesBruteForceEnumeration) {
 // The same with the untruncated Gaussian (cutoff +inf): nothing is left out and the algebra
 // still matches enumeration.
 TEST(InverseSensorModel, MatchesBruteForceWithoutGaussianWindow) {
-  SensorModelConfig config = SensorModelConfig::Xtion();
+  SensorModelConfig config = SensorModelConfig::PaperXtion();
   config.cutoff_sigmas = std::numeric_limits<double>::infinity();
   const SensorModel model(config);
   std::mt19937 rng(99);
@@ -173,7 +173,7 @@ TEST(InverseSensorModel, MatchesBruteForceWithoutGaussianWindow) {
 
 // n_r = 1 by hand: P' = P a_1 / (P a_1 + (1-P) p_rand u).
 TEST(InverseSensorModel, SingleCellByHand) {
-  const SensorModel model(SensorModelConfig::Xtion());
+  const SensorModel model(SensorModelConfig::PaperXtion());
   InverseSensorModelScratch scratch(1);
   const double d = 2.0;
   const double prior = 0.1;
@@ -195,10 +195,10 @@ TEST(InverseSensorModel, SingleCellByHand) {
 // |P'_c - P'_inf| <= P'_inf * 2 eps / (1 - eps)), and eps is small for c = 5: at most the
 // Gaussian at 5 sigma over the spurious term, 0.9*0.95*phi(5)/(sigma D) / (p_rand u) < 1e-3.
 TEST(InverseSensorModel, TruncationIsBoundedAgainstUntruncatedUpdate) {
-  SensorModelConfig full_config = SensorModelConfig::Xtion();
+  SensorModelConfig full_config = SensorModelConfig::PaperXtion();
   full_config.cutoff_sigmas = std::numeric_limits<double>::infinity();
   const SensorModel full(full_config);
-  const SensorModel cut(SensorModelConfig::Xtion());
+  const SensorModel cut(SensorModelConfig::PaperXtion());
   const GridGeometry g = GridGeometry::Fixed(MapLimits{});
   RayCells ray(4.0, g.resolution_m());
   const RayCaster caster(g);
@@ -240,7 +240,7 @@ TEST(InverseSensorModel, TruncationIsBoundedAgainstUntruncatedUpdate) {
 // The work per ray is linear in n_r: two passes, exactly one visit per cell in each, for rays of
 // 10 to 10^4 cells (an O(n_r^2) loop would visit n_r^2 / 2).
 TEST(InverseSensorModel, WorkIsLinearInRayLength) {
-  const SensorModel model(SensorModelConfig::Xtion());
+  const SensorModel model(SensorModelConfig::PaperXtion());
   for (int n : {10, 100, 1000, 10000}) {
     InverseSensorModelScratch scratch(n);
     std::vector<double> d(n), prior(n, 0.1), posterior(n);
@@ -254,8 +254,8 @@ TEST(InverseSensorModel, WorkIsLinearInRayLength) {
 // Multi-sensor fusion: the same return at a cell's distance, from the same prior, moves that
 // cell further with the Hokuyo (sigma 0.1 m) than with the Xtion (sigma 0.25 m).
 TEST(InverseSensorModel, SharperSensorMovesCellFurther) {
-  const SensorModel xtion(SensorModelConfig::Xtion());
-  const SensorModel hokuyo(SensorModelConfig::Hokuyo());
+  const SensorModel xtion(SensorModelConfig::PaperXtion());
+  const SensorModel hokuyo(SensorModelConfig::PaperHokuyo());
   const GridGeometry g = GridGeometry::Fixed(MapLimits{});
   RayCells ray(4.0, g.resolution_m());
   const int n =
@@ -275,7 +275,7 @@ TEST(InverseSensorModel, SharperSensorMovesCellFurther) {
 // No phantom obstacles: 10^4 "no return" readings (clamped after each, as the map does) leave a
 // cell nearer than z_min at or below its prior, and clear the cells in range.
 TEST(InverseSensorModel, NoReturnNeverGrowsNearObstacles) {
-  const SensorModel model(SensorModelConfig::Xtion());
+  const SensorModel model(SensorModelConfig::PaperXtion());
   const GridGeometry g = GridGeometry::Fixed(MapLimits{});
   RayCells ray(4.0, g.resolution_m());
   const int n =
@@ -298,7 +298,7 @@ TEST(InverseSensorModel, NoReturnNeverGrowsNearObstacles) {
 }
 
 TEST(InverseSensorModel, RejectsInvalidReading) {
-  const SensorModel model(SensorModelConfig::Xtion());
+  const SensorModel model(SensorModelConfig::PaperXtion());
   InverseSensorModelScratch scratch(4);
   const double d = 1.0, prior = 0.1;
   double post = 0.0;
@@ -313,7 +313,7 @@ TEST(SensorModel, ValidateAndClassify) {
   config = SensorModelConfig{};
   config.z_max_m = 0.4;
   EXPECT_THROW(config.Validate(), std::invalid_argument);
-  const SensorModel model(SensorModelConfig::Hokuyo());
+  const SensorModel model(SensorModelConfig::PaperHokuyo());
   EXPECT_EQ(model.Classify(std::nan("")).kind, ReadingKind::kInvalid);
   EXPECT_EQ(model.Classify(0.3).kind, ReadingKind::kInvalid);
   EXPECT_EQ(model.Classify(-1.0).kind, ReadingKind::kInvalid);
@@ -326,7 +326,8 @@ TEST(SensorModel, ValidateAndClassify) {
 // relative error of a_k below 1e-10 over a dense sweep of returns z and cell distances d, for
 // both paper sensors (sensor_model.h documents this bound).
 TEST(SensorModel, InterpolatedGaussianMatchesDirectEvaluation) {
-  for (SensorModelConfig config : {SensorModelConfig::Xtion(), SensorModelConfig::Hokuyo()}) {
+  for (SensorModelConfig config :
+       {SensorModelConfig::PaperXtion(), SensorModelConfig::PaperHokuyo()}) {
     const SensorModel table(config);
     config.interpolated_gaussian = false;
     const SensorModel direct(config);
@@ -351,7 +352,7 @@ TEST(SensorModel, InterpolatedGaussianMatchesDirectEvaluation) {
 TEST(SensorModel, BatchLikelihoodsEqualTheModelBitForBit) {
   constexpr int kL = lanes::kLanes;
   for (const SensorModelConfig& config :
-       {SensorModelConfig::Xtion(), SensorModelConfig::Hokuyo()}) {
+       {SensorModelConfig::PaperXtion(), SensorModelConfig::PaperHokuyo()}) {
     const SensorModel model(config);
     const double cutoff = config.cutoff_sigmas * config.sigma_m;
     std::mt19937 rng(33);
@@ -405,7 +406,7 @@ TEST(SensorModel, BatchLikelihoodsEqualTheModelBitForBit) {
 // Each case of the forward model integrates to 1 over returns plus "no return" (numerical
 // quadrature of the return density over [z_min, z_max)).
 TEST(SensorModel, LikelihoodIntegratesToOne) {
-  SensorModelConfig config = SensorModelConfig::Hokuyo();
+  SensorModelConfig config = SensorModelConfig::PaperHokuyo();
   config.cutoff_sigmas = std::numeric_limits<double>::infinity();
   const SensorModel model(config);
   for (double d : {0.2, 0.5, 0.6, 2.0, 3.95, 4.5}) {

@@ -45,8 +45,8 @@ ScanStats ApplyRandomRays(Map* map, const SensorModel& model, int count, uint32_
 // Section 5: the incrementally kept H(map) equals a full recomputation after many random
 // updates, for the exact model on both grids and for the log-odds baseline.
 TEST(OccupancyMap, IncrementalEntropyMatchesRecomputation) {
-  const SensorModel xtion(SensorModelConfig::Xtion());
-  const SensorModel hokuyo(SensorModelConfig::Hokuyo());
+  const SensorModel xtion(SensorModelConfig::PaperXtion());
+  const SensorModel hokuyo(SensorModelConfig::PaperHokuyo());
   auto dense = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
   auto growing = MakeExactGrowingMap(MapLimits{}, kOccupancy, 4.0);
   auto log_odds = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
@@ -70,7 +70,7 @@ TEST(OccupancyMap, IncrementalEntropyMatchesRecomputation) {
 // to a from-scratch recomputation to rounding (1e-12 relative), for the dense and growing exact
 // maps and the log-odds baseline, and bit-identical to every block recomputed from scratch.
 TEST(OccupancyMap, LazyEntropyIsIndependentOfQueriesAndExact) {
-  const SensorModel xtion(SensorModelConfig::Xtion());
+  const SensorModel xtion(SensorModelConfig::PaperXtion());
   const auto check = [&](auto make) {
     auto queried = make();
     auto quiet = make();
@@ -114,8 +114,8 @@ TEST(OccupancyMap, LazyEntropyIsIndependentOfQueriesAndExact) {
 // whether cells are addressed by linear index (UpdateBatchLane) or by pointer
 // (UpdateBatchLaneAt), and with every instruction set's kernels.
 TEST(OccupancyMap, PrecomputedLikelihoodsAndCellAddressesGiveIdenticalCells) {
-  const SensorModel xtion(SensorModelConfig::Xtion());
-  const SensorModel hokuyo(SensorModelConfig::Hokuyo());
+  const SensorModel xtion(SensorModelConfig::PaperXtion());
+  const SensorModel hokuyo(SensorModelConfig::PaperHokuyo());
   const GridGeometry g = GridGeometry::Fixed(MapLimits{});
   const int capacity = RayCells::CapacityFor(4.0, g.resolution_m());
   const RayCaster caster(g);
@@ -192,7 +192,7 @@ TEST(OccupancyMap, PrecomputedLikelihoodsAndCellAddressesGiveIdenticalCells) {
 // The lane updates report exactly the cells whose stored value changed, ascending, with every
 // instruction set's kernels and both ways of addressing cells.
 TEST(OccupancyMap, LaneUpdatesReportExactlyTheChangedCells) {
-  const SensorModel xtion(SensorModelConfig::Xtion());
+  const SensorModel xtion(SensorModelConfig::PaperXtion());
   const GridGeometry g = GridGeometry::Fixed(MapLimits{});
   const int capacity = RayCells::CapacityFor(4.0, g.resolution_m());
   for (const kernels::Kernels* k : kernels::Supported()) {
@@ -253,7 +253,7 @@ TEST(OccupancyMap, GrowingGridMatchesDenseGridInsideLimits) {
   MapLimits limits;
   limits.min_m = Eigen::Vector3d(-6.0, -6.0, -5.0);
   limits.max_m = Eigen::Vector3d(6.0, 6.0, 6.0);
-  const SensorModel xtion(SensorModelConfig::Xtion());
+  const SensorModel xtion(SensorModelConfig::PaperXtion());
   auto dense = MakeExactDenseMap(limits, kOccupancy, 4.0);
   auto growing = MakeExactGrowingMap(limits, kOccupancy, 4.0);
   ApplyRandomRays(dense.get(), xtion, 5000, 3);
@@ -288,8 +288,8 @@ TEST(OccupancyMap, GrowingGridWindowsMatchDenseGridAcrossNegativeIndices) {
   MapLimits growing_limits = limits;
   growing_limits.min_m = Eigen::Vector3d::Zero();
   growing_limits.max_m = Eigen::Vector3d::Ones();
-  const SensorModel xtion(SensorModelConfig::Xtion());
-  const SensorModel hokuyo(SensorModelConfig::Hokuyo());
+  const SensorModel xtion(SensorModelConfig::PaperXtion());
+  const SensorModel hokuyo(SensorModelConfig::PaperHokuyo());
   auto dense = MakeExactDenseMap(limits, kOccupancy, 4.0);
   ScanIntegrator into_dense(dense.get());
   std::vector<uint16_t> depth(40 * 30);
@@ -368,7 +368,7 @@ std::map<std::tuple<int32_t, int32_t, int32_t>, float> StoredCells(const Map& ma
 // changed and changed back), each with its current value; after one ray exactly the cells it
 // changed; ClearChanges forgets them. Both grids, and the log-odds baseline.
 TEST(OccupancyMap, TracksTheCellsUpdatesChanged) {
-  const SensorModel xtion(SensorModelConfig::Xtion());
+  const SensorModel xtion(SensorModelConfig::PaperXtion());
   const auto check = [&](auto map) {
     using Cells = std::map<std::tuple<int32_t, int32_t, int32_t>, float>;
     const float initial = map->grid().initial_value();
@@ -423,7 +423,7 @@ TEST(OccupancyMap, TracksTheCellsUpdatesChanged) {
 // Determinism: the same inputs twice give bit-identical maps (hash of the cell array), and a
 // single different reading gives a different hash (the hash sees the cells).
 TEST(OccupancyMap, SameInputsGiveBitIdenticalMaps) {
-  const SensorModel xtion(SensorModelConfig::Xtion());
+  const SensorModel xtion(SensorModelConfig::PaperXtion());
   auto a = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
   auto b = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
   ApplyRandomRays(a.get(), xtion, 10000, 5);
@@ -445,7 +445,7 @@ TEST(OccupancyMap, SameInputsGiveBitIdenticalMaps) {
 // p + d(x - y). With the log-odds baseline the end-point cell is exactly the one raised to a hit.
 TEST(OccupancyMap, DepthImageEndPointsFollowPinholeGeometry) {
   auto map = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
-  const SensorModel xtion(SensorModelConfig::Xtion());
+  const SensorModel xtion(SensorModelConfig::PaperXtion());
   Pose3 X_WS;
   X_WS.p = Eigen::Vector3d(0.01, 0.02, 0.7);
   Eigen::Matrix3d R_WS;
@@ -480,7 +480,7 @@ TEST(OccupancyMap, DepthImageEndPointsFollowPinholeGeometry) {
 // about sigma) and lowers the cells half-way along the beam.
 TEST(OccupancyMap, PlanarScanEndPointsFollowBeamAngles) {
   auto map = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
-  const SensorModel hokuyo(SensorModelConfig::Hokuyo());
+  const SensorModel hokuyo(SensorModelConfig::PaperHokuyo());
   Pose3 X_WS;
   X_WS.p = Eigen::Vector3d(0.01, 0.02, 0.7);
   X_WS.q = QuaternionFromYaw(0.3);
@@ -503,7 +503,7 @@ TEST(OccupancyMap, PlanarScanEndPointsFollowBeamAngles) {
 // clamped to [logit(0.12), logit(0.97)].
 TEST(LogOddsUpdater, FollowsOctoMapArithmetic) {
   auto map = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
-  const SensorModel xtion(SensorModelConfig::Xtion());
+  const SensorModel xtion(SensorModelConfig::PaperXtion());
   const Eigen::Vector3d o(0.01, 0.02, 0.7);
   const GridGeometry& g = map->grid().geometry();
   const CellIndex free_cell = *g.CellOf(o + Eigen::Vector3d(1.0, 0, 0));
@@ -525,7 +525,7 @@ TEST(LogOddsUpdater, FollowsOctoMapArithmetic) {
 // ComputeExactPosteriors, clamped and stored as float), and the cells past the cut keep their
 // values.
 TEST(OccupancyMap, ShortenedCastEqualsFullRayUpdate) {
-  const SensorModel xtion(SensorModelConfig::Xtion());
+  const SensorModel xtion(SensorModelConfig::PaperXtion());
   auto map = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
   ApplyRandomRays(map.get(), xtion, 3000, 9);  // non-trivial priors
   ScanIntegrator integrator(map.get());
@@ -559,8 +559,8 @@ TEST(OccupancyMap, ShortenedCastEqualsFullRayUpdate) {
 // Six depth images (97 x 61: not a multiple of any batch size; returns, "no return" pixels)
 // and six 682-beam scans (with invalid beams) from varied poses, applied to `map`.
 ScanStats ApplyMixedFrames(ScanIntegrator* integrator) {
-  const SensorModel xtion(SensorModelConfig::Xtion());
-  const SensorModel hokuyo(SensorModelConfig::Hokuyo());
+  const SensorModel xtion(SensorModelConfig::PaperXtion());
+  const SensorModel hokuyo(SensorModelConfig::PaperHokuyo());
   std::mt19937 rng(12);
   std::vector<uint16_t> depth(97 * 61);
   for (uint16_t& d : depth) d = rng() % 9 == 0 ? 0 : static_cast<uint16_t>(300 + rng() % 4500);
@@ -639,7 +639,7 @@ TEST(OccupancyMap, EveryInstructionSetGivesBitIdenticalMaps) {
 TEST(OccupancyMap, RejectsBadImages) {
   auto map = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
   ScanIntegrator integrator(map.get());
-  const SensorModel xtion(SensorModelConfig::Xtion());
+  const SensorModel xtion(SensorModelConfig::PaperXtion());
   const uint16_t px[1] = {1000};
   EXPECT_THROW(integrator.IntegrateDepthImage(Pose3{}, DepthIntrinsics{0.0, 1.0, 0.0, 0.0}, px, 1,
                                               1, 0.001, xtion),
@@ -655,7 +655,7 @@ TEST(OccupancyMap, RejectsBadImages) {
   const float range[1] = {1.0f};
   EXPECT_THROW(integrator.IntegratePlanarScan(zero_q, 0.0, 0.01, range, 1, xtion),
                std::invalid_argument);
-  SensorModelConfig far = SensorModelConfig::Xtion();
+  SensorModelConfig far = SensorModelConfig::PaperXtion();
   far.z_max_m = 8.0;
   EXPECT_THROW(integrator.IntegrateRay(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), 2.0,
                                        SensorModel(far)),
