@@ -55,7 +55,7 @@ struct VolumetricConfig {
   /// "Traversability").
   double band_below_m{0.25};
   double band_above_m{0.15};         ///< vehicle band above h, m (> 0)
-  double margin_m{0.08};             ///< clearance beyond the vehicle radius, m (>= 0)
+  double margin_m{0.10};             ///< clearance beyond the vehicle radius, m (>= 0)
   double candidate_spacing_m{0.75};  ///< candidate positions every this many m (>= one cell)
   /// The paper's end rule, working: exploration ends when the best UNWEIGHTED 3D gain of every
   /// reachable candidate pose is below this, nats (> 0).

@@ -45,7 +45,7 @@ struct TraversabilityConfig {
   double band_below_m{0.2};       ///< vehicle band below h, m (> 0)
   double band_above_m{0.2};       ///< vehicle band above h, m (> 0)
   double vehicle_radius_m{0.44};  ///< disc radius, m (> 0)
-  double margin_m{0.08};          ///< clearance beyond the radius, m (>= 0)
+  double margin_m{0.10};          ///< clearance beyond the radius, m (>= 0)
   double free_threshold{0.05};    ///< a band cell blocks when P > this (C_thresh), in (0, 1)
   double p_init{0.1};             ///< P_init of the 3D map (the start-up zone's rule), in (0, 1)
 

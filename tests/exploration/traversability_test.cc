@@ -98,8 +98,8 @@ TEST(SquaredDistanceTransform, EqualsBruteForce) {
   }
 }
 
-// A wall across the room with one gap at an arbitrary offset (not on any lattice): 1.1 m passes
-// the 0.88 m vehicle with 0.08 m of margin a side, 0.9 m does not.
+// A wall across the room with one gap at an arbitrary offset (not on any lattice): 1.1 m (15 whole
+// cells, 1.125 m) passes the 0.88 m vehicle with 0.10 m of margin a side, 0.9 m does not.
 TEST(Traversability, GapPassableWhereverItLies) {
   for (const double gap : {1.1, 0.9}) {
     for (const double offset : {1.237, 2.0, 2.561}) {
