@@ -75,14 +75,20 @@ class ViewerServerTest : public ::testing::Test {
     }
     return false;
   }
-  int OpenWebSocket(int receive_buffer_bytes = 0) {
-    const int fd = Connect(receive_buffer_bytes);
+  // The server's answer to a WebSocket handshake with these extra header lines.
+  std::string Handshake(int fd, const std::string& extra_headers) {
     SendAll(fd,
-            "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-            "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n");
+            "GET / HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(server_->port()) +
+                "\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n" + extra_headers +
+                "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n");
     std::string response;
     EXPECT_TRUE(Pump(fd, &response,
                      [](const std::string& r) { return r.find("\r\n\r\n") != std::string::npos; }));
+    return response;
+  }
+  int OpenWebSocket(int receive_buffer_bytes = 0) {
+    const int fd = Connect(receive_buffer_bytes);
+    const std::string response = Handshake(fd, "");
     EXPECT_EQ(response.rfind("HTTP/1.1 101", 0), 0u) << response;
     return fd;
   }
@@ -117,6 +123,42 @@ TEST_F(ViewerServerTest, ServesThePageAndNothingOutsideItsFolder) {
   EXPECT_EQ(HttpGet("/../../etc/passwd").rfind("HTTP/1.1 404", 0), 0u);
   EXPECT_EQ(HttpGet("/missing.js").rfind("HTTP/1.1 404", 0), 0u);
   EXPECT_EQ(server_->counters().http_not_found, 2);
+}
+
+// Only the page this server served may open a WebSocket: a page of another origin in the same
+// browser is refused with 403 (and counted), the page's own origin and a program without an
+// Origin header are accepted.
+TEST_F(ViewerServerTest, RefusesWebSocketsFromForeignOrigins) {
+  const std::string own = "http://127.0.0.1:" + std::to_string(server_->port());
+  for (const std::string& foreign : {std::string("http://evil.example"), std::string("null"),
+                                     "http://127.0.0.1:" + std::to_string(server_->port() + 1),
+                                     "https://127.0.0.1:" + std::to_string(server_->port())}) {
+    const int fd = Connect();
+    const std::string response = Handshake(fd, "Origin: " + foreign + "\r\n");
+    EXPECT_EQ(response.rfind("HTTP/1.1 403", 0), 0u) << foreign << ": " << response;
+    close(fd);
+  }
+  EXPECT_EQ(server_->counters().refused_origin, 4);
+  EXPECT_EQ(server_->counters().connections, 0);
+  for (const std::string& header : {"Origin: " + own + "\r\n", std::string()}) {
+    const int fd = Connect();
+    const std::string response = Handshake(fd, header);
+    EXPECT_EQ(response.rfind("HTTP/1.1 101", 0), 0u) << header << response;
+    close(fd);
+  }
+  EXPECT_EQ(server_->counters().connections, 2);
+}
+
+TEST(WebSocketOrigin, OnlyThisServersPages) {
+  EXPECT_TRUE(WebSocketOriginAllowed("", 8740));
+  EXPECT_TRUE(WebSocketOriginAllowed("http://127.0.0.1:8740", 8740));
+  EXPECT_TRUE(WebSocketOriginAllowed("HTTP://LocalHost:8740", 8740));
+  EXPECT_TRUE(WebSocketOriginAllowed("http://[::1]:8740", 8740));
+  EXPECT_FALSE(WebSocketOriginAllowed("http://evil.example", 8740));
+  EXPECT_FALSE(WebSocketOriginAllowed("null", 8740));
+  EXPECT_FALSE(WebSocketOriginAllowed("http://127.0.0.1:9000", 8740));
+  EXPECT_FALSE(WebSocketOriginAllowed("https://127.0.0.1:8740", 8740));
+  EXPECT_FALSE(WebSocketOriginAllowed("http://rebound.example:8740", 8740));  // DNS rebinding
 }
 
 // A page that goes away (reset) while a large update is being written costs an error count, not

@@ -6,6 +6,7 @@
 #include <websocketpp/config/asio_no_tls.hpp>
 #include <websocketpp/server.hpp>
 
+#include <cctype>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -46,6 +47,15 @@ std::string ResolveWebPath(const std::string& web_root, const std::string& targe
     if (!ok) return "";
   }
   return web_root + path;
+}
+
+bool WebSocketOriginAllowed(const std::string& origin, int port) {
+  if (origin.empty()) return true;  // not a browser: the Origin rule guards pages, not programs
+  std::string o = origin;
+  for (char& c : o) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const std::string suffix = ":" + std::to_string(port);
+  return port > 0 && (o == "http://127.0.0.1" + suffix || o == "http://localhost" + suffix ||
+                      o == "http://[::1]" + suffix);
 }
 
 namespace {
@@ -94,7 +104,20 @@ struct ViewerServer::Impl {
     con->set_body(body);
   }
 
-  bool OnValidate(const Handle& /*hdl*/) {
+  bool OnValidate(const Handle& hdl) {
+    websocketpp::lib::error_code ec;
+    const WsServer::connection_ptr con = server.get_con_from_hdl(hdl, ec);
+    if (ec) return false;
+    const std::string origin = con->get_request_header("Origin");
+    const asio::ip::tcp::endpoint local = server.get_local_endpoint(ec);
+    const int port = ec ? -1 : local.port();
+    if (!WebSocketOriginAllowed(origin, port)) {
+      ++counters.refused_origin;
+      Log(LogLevel::kWarning, "viewer server: refused a WebSocket from origin '" + origin +
+                                  "' (only pages served here may connect)");
+      con->set_status(websocketpp::http::status_code::forbidden);
+      return false;
+    }
     if (static_cast<int>(clients.size()) >= options.max_clients) {
       ++counters.refused;
       return false;

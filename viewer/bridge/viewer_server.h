@@ -24,6 +24,14 @@ enum class ClientAction { kSendUpdate, kSendSnapshot, kSkip };
 [[nodiscard]] ClientAction DecideClientAction(bool needs_snapshot, int64_t unsent_bytes,
                                               int64_t max_unsent_bytes);
 
+/// Whether a WebSocket handshake may open, from its Origin header (pure): a page may connect only
+/// if this server served it. The server listens on loopback only (config/viewer.yaml), so its
+/// pages' origin is http://127.0.0.1:PORT, http://localhost:PORT or http://[::1]:PORT (compared
+/// without regard to case). No Origin (a program, not a browser) is allowed. Any other page in the
+/// user's browser is refused, a file ("null") and a name that DNS rebinds to 127.0.0.1 included,
+/// since the browser would otherwise let it read the vehicle's state.
+[[nodiscard]] bool WebSocketOriginAllowed(const std::string& origin, int port);
+
 /// The content type of a served file, from its extension ("application/octet-stream" if unknown).
 [[nodiscard]] std::string ContentTypeOf(const std::string& path);
 /// The file under `web_root` for an HTTP request target ("/" is index.html; a query is ignored),
@@ -43,6 +51,7 @@ class ViewerServer {
   struct Counters {
     int64_t connections{0};        ///< WebSocket connections accepted
     int64_t refused{0};            ///< connections refused (max_clients)
+    int64_t refused_origin{0};     ///< handshakes refused: a foreign Origin
     int64_t snapshots_sent{0};     ///< full snapshots sent
     int64_t updates_sent{0};       ///< update batches sent (to any page)
     int64_t updates_coalesced{0};  ///< update batches a page behind did not get
