@@ -1,11 +1,9 @@
 #include "mapping/map_replica.h"
 
-#include <zlib.h>
-
 #include <cmath>
-#include <cstring>
 
 #include "common/check.h"
+#include "lcmtypes/message_codecs.h"
 
 namespace kestrel {
 
@@ -55,22 +53,11 @@ bool MapReplica::Apply(const map3d_chunk_t& chunk, std::string* error) {
              std::to_string(chunk.chunk_index) + " out of sequence";
     return false;
   }
-  const size_t cells = static_cast<size_t>(chunk.num_blocks) * 512;
-  std::vector<float> values(cells);
-  if (chunk.encoding == map3d_chunk_t::ENCODING_ZLIB_FLOAT32) {
-    uLongf size = static_cast<uLongf>(cells * sizeof(float));
-    if (uncompress(reinterpret_cast<Bytef*>(values.data()), &size, chunk.data.data(),
-                   static_cast<uLong>(chunk.data.size())) != Z_OK ||
-        size != cells * sizeof(float)) {
-      staging_id_ = -1;
-      *error = "chunk data does not inflate to its blocks";
-      return false;
-    }
-  } else if (chunk.encoding == map3d_chunk_t::ENCODING_FLOAT32 && chunk.data.size() == cells * 4) {
-    std::memcpy(values.data(), chunk.data.data(), cells * sizeof(float));
-  } else {
+  std::vector<float> values;
+  const std::string why = DecodeMapChunkCells(chunk, &values);
+  if (!why.empty()) {
     staging_id_ = -1;
-    *error = "unsupported chunk encoding " + std::to_string(chunk.encoding);
+    *error = "chunk " + std::to_string(chunk.chunk_index) + ": " + why;
     return false;
   }
   for (int b = 0; b < chunk.num_blocks; ++b) {
@@ -97,16 +84,16 @@ bool MapReplica::Apply(const map3d_delta_t& delta, std::string* error) {
     *error = "delta before any snapshot";
     return false;
   }
+  if (const std::string why = CheckMapDelta(delta); !why.empty()) {
+    *error = "delta: " + why;
+    return false;
+  }
   if (!SameLattice(delta.origin_m, delta.resolution_m, error)) return false;
   if (delta.seq <= seq_) return true;  // already reflected by a newer snapshot
   if (delta.prev_seq != seq_) {
     stale_ = true;
     *error = "delta " + std::to_string(delta.prev_seq) + " -> " + std::to_string(delta.seq) +
              " does not follow " + std::to_string(seq_) + ": stale until the next snapshot";
-    return false;
-  }
-  if (delta.num_cells < 0 || delta.cells.size() != static_cast<size_t>(delta.num_cells)) {
-    *error = "delta cell count mismatch";
     return false;
   }
   for (int i = 0; i < delta.num_cells; ++i) {

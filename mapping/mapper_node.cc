@@ -1,7 +1,5 @@
 #include "mapping/mapper_node.h"
 
-#include <zlib.h>
-
 #include <sys/stat.h>
 #include <algorithm>
 #include <cmath>
@@ -12,6 +10,7 @@
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
 #include "kestrel/map_status_t.hpp"
+#include "lcmtypes/message_codecs.h"
 
 namespace kestrel {
 
@@ -158,35 +157,20 @@ void MapperNode::OnDepth(size_t sensor, const std::string& channel, const depth_
   auto bad = [&](const std::string& why) {
     skipped_.Count("malformed", channel + " seq " + std::to_string(msg.seq) + ": " + why);
   };
-  if (msg.width <= 0 || msg.height <= 0 || msg.width > 8192 || msg.height > 8192) {
-    return bad("image size " + std::to_string(msg.width) + "x" + std::to_string(msg.height));
-  }
+  auto counts = std::make_shared<std::vector<uint16_t>>();
+  const std::string why = DecodeDepthPixels(msg, counts.get());
+  if (!why.empty()) return bad(why);
   for (double v : {msg.fx_px, msg.fy_px, msg.depth_scale_m}) {
     if (!(std::isfinite(v) && v > 0))
       return bad("zero, negative or non-finite intrinsics or scale");
   }
   if (!std::isfinite(msg.cx_px) || !std::isfinite(msg.cy_px))
     return bad("non-finite principal point");
-  const size_t bytes = static_cast<size_t>(msg.width) * static_cast<size_t>(msg.height) * 2;
-  auto decoded = std::make_shared<depth_image_t>(msg);
-  if (msg.encoding == depth_image_t::ENCODING_RAW_U16) {
-    if (msg.data.size() != bytes) {
-      return bad("raw data holds " + std::to_string(msg.data.size()) + " bytes, " +
-                 std::to_string(msg.width) + "x" + std::to_string(msg.height) + " needs " +
-                 std::to_string(bytes));
-    }
-  } else if (msg.encoding == depth_image_t::ENCODING_ZLIB_U16) {
-    decoded->data.assign(bytes, 0);
-    uLongf out_size = static_cast<uLongf>(bytes);
-    const int rc = uncompress(decoded->data.data(), &out_size, msg.data.data(),
-                              static_cast<uLong>(msg.data.size()));
-    if (rc != Z_OK || out_size != bytes) return bad("zlib data does not inflate to the image size");
-    decoded->encoding = depth_image_t::ENCODING_RAW_U16;
-    decoded->data_size = static_cast<int32_t>(bytes);
-  } else {
-    return bad("unknown encoding " + std::to_string(msg.encoding));
-  }
-  Enqueue(Pending{msg.utime, msg.seq, sensor, channel, std::move(decoded), nullptr});
+  auto metadata = std::make_shared<depth_image_t>(msg);
+  metadata->data.clear();  // the pixels travel decoded, in counts
+  metadata->data_size = 0;
+  Enqueue(Pending{msg.utime, msg.seq, sensor, channel, std::move(metadata), std::move(counts),
+                  nullptr});
 }
 
 void MapperNode::OnScan(size_t sensor, const std::string& channel, const planar_scan_t& msg) {
@@ -205,7 +189,7 @@ void MapperNode::OnScan(size_t sensor, const std::string& channel, const planar_
     if (r < 0 || std::isinf(r)) return bad("negative or infinite range " + std::to_string(r));
     if (r == 0.0f) r = std::numeric_limits<float>::infinity();  // "no return"
   }
-  Enqueue(Pending{msg.utime, msg.seq, sensor, channel, nullptr, std::move(scan)});
+  Enqueue(Pending{msg.utime, msg.seq, sensor, channel, nullptr, nullptr, std::move(scan)});
 }
 
 void MapperNode::Enqueue(Pending p) {
@@ -264,7 +248,7 @@ void MapperNode::Apply(const Pending& p, const Pose3& X_WB) {
   ScanIntegrator* const integrator = integrator_.get();
   if (p.depth) {
     const depth_image_t& img = *p.depth;
-    const auto* depth = reinterpret_cast<const uint16_t*>(img.data.data());
+    const uint16_t* depth = p.counts->data();
     // Every k-th pixel in both directions; pixel centres stay exact with scaled intrinsics.
     DepthIntrinsics in{img.fx_px / k, img.fy_px / k, img.cx_px / k, img.cy_px / k};
     if (k == 1) {
@@ -395,23 +379,18 @@ void MapperNode::PublishSnapshot() {
     msg.resolution_m = g.resolution_m();
     msg.p_init = p_init;
     msg.block_edge = kBlockEdge;
-    msg.encoding = map3d_chunk_t::ENCODING_ZLIB_FLOAT32;
-    std::vector<uint8_t> raw;
+    std::vector<float> cells;
     const size_t begin = static_cast<size_t>(c) * per_chunk;
     const size_t end = std::min(blocks.size(), begin + per_chunk);
     for (size_t b = begin; b < end; ++b) {
       const CellIndex& o = blocks[b].first;
       msg.block_index.push_back(
           {FloorDiv(o.x, kBlockEdge), FloorDiv(o.y, kBlockEdge), FloorDiv(o.z, kBlockEdge)});
-      const auto* bytes = reinterpret_cast<const uint8_t*>(blocks[b].second.data());
-      raw.insert(raw.end(), bytes, bytes + kBlockCells * sizeof(float));
+      cells.insert(cells.end(), blocks[b].second.begin(), blocks[b].second.end());
     }
     msg.num_blocks = static_cast<int32_t>(msg.block_index.size());
-    uLongf packed = compressBound(static_cast<uLong>(raw.size()));
-    msg.data.resize(packed);
-    compress2(msg.data.data(), &packed, raw.data(), static_cast<uLong>(raw.size()), 1);
-    msg.data.resize(packed);
-    msg.data_size = static_cast<int32_t>(packed);
+    EncodeMapChunkCells(cells, map3d_chunk_t::ENCODING_ZLIB_FLOAT32, 1,
+                        &msg);  // zlib level 1: fast
     lcm_.publish(config_.map_channel, &msg);
   }
   last_delta_map_seq_ = map_seq_;

@@ -91,7 +91,8 @@ class MapperNode {
     int64_t seq;
     size_t sensor;  // index into config_.sensors
     std::string channel;
-    std::shared_ptr<const depth_image_t> depth;
+    std::shared_ptr<const depth_image_t> depth;  // metadata; its pixels decoded in `counts`
+    std::shared_ptr<const std::vector<uint16_t>> counts;
     std::shared_ptr<const planar_scan_t> scan;
   };
   using MapPtr =

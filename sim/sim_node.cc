@@ -8,6 +8,7 @@
 #include "kestrel/planar_scan_t.hpp"
 #include "kestrel/pose_t.hpp"
 #include "kestrel/sim_truth_t.hpp"
+#include "lcmtypes/message_codecs.h"
 
 namespace kestrel {
 
@@ -126,14 +127,7 @@ void SimNode::Publish(const SimFrame& frame) {
     msg.depth_scale_m = config.depth.depth_scale_m;
     msg.range_min_m = config.depth.range_min_m;
     msg.range_max_m = config.depth.range_max_m;
-    msg.encoding = depth_image_t::ENCODING_RAW_U16;
-    const std::vector<uint16_t>& counts = sim.depth_counts();
-    msg.data.resize(counts.size() * 2);
-    for (size_t i = 0; i < counts.size(); ++i) {  // little-endian u16
-      msg.data[2 * i] = static_cast<uint8_t>(counts[i] & 0xff);
-      msg.data[2 * i + 1] = static_cast<uint8_t>(counts[i] >> 8);
-    }
-    msg.data_size = static_cast<int32_t>(msg.data.size());
+    EncodeDepthPixels(sim.depth_counts(), depth_image_t::ENCODING_RAW_U16, 0, &msg);
     lcm_.publish(config.depth_channel, &msg);
   }
   if (frame.scan) {

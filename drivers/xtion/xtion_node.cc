@@ -5,6 +5,7 @@
 #include <thread>
 
 #include "kestrel/heartbeat_t.hpp"
+#include "lcmtypes/message_codecs.h"
 
 namespace kestrel {
 
@@ -23,11 +24,10 @@ depth_image_t MakeDepthImage(const DepthFrame& frame, const PinholeIntrinsics& k
   msg.depth_scale_m = frame.hundred_um ? 1e-4 : 1e-3;
   msg.range_min_m = config.range_min_m;
   msg.range_max_m = config.range_max_m;
-  const DepthEncoding encoding =
-      config.encoding == "zlib" ? DepthEncoding::kZlibU16 : DepthEncoding::kRawU16;
-  msg.encoding = static_cast<int8_t>(encoding);
-  msg.data = EncodeDepth(frame.counts, encoding, config.zlib_level);
-  msg.data_size = static_cast<int32_t>(msg.data.size());
+  EncodeDepthPixels(frame.counts,
+                    config.encoding == "zlib" ? depth_image_t::ENCODING_ZLIB_U16
+                                              : depth_image_t::ENCODING_RAW_U16,
+                    config.zlib_level, &msg);
   return msg;
 }
 

@@ -1,7 +1,5 @@
 #include "drivers/xtion/xtion_pure.h"
 
-#include <zlib.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -133,47 +131,6 @@ int64_t ClockOffsetFilter::offset_us() const {
 int64_t ClockOffsetFilter::ToHostUtime(int64_t device_us) const {
   KESTREL_DEMAND(!samples_.empty());
   return device_us + offset_us();
-}
-
-std::vector<uint8_t> EncodeDepth(const std::vector<uint16_t>& counts, DepthEncoding encoding,
-                                 int zlib_level) {
-  std::vector<uint8_t> raw(counts.size() * 2);
-  for (size_t i = 0; i < counts.size(); ++i) {
-    raw[2 * i] = static_cast<uint8_t>(counts[i] & 0xff);
-    raw[2 * i + 1] = static_cast<uint8_t>(counts[i] >> 8);
-  }
-  if (encoding == DepthEncoding::kRawU16) return raw;
-  KESTREL_THROW_UNLESS(zlib_level >= 0 && zlib_level <= 9, "zlib_level = " << zlib_level);
-  uLongf size = compressBound(static_cast<uLong>(raw.size()));
-  std::vector<uint8_t> out(size);
-  const int rc =
-      compress2(out.data(), &size, raw.data(), static_cast<uLong>(raw.size()), zlib_level);
-  if (rc != Z_OK) throw std::runtime_error("zlib compress2 failed: " + std::to_string(rc));
-  out.resize(size);
-  return out;
-}
-
-std::vector<uint16_t> DecodeDepth(const std::vector<uint8_t>& bytes, DepthEncoding encoding,
-                                  size_t num_pixels) {
-  std::vector<uint8_t> raw;
-  if (encoding == DepthEncoding::kRawU16) {
-    raw = bytes;
-  } else {
-    raw.resize(num_pixels * 2);
-    uLongf size = static_cast<uLongf>(raw.size());
-    const int rc = uncompress(raw.data(), &size, bytes.data(), static_cast<uLong>(bytes.size()));
-    if (rc != Z_OK) throw std::runtime_error("zlib uncompress failed: " + std::to_string(rc));
-    raw.resize(size);
-  }
-  if (raw.size() != num_pixels * 2) {
-    throw std::runtime_error("depth payload holds " + std::to_string(raw.size()) +
-                             " bytes, expected " + std::to_string(num_pixels * 2));
-  }
-  std::vector<uint16_t> counts(num_pixels);
-  for (size_t i = 0; i < num_pixels; ++i) {
-    counts[i] = static_cast<uint16_t>(raw[2 * i] | (raw[2 * i + 1] << 8));
-  }
-  return counts;
 }
 
 }  // namespace kestrel

@@ -87,16 +87,4 @@ class ClockOffsetFilter {
   int64_t resets_{0};
 };
 
-/// depth_image_t payload encodings (the values of depth_image_t::ENCODING_*).
-enum class DepthEncoding : int8_t { kRawU16 = 0, kZlibU16 = 1 };
-
-/// Row-major little-endian u16 bytes of `counts`, compressed with zlib compress2 at
-/// `zlib_level` (0..9) for kZlibU16. @throws std::runtime_error if zlib fails.
-[[nodiscard]] std::vector<uint8_t> EncodeDepth(const std::vector<uint16_t>& counts,
-                                               DepthEncoding encoding, int zlib_level);
-/// The inverse of EncodeDepth for an image of `num_pixels` pixels.
-/// @throws std::runtime_error if the bytes are corrupt or do not hold exactly num_pixels counts.
-[[nodiscard]] std::vector<uint16_t> DecodeDepth(const std::vector<uint8_t>& bytes,
-                                                DepthEncoding encoding, size_t num_pixels);
-
 }  // namespace kestrel

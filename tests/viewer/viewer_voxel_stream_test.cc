@@ -13,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include "lcmtypes/message_codecs.h"
 #include "mapping/map_replica.h"
 #include "viewer/bridge/viewer_scene.h"
 #include "viewer/bridge/voxel_stream.h"
@@ -144,17 +145,7 @@ class FakeMapper {
         }
       }
       m.num_blocks = static_cast<int32_t>(m.block_index.size());
-      const auto* bytes = reinterpret_cast<const uint8_t*>(raw.data());
-      const size_t size = raw.size() * sizeof(float);
-      if (encoding == map3d_chunk_t::ENCODING_FLOAT32) {
-        m.data.assign(bytes, bytes + size);
-      } else {
-        uLongf packed = compressBound(static_cast<uLong>(size));
-        m.data.resize(packed);
-        compress2(m.data.data(), &packed, bytes, static_cast<uLong>(size), 1);
-        m.data.resize(packed);
-      }
-      m.data_size = static_cast<int32_t>(m.data.size());
+      EncodeMapChunkCells(raw, encoding, 1, &m);
       chunks.push_back(std::move(m));
     }
     published_ = p_;
@@ -397,7 +388,7 @@ TEST(VoxelStream, MalformedChunksAreRefused) {
   chunk.data_size = 4;
   std::string error;
   EXPECT_FALSE(stream.Apply(chunk, &error));
-  EXPECT_NE(error.find("does not decode"), std::string::npos) << error;
+  EXPECT_NE(error.find("does not inflate"), std::string::npos) << error;
   chunk.encoding = 42;
   EXPECT_FALSE(stream.Apply(chunk, &error));
   chunk.encoding = map3d_chunk_t::ENCODING_FLOAT32;

@@ -1,13 +1,11 @@
 #include "viewer/bridge/voxel_stream.h"
 
-#include <zlib.h>
-
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 
 #include "common/check.h"
+#include "lcmtypes/message_codecs.h"
 
 namespace kestrel {
 
@@ -86,29 +84,10 @@ bool VoxelStream::Apply(const map3d_chunk_t& chunk, std::string* error) {
     return false;
   }
   const size_t block_cells = static_cast<size_t>(edge) * edge * edge;
-  const size_t cells = static_cast<size_t>(chunk.num_blocks) * block_cells;
-  std::vector<float> values(cells);
-  bool decoded = false;
-  if (chunk.encoding == map3d_chunk_t::ENCODING_FLOAT32) {
-    decoded = chunk.data.size() == cells * sizeof(float);
-    if (decoded && cells > 0) std::memcpy(values.data(), chunk.data.data(), cells * sizeof(float));
-  } else if (chunk.encoding == map3d_chunk_t::ENCODING_ZLIB_FLOAT32) {
-    uLongf size = static_cast<uLongf>(cells * sizeof(float));
-    decoded = uncompress(reinterpret_cast<Bytef*>(values.data()), &size, chunk.data.data(),
-                         static_cast<uLong>(chunk.data.size())) == Z_OK &&
-              size == cells * sizeof(float);
-  } else if (chunk.encoding == map3d_chunk_t::ENCODING_U16_ZLIB) {
-    std::vector<uint16_t> packed(cells);
-    uLongf size = static_cast<uLongf>(cells * sizeof(uint16_t));
-    decoded = uncompress(reinterpret_cast<Bytef*>(packed.data()), &size, chunk.data.data(),
-                         static_cast<uLong>(chunk.data.size())) == Z_OK &&
-              size == cells * sizeof(uint16_t);
-    for (size_t i = 0; decoded && i < cells; ++i) values[i] = static_cast<float>(packed[i]) / 65535;
-  }
-  if (!decoded) {
+  std::vector<float> values;
+  if (const std::string why = DecodeMapChunkCells(chunk, &values); !why.empty()) {
     staging_id_ = -1;
-    *error = "chunk data (encoding " + std::to_string(chunk.encoding) +
-             ") does not decode to its " + std::to_string(chunk.num_blocks) + " blocks";
+    *error = "chunk " + std::to_string(chunk.chunk_index) + ": " + why;
     return false;
   }
   // dims bound the map when all are positive (a dense map); a growing map sends zeros.
@@ -169,6 +148,10 @@ bool VoxelStream::Apply(const map3d_delta_t& delta, std::string* error) {
     *error = "delta before any snapshot";
     return false;
   }
+  if (const std::string why = CheckMapDelta(delta); !why.empty()) {
+    *error = "delta: " + why;
+    return false;
+  }
   if (!SameLattice(delta.origin_m, delta.resolution_m)) {
     *error = "delta lattice differs from the snapshot's";
     return false;
@@ -178,11 +161,6 @@ bool VoxelStream::Apply(const map3d_delta_t& delta, std::string* error) {
     stale_ = true;
     *error = "delta " + std::to_string(delta.prev_seq) + " -> " + std::to_string(delta.seq) +
              " does not follow " + std::to_string(seq_) + ": stale until the next snapshot";
-    return false;
-  }
-  if (delta.num_cells < 0 || delta.cells.size() != static_cast<size_t>(delta.num_cells) ||
-      delta.probabilities.size() != static_cast<size_t>(delta.num_cells)) {
-    *error = "delta cell count mismatch";
     return false;
   }
   for (size_t i = 0; i < delta.cells.size(); ++i) {

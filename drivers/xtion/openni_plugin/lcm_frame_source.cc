@@ -1,7 +1,5 @@
 #include "drivers/xtion/openni_plugin/lcm_frame_source.h"
 
-#include <zlib.h>
-
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -10,6 +8,7 @@
 
 #include "common/lcm_decode.h"
 #include "kestrel/depth_image_t.hpp"
+#include "lcmtypes/message_codecs.h"
 
 namespace kestrel::oni_plugin {
 
@@ -88,29 +87,10 @@ void LcmFrameSource::Run(const std::string& url, const std::string& channel) {
         frame.width = m.width;
         frame.height = m.height;
         frame.depth_scale_m = m.depth_scale_m;
-        std::vector<uint8_t> raw;
-        if (m.encoding == depth_image_t::ENCODING_RAW_U16) {
-          raw = m.data;
-        } else if (m.encoding == depth_image_t::ENCODING_ZLIB_U16) {
-          raw.resize(static_cast<size_t>(pixels) * 2);
-          uLongf size = static_cast<uLongf>(raw.size());
-          if (uncompress(raw.data(), &size, m.data.data(), static_cast<uLong>(m.data.size())) !=
-              Z_OK) {
-            drop("zlib payload does not inflate");
-            return;
-          }
-          raw.resize(size);
-        } else {
-          drop("unknown encoding " + std::to_string(m.encoding));
+        const std::string why = DecodeDepthPixels(m, &frame.counts);
+        if (!why.empty()) {
+          drop(why);
           return;
-        }
-        if (raw.size() != static_cast<size_t>(pixels) * 2) {
-          drop("payload size does not match width x height");
-          return;
-        }
-        frame.counts.resize(static_cast<size_t>(pixels));
-        for (size_t i = 0; i < frame.counts.size(); ++i) {
-          frame.counts[i] = static_cast<uint16_t>(raw[2 * i] | (raw[2 * i + 1] << 8));
         }
         {
           std::lock_guard<std::mutex> lock(mutex_);

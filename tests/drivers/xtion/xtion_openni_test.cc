@@ -18,10 +18,18 @@
 #include "common/lcm_decode.h"
 #include "drivers/xtion/xtion_node.h"
 #include "kestrel/heartbeat_t.hpp"
+#include "lcmtypes/message_codecs.h"
 #include "tests/drivers/xtion/wall_oracle.h"
 
 namespace kestrel {
 namespace {
+
+// The pixels of a received image (the shared codec), failing the test if they do not decode.
+std::vector<uint16_t> Pixels(const depth_image_t& m) {
+  std::vector<uint16_t> counts;
+  EXPECT_EQ(DecodeDepthPixels(m, &counts), "");
+  return counts;
+}
 
 constexpr double kDeg = M_PI / 180.0;
 // Stated tolerance: a published host stamp is within 50 ms of the moment the test handled the
@@ -110,8 +118,7 @@ class XtionOpenNi : public ::testing::Test {
           frames.push_back(std::move(e));
         }
       }
-      const auto counts = DecodeDepth(m.data, static_cast<DepthEncoding>(m.encoding),
-                                      static_cast<size_t>(m.width) * m.height);
+      const auto counts = Pixels(m);
       bool matched = false;
       for (const auto& e : frames) {
         if (test::CountMismatches(counts, e.counts, e.ambiguous) == 0) {
@@ -416,7 +423,9 @@ TEST_F(XtionOpenNi, ServesFramesFromFiles) {
       frames[f][i] = static_cast<uint16_t>((i * 7 + f * 1000) % 60000);
     }
     std::ofstream out(dir + "/frame" + std::to_string(f) + ".raw", std::ios::binary);
-    const auto bytes = EncodeDepth(frames[f], DepthEncoding::kRawU16, 0);
+    depth_image_t raw;
+    EncodeDepthPixels(frames[f], depth_image_t::ENCODING_RAW_U16, 0, &raw);
+    const std::vector<uint8_t>& bytes = raw.data;
     out.write(reinterpret_cast<const char*>(bytes.data()),
               static_cast<std::streamsize>(bytes.size()));
   }
@@ -427,7 +436,7 @@ TEST_F(XtionOpenNi, ServesFramesFromFiles) {
   // shows as an index gap, counted by the node, so the order holds when nothing was dropped.
   for (size_t i = 0; i < capture_.images.size(); ++i) {
     const auto& m = capture_.images[i];
-    const auto counts = DecodeDepth(m.data, DepthEncoding::kZlibU16, 320 * 240);
+    const auto counts = Pixels(m);
     if (node.stats().frames_dropped == 0) {
       EXPECT_EQ(counts, frames[i % 3]) << i;
     } else {
@@ -484,8 +493,7 @@ TEST_F(XtionOpenNi, ServesFramesFromLcm) {
     m.height = wrong_size ? 480 : 240;
     m.depth_scale_m = 1e-4;
     m.encoding = depth_image_t::ENCODING_ZLIB_U16;
-    m.data = EncodeDepth(sent_counts(f, m.width, m.height), DepthEncoding::kZlibU16, 1);
-    m.data_size = static_cast<int32_t>(m.data.size());
+    EncodeDepthPixels(sent_counts(f, m.width, m.height), depth_image_t::ENCODING_ZLIB_U16, 1, &m);
     sender.publish(channel, &m);
     const int64_t until = host_t0_us + int64_t{33333} * (f + 1);
     while (clock_.NowUtime() < until) {
@@ -503,7 +511,7 @@ TEST_F(XtionOpenNi, ServesFramesFromLcm) {
     const auto& m = images[k];
     ASSERT_EQ(m.width, 320);
     ASSERT_DOUBLE_EQ(m.depth_scale_m, 1e-3);
-    const auto counts = DecodeDepth(m.data, DepthEncoding::kRawU16, 320 * 240);
+    const auto counts = Pixels(m);
     int which = -1;
     for (int f = previous + 1; f < kFrames && which < 0; ++f) {
       if (f != 20 && counts == expected_mm(sent_counts(f, 320, 240))) which = f;

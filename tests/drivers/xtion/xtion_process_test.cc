@@ -16,6 +16,7 @@
 #include "drivers/xtion/xtion_pure.h"
 #include "kestrel/depth_image_t.hpp"
 #include "kestrel/heartbeat_t.hpp"
+#include "lcmtypes/message_codecs.h"
 #include "tests/drivers/xtion/wall_oracle.h"
 
 namespace kestrel {
@@ -87,7 +88,8 @@ TEST(XtionProcess, StreamsOverUdpAndStopsCleanly) {
     ASSERT_EQ(m.encoding, depth_image_t::ENCODING_ZLIB_U16);
   }
   // The last image is the plugin's default wall (2 m, 17 deg, 8 deg) at some frame of its cycle.
-  const auto counts = DecodeDepth(images.back().data, DepthEncoding::kZlibU16, 320 * 240);
+  std::vector<uint16_t> counts;
+  ASSERT_EQ(DecodeDepthPixels(images.back(), &counts), "");
   bool matched = false;
   for (int k = 0; k < 50 && !matched; ++k) {
     test::WallOracle wall = wall0;

@@ -1,0 +1,50 @@
+#pragma once
+/// @file
+/// The payload codecs of the message contract, one per message, used by every producer and
+/// consumer (docs/design.md §3): depth_image_t's pixels, map3d_chunk_t's blocks and the checks of
+/// map3d_delta_t. Pure functions: bytes in, values out; a decoder never throws on bad input but
+/// says what is wrong, so the caller can count and log the message it drops.
+///
+/// Byte order: u16 and float32 payloads are little-endian whatever the host (x86-64 and the
+/// Jetson's arm64 both are; the codec converts explicitly all the same).
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "kestrel/depth_image_t.hpp"
+#include "kestrel/map3d_chunk_t.hpp"
+#include "kestrel/map3d_delta_t.hpp"
+
+namespace kestrel {
+
+/// Sets msg->encoding, data and data_size from `counts` (width x height, row-major):
+/// ENCODING_RAW_U16, or ENCODING_ZLIB_U16 at zlib_level (0-9). @throws std::invalid_argument on
+/// an unknown encoding, std::runtime_error if zlib fails.
+void EncodeDepthPixels(const std::vector<uint16_t>& counts, int8_t encoding, int zlib_level,
+                       depth_image_t* msg);
+
+/// The pixels of a depth image (width x height counts, row-major). Checks the size (positive,
+/// at most 8192 a side), the encoding and that the payload holds exactly width x height pixels.
+/// Returns "" and fills *counts, or says what is wrong (and leaves *counts empty).
+[[nodiscard]] std::string DecodeDepthPixels(const depth_image_t& msg,
+                                            std::vector<uint16_t>* counts);
+
+/// Sets chunk->encoding, data and data_size from `probabilities` (num_blocks x block_edge^3 cells,
+/// block by block, x fastest): ENCODING_FLOAT32, ENCODING_ZLIB_FLOAT32, or ENCODING_U16_ZLIB
+/// (round(P x 65535), lossy), compressed at zlib_level (0-9). @throws std::invalid_argument on an
+/// unknown encoding, std::runtime_error if zlib fails.
+void EncodeMapChunkCells(const std::vector<float>& probabilities, int8_t encoding, int zlib_level,
+                         map3d_chunk_t* chunk);
+
+/// The cells of a snapshot chunk (num_blocks x block_edge^3 probabilities). Checks the block
+/// edge (1-64), the counts, the encoding and the payload's size. Returns "" and fills
+/// *probabilities, or says what is wrong.
+[[nodiscard]] std::string DecodeMapChunkCells(const map3d_chunk_t& chunk,
+                                              std::vector<float>* probabilities);
+
+/// What is wrong with a delta ("" if nothing): counts that do not match the arrays, a resolution
+/// that is not positive and finite, probabilities outside [0, 1] or NaN.
+[[nodiscard]] std::string CheckMapDelta(const map3d_delta_t& delta);
+
+}  // namespace kestrel
