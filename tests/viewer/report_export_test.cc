@@ -194,6 +194,18 @@ TEST(ReportExport, KnownFractionMatchesTheMapScorer) {
   const double last = ts.Number(ts.rows.size() - 1, "known_fraction");
   const double last_t = ts.Number(ts.rows.size() - 1, "time_s");
   EXPECT_GT(q.known_fraction, 0.2);
+  // kestrel-map-score --unknown-bin-m: the observable cells that are not known, counted by column
+  // and by layer, are exactly those the score did not count as known.
+  const MapScorer::UnknownCells u =
+      scorer.Unknown([&](const CellIndex& c) { return loaded.map->ProbabilityAt(c); }, p_init, 0.5);
+  size_t by_bin = 0, by_layer = 0;
+  for (const size_t n : u.per_bin) by_bin += n;
+  for (const size_t n : u.per_layer) by_layer += n;
+  EXPECT_EQ(u.never_updated + u.updated, q.observable_cells - q.known_cells);
+  EXPECT_EQ(by_bin, q.observable_cells - q.known_cells);
+  EXPECT_EQ(by_layer, q.observable_cells - q.known_cells);
+  EXPECT_GT(u.never_updated, 0u);
+  EXPECT_GT(u.updated, 0u);
   // The last row is the map at the last published delta: no less known than the mission's last
   // 5 s sample before it, and no more than the final map (which holds the later updates; how
   // many depends on the flight, 0.1-0.8 points here).
