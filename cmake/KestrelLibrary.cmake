@@ -14,6 +14,9 @@
 #   go to <includedir>/kestrel/<folder>/, once per folder. COMPONENT (default
 #   ${KESTREL_DEV_COMPONENT}) is the CPack component of the library and its headers.
 #
+# kestrel_areas_built(<out_var> <area>...)
+#   Sets <out_var> ON if every named area is in KESTREL_AREAS (the areas of this build), else OFF.
+#
 # kestrel_add_process(NAME <kestrel-x> SOURCES <file>... [DEPS <dep>...] [COMPONENT <component>]
 #                     [NO_INSTALL])
 #   Adds the executable <kestrel-x> with Kestrel's warnings, linked privately to DEPS, installed
@@ -111,4 +114,14 @@ function(kestrel_add_process)
   if(NOT P_NO_INSTALL)
     install(TARGETS ${P_NAME} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT ${P_COMPONENT})
   endif()
+endfunction()
+
+function(kestrel_areas_built out_var)
+  set(built ON)
+  foreach(area ${ARGN})
+    if(NOT area IN_LIST KESTREL_AREAS)
+      set(built OFF)
+    endif()
+  endforeach()
+  set(${out_var} ${built} PARENT_SCOPE)
 endfunction()
