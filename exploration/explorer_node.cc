@@ -190,6 +190,7 @@ PlannerInput ExplorerNode::Input() const {
   in.time_s = now_s();
   in.startup_center_m = home_xy_;
   in.reached_goals = reached_goals_;
+  in.reached_views = reached_views_;
   in.flown_path = flown_path_;
   // The goal being flown to (its trajectory has not ended): hysteresis for period replans.
   if (state_ == exploration_status_t::STATE_EXPLORING && trajectory_.has_value() &&
@@ -470,6 +471,7 @@ void ExplorerNode::Step() {
         const bool near = (pose_.p.head<2>() - goal.position_m).norm() < 0.3;
         if ((ended || near) && (reached_goals_.empty() || reached_goals_.back() != g)) {
           reached_goals_.push_back(g);
+          reached_views_.emplace_back(pose_.p.x(), pose_.p.y(), YawOf(pose_.q));
         }
       }
       if (ended) {

@@ -201,6 +201,7 @@ class ExplorerNode {
   std::optional<PlanResult> last_plan_;
   // Goals (x, y, yaw) whose trajectory ran to its end (PlannerInput::reached_goals).
   std::vector<Eigen::Vector3d> reached_goals_;
+  std::vector<Eigen::Vector3d> reached_views_;  // the vehicle's pose when it reached each goal
   // (time s, known cells) at each plan while exploring: the progress-stall test.
   std::vector<std::pair<double, int64_t>> known_history_;
   // The flown corridor (PlannerInput::flown_path), a point every flown_path_spacing_m.

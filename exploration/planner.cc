@@ -122,6 +122,18 @@ void PlannerConfig::Validate() const {
       frontier.min_distance_m >= 0.0 && std::isfinite(frontier.min_distance_m),
       "frontier.min_distance_m = " << frontier.min_distance_m << ", accepted [0, inf)");
   KESTREL_THROW_UNLESS(
+      frontier.view_min_range_m >= 0.0 && frontier.view_max_range_m > frontier.view_min_range_m &&
+          std::isfinite(frontier.view_max_range_m),
+      "frontier.view_min_range_m = " << frontier.view_min_range_m
+                                     << ", view_max_range_m = " << frontier.view_max_range_m
+                                     << ", accepted 0 <= min < max < inf");
+  KESTREL_THROW_UNLESS(
+      frontier.horizontal_fov_deg > 0.0 && frontier.horizontal_fov_deg <= 360.0,
+      "frontier.horizontal_fov_deg = " << frontier.horizontal_fov_deg << ", accepted (0, 360]");
+  KESTREL_THROW_UNLESS(
+      frontier.min_frontier_cells >= 1,
+      "frontier.min_frontier_cells = " << frontier.min_frontier_cells << ", accepted >= 1");
+  KESTREL_THROW_UNLESS(
       startup_vertical_fov_rad > 0.0 && startup_vertical_fov_rad < M_PI,
       "startup_vertical_fov_rad = " << startup_vertical_fov_rad << ", accepted (0, pi)");
 }

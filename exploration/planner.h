@@ -43,6 +43,11 @@ struct FrontierConfig {
   /// true: frontiers on the fine traversability of the volumetric mode (the fair baseline, same
   /// search and trajectories); false: on the paper's collision map C.
   bool fine_traversability{true};
+  // Fine frontiers only (exploration/frontiers.h): what a goal must see.
+  double view_min_range_m{0.7};     ///< frontier cells nearer than this are not seen, m
+  double view_max_range_m{4.0};     ///< frontier cells farther than this are not seen, m
+  double horizontal_fov_deg{58.0};  ///< the camera's horizontal field of view, deg
+  int min_frontier_cells{1};        ///< a goal sees at least this many frontier cells (>= 1)
 };
 
 /// Parameters of the volumetric mode (docs/exploration.md) beyond those it shares: the height,
@@ -60,6 +65,11 @@ struct VolumetricConfig {
   /// The paper's end rule, working: exploration ends when the best UNWEIGHTED 3D gain of every
   /// reachable candidate pose is below this, nats (> 0).
   double end_gain_nats{4.0};
+  /// Local first (docs/exploration.md, "Choosing the next pose"), m (0 = off): the bump's d_max
+  /// (eq. 17) is at most this, so that a large building does not flatten the bump (d_max grows
+  /// with the farthest reachable cell); only when no pose within it keeps end_gain_nats of gain
+  /// is the choice made again over the whole reachable space with the full d_max.
+  double local_horizon_m{0.0};
   VolumetricGainConfig gain;  ///< sensors' 3D rays (gain.sensors' vertical keys), azimuth bins
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
@@ -98,6 +108,10 @@ struct PlannerInput {
   /// candidates.skip_reached_goals, a candidate in the same collision cell with the same heading
   /// (within half a heading step) is not scored.
   std::vector<Eigen::Vector3d> reached_goals;
+  /// The vehicle's own pose (x m, y m, yaw rad; W) at the moment it reached each goal: in
+  /// non-stop flight it can pass a goal before it has turned to the goal's heading, so what it
+  /// saw there is judged from this (the fine frontiers' covered cells).
+  std::vector<Eigen::Vector3d> reached_views;
   /// The goal (x m, y m, yaw rad; W) being flown to, if any: kept unless another candidate's
   /// objective exceeds its own by candidates.switch_margin.
   std::optional<Eigen::Vector3d> current_goal;
@@ -271,12 +285,13 @@ class VolumetricPlanner final : public ExplorationPlanner {
 };
 
 /// The frontier baseline on the volumetric mode's fine traversability, search and trajectories
-/// (frontier.fine_traversability): the nearest (d_cell) reachable traversable cell whose
-/// clearance is limited by unknown space (a cell blocked by unknown band cells, not by known
-/// occupied ones, within the required clearance + 2 cells), not within candidate_spacing_m / 2 of
-/// a reached goal (candidates.skip_reached_goals), facing the mean direction of the unknown cells
-/// around it; the current goal is kept while it is still a frontier; done when no frontier is
-/// reachable. Not thread-safe.
+/// (frontier.fine_traversability; docs/exploration.md, "The frontier baseline"): the nearest
+/// (d_cell) reachable traversable cell from which, at some heading, the camera sees at least
+/// frontier.min_frontier_cells frontier cells (exploration/frontiers.h: within the view's
+/// ranges, inside its field of view, in sight over known free cells), facing the heading that
+/// sees the most. Frontier cells that a reached goal saw (candidates.skip_reached_goals) are no
+/// longer frontiers. The current goal is kept while it still sees enough; done ("no reachable
+/// frontier") when no reachable cell does. Not thread-safe.
 class FineFrontierPlanner final : public ExplorationPlanner {
  public:
   /// @throws std::invalid_argument if config is invalid.

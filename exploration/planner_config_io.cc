@@ -129,6 +129,10 @@ PlannerConfig LoadPlannerConfig(const ConfigNode& node) {
     const ConfigNode f = node.Child("frontier");
     f.Read("min_distance_m", &c.frontier.min_distance_m, Range::NonNegative());
     f.Read("fine_traversability", &c.frontier.fine_traversability);
+    f.Read("view_min_range_m", &c.frontier.view_min_range_m, Range::NonNegative());
+    f.Read("view_max_range_m", &c.frontier.view_max_range_m, Range::Positive());
+    f.Read("horizontal_fov_deg", &c.frontier.horizontal_fov_deg, Range::Positive());
+    f.Read("min_frontier_cells", &c.frontier.min_frontier_cells);
   }
   if (node.Has("volumetric")) {
     const ConfigNode v = node.Child("volumetric");
@@ -138,6 +142,7 @@ PlannerConfig LoadPlannerConfig(const ConfigNode& node) {
     v.Read("margin_m", &q.margin_m, Range::NonNegative());
     v.Read("candidate_spacing_m", &q.candidate_spacing_m, Range::Positive());
     v.Read("end_gain_nats", &q.end_gain_nats, Range::Positive());
+    v.Read("local_horizon_m", &q.local_horizon_m, Range::NonNegative());
     v.Read("azimuth_bins", &q.gain.azimuth_bins, Range::Closed(4, 36000));
   }
   node.CheckNoUnknownKeys();

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "common/check.h"
+#include "exploration/frontiers.h"
 #include "exploration/planner.h"
 
 namespace kestrel {
@@ -165,6 +166,9 @@ void VolumetricConfig::Validate() const {
       "volumetric.candidate_spacing_m = " << candidate_spacing_m << ", accepted (0, inf)");
   KESTREL_THROW_UNLESS(std::isfinite(end_gain_nats) && end_gain_nats > 0.0,
                        "volumetric.end_gain_nats = " << end_gain_nats << ", accepted (0, inf)");
+  KESTREL_THROW_UNLESS(
+      std::isfinite(local_horizon_m) && local_horizon_m >= 0.0,
+      "volumetric.local_horizon_m = " << local_horizon_m << ", accepted [0, inf) (0: off)");
   gain.Validate();
 }
 
@@ -309,28 +313,43 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
     entry.bounds = std::move(g.bound_nats);
     entry.gains = std::move(g.gain_nats);
   };
-  // Exact argmax of gain x bump, in decreasing bound x bump.
+  // Exact argmax of gain x bump, in decreasing bound x bump. Local first: with d_max capped at
+  // the horizon, then, if no pose within it keeps end_gain_nats, over everything with the full
+  // d_max.
+  const double end_gain = config_.volumetric.end_gain_nats;
+  const double horizon = config_.volumetric.local_horizon_m;
   std::vector<size_t> order(positions.size());
-  std::iota(order.begin(), order.end(), size_t{0});
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    return positions[a].max_bound * positions[a].bump > positions[b].max_bound * positions[b].bump;
-  });
-  double best_objective = -1.0;
   double best_gain = 0.0;
-  for (size_t i : order) {
-    Position& p = positions[i];
-    if (p.max_bound * p.bump <= best_objective) break;
-    evaluate(&p);
-    for (double g : p.gains) {
-      best_objective = std::max(best_objective, g * p.bump);
-      best_gain = std::max(best_gain, g);
+  auto choose = [&](double bump_d_max) {
+    for (Position& p : positions) p.bump = Bump(p.distance_m, bump_d_max);
+    std::iota(order.begin(), order.end(), size_t{0});
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+      return positions[a].max_bound * positions[a].bump >
+             positions[b].max_bound * positions[b].bump;
+    });
+    double best_objective = -1.0;
+    double best_weighted_gain = 0.0;  // best gain among poses with a positive bump
+    for (size_t i : order) {
+      Position& p = positions[i];
+      if (p.max_bound * p.bump <= best_objective) break;
+      evaluate(&p);
+      for (double g : p.gains) {
+        best_objective = std::max(best_objective, g * p.bump);
+        best_gain = std::max(best_gain, g);
+        if (p.bump > 0.0) best_weighted_gain = std::max(best_weighted_gain, g);
+      }
     }
+    return best_weighted_gain;
+  };
+  if (horizon > 0.0 && horizon < d_max) {
+    if (choose(horizon) < end_gain) choose(d_max);
+  } else {
+    choose(d_max);
   }
   for (const Position& p : positions) {  // reused exact gains count too
     for (double g : p.gains) best_gain = std::max(best_gain, g);
   }
   // The end rule: does ANY reachable candidate keep end_gain_nats of gain?
-  const double end_gain = config_.volumetric.end_gain_nats;
   if (best_gain < end_gain) {
     std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
       return positions[a].max_bound > positions[b].max_bound;
@@ -441,62 +460,67 @@ PlanResult FineFrontierPlanner::Plan(const PlannerInput& input) {
   const Traversability& tr = *result.traversability;
   const GridMap2D& grid = tr.band;
   const double alpha = grid.resolution_m;
-  // Distance to the nearest unknown band cell: a traversable cell within the required clearance
-  // + 2 cells of one is a frontier (its clearance is limited by unknown space).
-  const std::vector<double> d2 = SquaredDistanceTransform(grid.width, grid.height, tr.unknown);
-  const double reach = FineTraversabilityConfig(config_).required_clearance_m() + 2.0 * alpha;
-  const double reach_cells2 = (reach / alpha + 0.5) * (reach / alpha + 0.5);
-  const double skip = 0.5 * config_.volumetric.candidate_spacing_m;
-  int best = -1;
-  int keep = -1;
+  const double free = FineTraversabilityConfig(config_).free_threshold;
+  const FrontierConfig& fc = config_.frontier;
+  const FrontierView view{fc.view_min_range_m, fc.view_max_range_m,
+                          fc.horizontal_fov_deg * M_PI / 180.0};
+  std::vector<bool> frontier = FrontierCells(tr, free);
+  const long found = std::count(frontier.begin(), frontier.end(), true);
+  const int cleared = config_.candidates.skip_reached_goals
+                          ? ClearCoveredFrontiers(grid, input.reached_views, view, free, &frontier)
+                          : 0;
+  // Cells within the view's range of some frontier cell, nearest first (the current goal's cell
+  // first while it still sees enough); the first that sees enough at some heading is the goal.
+  const std::vector<double> d2 = SquaredDistanceTransform(grid.width, grid.height, frontier);
+  const double reach_cells = view.max_range_m / alpha + 0.5;
+  std::vector<int> order;
   for (int i = 0; i < grid.size(); ++i) {
     if (!tr.traversable[static_cast<size_t>(i)] || !result.field.Reachable(i)) continue;
     if (i == result.field.start) continue;
-    const double d = result.field.distance_m[static_cast<size_t>(i)];
-    if (d < config_.frontier.min_distance_m) continue;
-    if (d2[static_cast<size_t>(i)] > reach_cells2) continue;
+    if (result.field.distance_m[static_cast<size_t>(i)] < fc.min_distance_m) continue;
+    if (d2[static_cast<size_t>(i)] > reach_cells * reach_cells) continue;
+    order.push_back(i);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return result.field.distance_m[static_cast<size_t>(a)] <
+           result.field.distance_m[static_cast<size_t>(b)];
+  });
+  if (input.current_goal) {
+    const std::optional<Cell2> c = grid.CellOf(input.current_goal->head<2>());
+    const auto it = c ? std::find(order.begin(), order.end(), grid.IndexOf(*c)) : order.end();
+    if (it != order.end()) std::rotate(order.begin(), it, it + 1);
+  }
+  constexpr int kHeadingBins = 36;
+  int best = -1;
+  for (const int i : order) {
+    int seen = 0;
     const Eigen::Vector2d xy = grid.CenterOf(grid.CellAt(i));
-    bool reached = false;
-    if (config_.candidates.skip_reached_goals) {
-      for (const Eigen::Vector3d& g : input.reached_goals) {
-        reached = reached || (g.head<2>() - xy).norm() < skip;
-      }
-    }
-    if (reached) continue;
+    const double yaw = BestFrontierHeading(grid, frontier, xy, view, free, kHeadingBins, &seen);
     Candidate c;
     c.cell = i;
     c.position_m = xy;
-    c.distance_m = d;
+    c.yaw_rad = yaw;
+    c.distance_m = result.field.distance_m[static_cast<size_t>(i)];
     c.bump = 1.0;
     result.candidates.push_back(c);
-    const int index = static_cast<int>(result.candidates.size()) - 1;
-    if (best < 0 || d < result.candidates[static_cast<size_t>(best)].distance_m) best = index;
-    if (input.current_goal && (input.current_goal->head<2>() - xy).norm() < skip) keep = index;
+    if (seen >= fc.min_frontier_cells) {
+      best = static_cast<int>(result.candidates.size()) - 1;
+      break;
+    }
   }
   result.timings.gain_s = SecondsSince(t1);
   if (best < 0) {
     result.status = PlanStatus::kExplorationDone;
     result.end_rule = "no reachable frontier";
-    result.reason = "no reachable frontier";
+    result.reason = "no reachable frontier (" + std::to_string(found) + " frontier cells, " +
+                    std::to_string(cleared) + " of them seen from reached goals; " +
+                    std::to_string(order.size()) + " reachable cells within " +
+                    std::to_string(view.max_range_m) + " m of the rest, none sees " +
+                    std::to_string(fc.min_frontier_cells) + ")";
     result.timings.total_s = SecondsSince(t0);
     return result;
   }
-  if (keep >= 0) best = keep;
   Candidate& goal = result.candidates[static_cast<size_t>(best)];
-  // Face the unknown cells around the goal (their mean direction within reach + 1 m).
-  const Cell2 gc = grid.CellAt(goal.cell);
-  const int r = static_cast<int>(std::ceil((reach + 1.0) / alpha));
-  Eigen::Vector2d towards = Eigen::Vector2d::Zero();
-  for (int y = std::max(0, gc.y - r); y <= std::min(grid.height - 1, gc.y + r); ++y) {
-    for (int x = std::max(0, gc.x - r); x <= std::min(grid.width - 1, gc.x + r); ++x) {
-      if (!tr.unknown[static_cast<size_t>(grid.IndexOf(x, y))]) continue;
-      const Eigen::Vector2d v(x - gc.x, y - gc.y);
-      if (v.squaredNorm() > 0.0 && v.squaredNorm() <= static_cast<double>(r) * r) {
-        towards += v.normalized();
-      }
-    }
-  }
-  goal.yaw_rad = towards.squaredNorm() > 0.0 ? std::atan2(towards.y(), towards.x()) : input.yaw_rad;
   const PoseGains g = gains_.Evaluate(
       input.map,
       Eigen::Vector3d(goal.position_m.x(), goal.position_m.y(), GainHeight(config_, input.map)), 1,

@@ -5,15 +5,20 @@
 //        gain_probe --plan MAP_FILE X Y Z [REPEAT [BINS XTION_ROWS SPACING_M]]
 //        (one volumetric replan, timed by stage)
 //        gain_probe --traversability MAP_FILE X Y Z [whole [BAND_M]]   (fine traversability)
+//        gain_probe --frontier MAP_FILE X Y Z   (one frontier-baseline plan)
 //        gain_probe --cells MAP_FILE X Y Z0 Z1 [HALF_CELLS]   (P of the cells around (X, Y) per
 //        layer)
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "common/config.h"
+#include "exploration/explorer_node.h"
+#include "exploration/frontiers.h"
 #include "exploration/information_gain.h"
 #include "exploration/planner.h"
 #include "exploration/projected_maps.h"
@@ -51,6 +56,49 @@ int PlanOnce(int argc, char** argv) {
         1e3 * r.timings.trajectory_s, r.candidates.size() / 8, r.best_unweighted_gain_nats,
         r.volumetric_stats.rays, r.volumetric_stats.rays_evaluated,
         r.volumetric_stats.rays_skipped);
+  }
+  return 0;
+}
+
+// One frontier-baseline plan from (x, y) at height z: the frontier cells, the cells examined
+// nearest first and what each sees, the goal.
+int FrontierOnce(char** argv) {
+  const LoadedMap<DenseOccupancyMap> loaded = LoadDenseMap(argv[2]);
+  // The shipped explorer configuration (run from the repository root), in frontier mode.
+  PlannerConfig config =
+      LoadExplorerConfig(ConfigNode::LoadFile("config/exploration/explorer.yaml")).planner;
+  config.mode = ExplorationMode::kFrontier;
+  config.projection.height_m = std::atof(argv[5]);
+  const std::unique_ptr<ExplorationPlanner> planner = MakePlanner(config);
+  PlannerInput in;
+  in.map = ViewOf(loaded.map->grid());
+  in.position_m = Eigen::Vector3d(std::atof(argv[3]), std::atof(argv[4]), std::atof(argv[5]));
+  const PlanResult r = planner->Plan(in);
+  const Traversability& t = *r.traversability;
+  const std::vector<bool> f = FrontierCells(t, config.projection.collision_threshold);
+  std::printf("%ld frontier cells; %zu cells examined; status %d (%s)\n",
+              std::count(f.begin(), f.end(), true), r.candidates.size(), static_cast<int>(r.status),
+              r.reason.c_str());
+  if (getenv("PROBE_XY")) {
+    double px = 0, py = 0;
+    std::sscanf(getenv("PROBE_XY"), "%lf,%lf", &px, &py);
+    const auto cell = t.band.CellOf(Eigen::Vector2d(px, py));
+    const int idx = t.band.IndexOf(*cell);
+    int seen = 0;
+    FrontierView view{config.frontier.view_min_range_m, config.frontier.view_max_range_m,
+                      config.frontier.horizontal_fov_deg * M_PI / 180};
+    (void)BestFrontierHeading(t.band, f, t.band.CenterOf(*cell), view,
+                              config.projection.collision_threshold, 36, &seen);
+    bool listed = false;
+    for (const Candidate& c : r.candidates) listed = listed || c.cell == idx;
+    std::printf("probe cell: traversable %d reachable %d dist %.2f listed %d seen %d\n",
+                static_cast<int>(t.traversable[idx]), static_cast<int>(r.field.Reachable(idx)),
+                r.field.distance_m[idx], static_cast<int>(listed), seen);
+  }
+  if (r.chosen >= 0) {
+    const Candidate& c = r.candidates[static_cast<size_t>(r.chosen)];
+    std::printf("goal (%.2f, %.2f) yaw %.2f rad, %.2f m away\n", c.position_m.x(), c.position_m.y(),
+                c.yaw_rad, c.distance_m);
   }
   return 0;
 }
@@ -133,6 +181,7 @@ int main(int argc, char** argv) {
   if (argc >= 7 && std::string(argv[1]) == "--cells") return Cells(argc, argv);
   if (argc >= 6 && std::string(argv[1]) == "--plan") return PlanOnce(argc, argv);
   if (argc >= 6 && std::string(argv[1]) == "--traversability") return Traversable(argc, argv);
+  if (argc >= 6 && std::string(argv[1]) == "--frontier") return FrontierOnce(argv);
   if (argc < 6) {
     std::fprintf(stderr, "usage: gain_probe MAP_FILE X Y Z YAW [RAYS [OPAQUE_P]]\n");
     return 2;
