@@ -270,6 +270,8 @@ PlanResult EntropyPlanner::Plan(const PlannerInput& input) {
     }
   }
   result.timings.gain_s = SecondsSince(t1);
+  result.volumetric_stats.positions =
+      static_cast<long>(result.candidates.size()) / std::max(1, config_.candidates.n_yaw);
   result.best_unweighted_gain_nats = choice.best_unweighted_gain_nats;
   if (choice.exploration_done) {
     result.status = PlanStatus::kExplorationDone;

@@ -138,6 +138,9 @@ struct VolumetricGainStats {
   long poses_bounded{0};     ///< positions evaluated for their bounds only
   long poses_gained{0};      ///< positions evaluated with their gains
   long rays_memo_hits{0};    ///< rays whose I_ray came from a RayMemo
+  /// Candidate positions of the plan, set by the planner (the paper's modes: candidates / n_yaw;
+  /// the fine frontier baseline: the cells it examined).
+  long positions{0};
 };
 
 /// Per-heading results at one position, nats.

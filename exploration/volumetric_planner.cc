@@ -303,6 +303,7 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
     }
     positions.push_back(std::move(p));
   }
+  result.volumetric_stats.positions = static_cast<long>(positions.size());
   auto evaluate = [&](Position* p) {
     if (p->evaluated) return;
     CachedPose& entry = cache_[p->cell];
@@ -509,6 +510,7 @@ PlanResult FineFrontierPlanner::Plan(const PlannerInput& input) {
     }
   }
   result.timings.gain_s = SecondsSince(t1);
+  result.volumetric_stats.positions = static_cast<long>(result.candidates.size());
   if (best < 0) {
     result.status = PlanStatus::kExplorationDone;
     result.end_rule = "no reachable frontier";

@@ -56,6 +56,12 @@ int PlanOnce(int argc, char** argv) {
         1e3 * r.timings.trajectory_s, r.candidates.size() / 8, r.best_unweighted_gain_nats,
         r.volumetric_stats.rays, r.volumetric_stats.rays_evaluated,
         r.volumetric_stats.rays_skipped);
+    if (r.chosen >= 0) {
+      const Candidate& c = r.candidates[static_cast<size_t>(r.chosen)];
+      std::printf("goal (%.2f, %.2f) yaw %.2f rad: gain %.2f nats, %.2f m away, bump %.3f\n",
+                  c.position_m.x(), c.position_m.y(), c.yaw_rad, c.gain_nats, c.distance_m,
+                  c.bump);
+    }
   }
   return 0;
 }

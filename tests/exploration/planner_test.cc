@@ -274,8 +274,13 @@ TEST(Planner, VolumetricReuseIsExact) {
   const PlanResult first = planner.Plan(in);
   ASSERT_EQ(first.status, PlanStatus::kGoal) << first.reason;
   EXPECT_EQ(planner.reused_positions(), 0);
+  // Every position is bounded on a cold cache; the plan counts them (kestrel-mission --plans-csv).
+  EXPECT_EQ(first.volumetric_stats.positions, first.volumetric_stats.poses_bounded);
+  EXPECT_GE(first.volumetric_stats.positions * config.candidates.n_yaw,
+            static_cast<long>(first.candidates.size()));
   const PlanResult again = planner.Plan(in);
   EXPECT_GT(planner.reused_positions(), 0);
+  EXPECT_EQ(again.volumetric_stats.positions, first.volumetric_stats.positions);
   ASSERT_EQ(again.chosen, first.chosen);
   // New map data near the vehicle: some cells seen free.
   for (int k = 8; k < 14; ++k) {

@@ -403,6 +403,18 @@ MissionResult RunMission(const MissionConfig& mc) {
   if (!mc.octomap_path.empty()) mapper.ExportOctoMapFile(mc.octomap_path);
   if (!mc.ply_path.empty()) mapper.ExportPlyFile(mc.ply_path);
   if (!mc.csv_path.empty()) WriteMissionCsv(mc.csv_path, r);
+  if (!mc.plans_csv_path.empty()) {
+    std::ofstream out(mc.plans_csv_path);
+    out << "plan,total_ms,projection_ms,distance_field_ms,gain_ms,trajectory_ms,positions,"
+           "positions_bounded,positions_evaluated\n";
+    const std::vector<PlanTimings>& t = explorer.plan_timings();
+    const std::vector<VolumetricGainStats>& g = explorer.plan_gain_stats();
+    for (size_t i = 0; i < t.size() && i < g.size(); ++i) {
+      out << i << "," << 1e3 * t[i].total_s << "," << 1e3 * t[i].projection_s << ","
+          << 1e3 * t[i].dijkstra_s << "," << 1e3 * t[i].gain_s << "," << 1e3 * t[i].trajectory_s
+          << "," << g[i].positions << "," << g[i].poses_bounded << "," << g[i].poses_gained << "\n";
+    }
+  }
   r.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return r;

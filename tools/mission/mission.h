@@ -31,6 +31,7 @@ struct MissionConfig {
   bool compute_quality{true};    ///< ground truth and observable cells (section 10)
   std::string log_path;          ///< every message, as an LCM log (lcm-logplayer replays it)
   std::string csv_path;          ///< time series (t, entropy, known fraction, ...) if set
+  std::string plans_csv_path;    ///< one row per plan (stage times, positions) if set
   std::string map_path;          ///< final map file (Kestrel map) if set
   std::string octomap_path;      ///< final map exported for OctoMap tools (.bt or .ot) if set
   std::string ply_path;          ///< occupied cells as a PLY point cloud if set

@@ -7,6 +7,7 @@
 namespace {
 const char* const kUsage =
     "usage: kestrel-mission [--root DIR] [--world FILE] [--seed N] [--max-time S] [--csv FILE]\n"
+    "                       [--plans-csv FILE]\n"
     "                       [--map FILE] [--octomap FILE.bt] [--ply FILE] [--sim FILE]\n"
     "                       [--log FILE.lcmlog] [--drop-sensors FRACTION]\n"
     "                       [--mocap-outage-at S --mocap-outage DURATION_S]\n"
@@ -37,6 +38,8 @@ int main(int argc, char** argv) {
             mc.max_time_s = std::stod(value());
           else if (p[i] == "--csv")
             mc.csv_path = value();
+          else if (p[i] == "--plans-csv")
+            mc.plans_csv_path = value();
           else if (p[i] == "--map")
             mc.map_path = value();
           else if (p[i] == "--drop-sensors")
