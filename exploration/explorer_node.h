@@ -136,6 +136,8 @@ class ExplorerNode {
   [[nodiscard]] double total_planning_s() const { return total_planning_s_; }
   /// Wall time of every exploration replan, s (not the flights home).
   [[nodiscard]] const std::vector<double>& plan_times_s() const { return plan_times_s_; }
+  /// CPU time of the planning thread for every exploration replan, s (plan_times_s() order).
+  [[nodiscard]] const std::vector<double>& plan_cpu_times_s() const { return plan_cpu_times_s_; }
   /// The planner's own stage timings of every exploration replan, in plan_times_s() order.
   [[nodiscard]] const std::vector<PlanTimings>& plan_timings() const { return plan_timings_; }
   /// The volumetric gain's counters of every exploration replan, in plan_times_s() order.
@@ -207,6 +209,7 @@ class ExplorerNode {
   // The flown corridor (PlannerInput::flown_path), a point every flown_path_spacing_m.
   std::vector<Eigen::Vector2d> flown_path_;
   std::vector<double> plan_times_s_;
+  std::vector<double> plan_cpu_times_s_;
   std::vector<PlanTimings> plan_timings_;
   std::vector<VolumetricGainStats> plan_gain_stats_;
   std::string end_rule_;

@@ -70,10 +70,12 @@ struct MissionResult {
   double time_to_95_s{-1};  ///< first sample with known fraction >= 0.95 (-1: never)
   std::vector<MissionSample> samples;
   std::string end_reason;
-  std::string end_rule;     ///< what ended exploration (ExplorerNode::end_rule)
-  std::string landing;      ///< "returned home (...)" or "landed elsewhere: ..."
-  double plan_median_s{0};  ///< median wall time of an exploration replan
-  double plan_max_s{0};     ///< slowest exploration replan
+  std::string end_rule;         ///< what ended exploration (ExplorerNode::end_rule)
+  std::string landing;          ///< "returned home (...)" or "landed elsewhere: ..."
+  double plan_median_s{0};      ///< median wall time of an exploration replan
+  double plan_max_s{0};         ///< slowest exploration replan
+  double plan_cpu_median_s{0};  ///< median CPU time of the planning thread per replan
+  double plan_cpu_max_s{0};     ///< largest CPU time of a replan
   /// Median of each planner stage over the exploration replans (PlanTimings), s.
   PlanTimings plan_stage_median_s;
   double plan_positions_bounded_median{0};  ///< volumetric: positions bounded per replan
