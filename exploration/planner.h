@@ -70,6 +70,11 @@ struct VolumetricConfig {
   /// with the farthest reachable cell); only when no pose within it keeps end_gain_nats of gain
   /// is the choice made again over the whole reachable space with the full d_max.
   double local_horizon_m{0.0};
+  /// A candidate pose (position within candidate_spacing_m / 2, heading within half a step) from
+  /// which the vehicle has already looked (PlannerInput::reached_views) keeps no gain, in the
+  /// choice and in the end rule: a gain the model still predicts after the flight stood there is
+  /// one the sensor does not collect (docs/exploration.md, "Ending and the flight home").
+  bool skip_viewed_poses{false};
   VolumetricGainConfig gain;  ///< sensors' 3D rays (gain.sensors' vertical keys), azimuth bins
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.

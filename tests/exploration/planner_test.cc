@@ -263,6 +263,49 @@ TEST(Planner, PlanToPointReachesHome) {
   ExpectTrajectoryInside(r, in, config);
 }
 
+// skip_viewed_poses: a pose the vehicle reached a goal at (its own pose, reached_views) keeps no
+// gain in the choice or the end rule; without the option the same pose is chosen again.
+TEST(Planner, VolumetricViewedPosesKeepNoGain) {
+  const RoomMap map(2.2);
+  PlannerConfig config;
+  config.mode = ExplorationMode::kVolumetric;
+  config.volumetric.skip_viewed_poses = true;
+  VolumetricPlanner planner(config);
+  PlannerInput in = InputAt(map, {-1.0, -1.0});
+  const PlanResult first = planner.Plan(in);
+  ASSERT_EQ(first.status, PlanStatus::kGoal) << first.reason;
+  const Candidate goal = first.candidates[static_cast<size_t>(first.chosen)];
+  ASSERT_GT(goal.gain_nats, config.volumetric.end_gain_nats);
+  // The vehicle stood 0.2 m from the goal's position, facing 10 deg off its heading.
+  in.reached_views.emplace_back(goal.position_m.x() + 0.2, goal.position_m.y(),
+                                goal.yaw_rad + 10.0 * M_PI / 180.0);
+  const PlanResult second = planner.Plan(in);
+  ASSERT_EQ(second.status, PlanStatus::kGoal) << second.reason;
+  const Candidate& next = second.candidates[static_cast<size_t>(second.chosen)];
+  EXPECT_FALSE(next.cell == goal.cell && next.yaw_rad == goal.yaw_rad);
+  int listed = 0;
+  for (const Candidate& c : second.candidates) {
+    if (c.cell != goal.cell) continue;
+    if (c.yaw_rad == goal.yaw_rad) {
+      EXPECT_EQ(c.gain_nats, 0.0) << "the viewed heading";
+      ++listed;
+    } else {
+      EXPECT_EQ(c.gain_nats, [&] {  // the other headings keep their gains, bit for bit
+        for (const Candidate& f : first.candidates) {
+          if (f.cell == c.cell && f.yaw_rad == c.yaw_rad) return f.gain_nats;
+        }
+        return c.gain_nats;
+      }());
+    }
+  }
+  EXPECT_EQ(listed, 1);
+  config.volumetric.skip_viewed_poses = false;
+  const PlanResult again = VolumetricPlanner(config).Plan(in);
+  const Candidate& same = again.candidates[static_cast<size_t>(again.chosen)];
+  EXPECT_EQ(same.cell, goal.cell);
+  EXPECT_EQ(same.yaw_rad, goal.yaw_rad);
+}
+
 // The volumetric planner reuses a position's gains only while the map within its rays' reach is
 // unchanged: after a change, its plan equals a fresh planner's, candidate for candidate.
 TEST(Planner, VolumetricReuseIsExact) {
