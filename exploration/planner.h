@@ -65,11 +65,13 @@ struct VolumetricConfig {
   /// The paper's end rule, working: exploration ends when the best UNWEIGHTED 3D gain of every
   /// reachable candidate pose is below this, nats (> 0).
   double end_gain_nats{4.0};
-  /// Local first (docs/exploration.md, "Choosing the next pose"), m (0 = off): the bump's d_max
-  /// (eq. 17) is at most this, so that a large building does not flatten the bump (d_max grows
-  /// with the farthest reachable cell); only when no pose within it keeps end_gain_nats of gain
-  /// is the choice made again over the whole reachable space with the full d_max.
-  double local_horizon_m{0.0};
+  /// Local first (docs/exploration.md, "Choosing the next pose"), m (0 = off): the goal is the
+  /// best gain x bump with the bump's d_max (eq. 17) at most this, among the poses worth
+  /// end_gain_nats, so that a large building does not flatten the bump (d_max grows with the
+  /// farthest reachable cell) and the flight does not wander among poses the end rule already
+  /// calls explored; only when no pose within it is worth end_gain_nats is the choice made over
+  /// every pose with the paper's d_max.
+  double local_horizon_m{12.0};
   /// A candidate pose (position within candidate_spacing_m / 2, heading within half a step) from
   /// which the vehicle has already looked (PlannerInput::reached_views) keeps no gain, in the
   /// choice and in the end rule: a gain the model still predicts after the flight stood there is

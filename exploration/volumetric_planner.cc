@@ -105,7 +105,8 @@ void FineTrajectoryTo(const PlannerConfig& config, const PlannerInput& input,
 // Tries the candidates in decreasing objective (at most kMaxTrajectoryAttempts distinct cells),
 // the chosen one first.
 void TrajectoryToBest(const PlannerConfig& config, const PlannerInput& input,
-                      const std::vector<bool>& traversable, int chosen, PlanResult* result) {
+                      const std::vector<bool>& traversable, int chosen, double min_goal_gain,
+                      PlanResult* result) {
   std::vector<int> order(result->candidates.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
@@ -117,6 +118,7 @@ void TrajectoryToBest(const PlannerConfig& config, const PlannerInput& input,
   std::vector<int> tried_cells;
   for (int index : order) {
     const Candidate& goal = result->candidates[static_cast<size_t>(index)];
+    if (goal.gain_nats < min_goal_gain) continue;  // not a goal (Plan)
     if (std::find(tried_cells.begin(), tried_cells.end(), goal.cell) != tried_cells.end()) continue;
     if (static_cast<int>(tried_cells.size()) == kMaxTrajectoryAttempts) break;
     tried_cells.push_back(goal.cell);
@@ -340,7 +342,7 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
   const double horizon = config_.volumetric.local_horizon_m;
   std::vector<size_t> order(positions.size());
   double best_gain = 0.0;
-  auto choose = [&](double bump_d_max) {
+  auto choose = [&](double bump_d_max, double min_goal_gain) {
     for (Position& p : positions) p.bump = Bump(p.distance_m, bump_d_max);
     std::iota(order.begin(), order.end(), size_t{0});
     std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
@@ -352,19 +354,21 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
     for (size_t i : order) {
       Position& p = positions[i];
       if (p.max_bound * p.bump <= best_objective) break;
+      if (p.max_bound < min_goal_gain) continue;  // no heading here can be a goal
       evaluate(&p);
       for (double g : p.gains) {
-        best_objective = std::max(best_objective, g * p.bump);
+        if (g >= min_goal_gain) best_objective = std::max(best_objective, g * p.bump);
         best_gain = std::max(best_gain, g);
         if (p.bump > 0.0) best_weighted_gain = std::max(best_weighted_gain, g);
       }
     }
     return best_weighted_gain;
   };
-  if (horizon > 0.0 && horizon < d_max) {
-    if (choose(horizon) < end_gain) choose(d_max);
+  double min_goal_gain = 0.0;
+  if (horizon > 0.0 && horizon < d_max && choose(horizon, end_gain) >= end_gain) {
+    min_goal_gain = end_gain;
   } else {
-    choose(d_max);
+    choose(d_max, 0.0);
   }
   for (const Position& p : positions) {  // reused exact gains count too
     for (double g : p.gains) best_gain = std::max(best_gain, g);
@@ -395,8 +399,12 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
       result.candidates.push_back(c);
     }
   }
+  // Goals are poses worth the end threshold (docs/exploration.md, "Choosing the next pose"): a
+  // pose below it is what the end rule calls explored, so the flight never wanders among them
+  // while a pose that still holds end_gain_nats waits elsewhere.
   int chosen = -1;
   for (size_t i = 0; i < result.candidates.size(); ++i) {
+    if (result.candidates[i].gain_nats < min_goal_gain) continue;
     if (chosen < 0 || result.candidates[i].objective() >
                           result.candidates[static_cast<size_t>(chosen)].objective()) {
       chosen = static_cast<int>(i);
@@ -416,7 +424,8 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
       evaluate(&p);
       const double objective = p.gains[static_cast<size_t>(mm)] * p.bump;
       const double best = result.candidates[static_cast<size_t>(chosen)].objective();
-      if (objective > 0.0 && best <= (1.0 + config_.candidates.switch_margin) * objective) {
+      if (objective > 0.0 && p.gains[static_cast<size_t>(mm)] >= min_goal_gain &&
+          best <= (1.0 + config_.candidates.switch_margin) * objective) {
         if (!was_evaluated) {
           for (int k = 0; k < n_yaw; ++k) {
             Candidate c;
@@ -456,7 +465,7 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
                     std::to_string(end_gain) + " nats over " + std::to_string(positions.size()) +
                     " reachable positions";
   } else {
-    TrajectoryToBest(config_, input, traversable, chosen, &result);
+    TrajectoryToBest(config_, input, traversable, chosen, min_goal_gain, &result);
   }
   result.timings.total_s = SecondsSince(t0);
   return result;
