@@ -72,11 +72,11 @@ struct VolumetricConfig {
   /// calls explored; only when no pose within it is worth end_gain_nats is the choice made over
   /// every pose with the paper's d_max.
   double local_horizon_m{12.0};
-  /// A candidate pose (position within candidate_spacing_m / 2, heading within half a step) from
-  /// which the vehicle has already looked (PlannerInput::reached_views) keeps no gain, in the
-  /// choice and in the end rule: a gain the model still predicts after the flight stood there is
-  /// one the sensor does not collect (docs/exploration.md, "Ending and the flight home").
-  bool skip_viewed_poses{false};
+  /// A candidate pose (position within candidate_spacing_m / 2, heading within half a step) that
+  /// the vehicle has reached as a goal (PlannerInput::reached_goals) keeps no gain, in the choice
+  /// and in the end rule: a gain the model still predicts after the flight went there is one the
+  /// sensor does not collect (docs/exploration.md, "Ending and the flight home").
+  bool skip_viewed_poses{true};
   VolumetricGainConfig gain;  ///< sensors' 3D rays (gain.sensors' vertical keys), azimuth bins
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.

@@ -38,7 +38,7 @@ struct Position {
   double max_bound{0.0};
   bool evaluated{false};
   std::vector<double> gains;
-  std::vector<bool> viewed;  // per heading: the vehicle reached a goal here facing this way
+  std::vector<bool> viewed;  // per heading: a goal the vehicle reached (skip_viewed_poses)
 };
 
 // Fine traversability, the escape cells around the vehicle and Dijkstra from its cell. False with
@@ -274,8 +274,8 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
 
   // Positions and the bound of each first.
   std::vector<Position> positions;
-  // A pose (position, heading) the vehicle has looked from already (a reached goal's own pose,
-  // skip_viewed_poses) keeps no gain: what it still predicts there, the flight did not collect.
+  // A pose (position, heading) the vehicle has reached as a goal (skip_viewed_poses) keeps no
+  // gain: what the model still predicts there, the flight did not collect.
   const double half_spacing = 0.5 * config_.volumetric.candidate_spacing_m;
   auto mask_viewed = [](Position* p) {
     for (size_t m = 0; m < p->viewed.size() && m < p->gains.size(); ++m) {
@@ -310,7 +310,7 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
     p.max_bound = *std::max_element(c.bounds.begin(), c.bounds.end());
     if (config_.volumetric.skip_viewed_poses) {
       p.viewed.assign(static_cast<size_t>(n_yaw), false);
-      for (const Eigen::Vector3d& v : input.reached_views) {
+      for (const Eigen::Vector3d& v : input.reached_goals) {
         if ((v.head<2>() - p.xy).norm() >= half_spacing) continue;
         const long m = std::lround(v.z() / (2.0 * M_PI / n_yaw));
         p.viewed[static_cast<size_t>(((m % n_yaw) + n_yaw) % n_yaw)] = true;

@@ -263,8 +263,71 @@ TEST(Planner, PlanToPointReachesHome) {
   ExpectTrajectoryInside(r, in, config);
 }
 
-// skip_viewed_poses: a pose the vehicle reached a goal at (its own pose, reached_views) keeps no
-// gain in the choice or the end rule; without the option the same pose is chosen again.
+// A corridor 40 m long (x 0..40, free y 0.3..2.7, walls beyond, floor below z = 0), everything
+// observed except alcoves in its north wall (unknown cells at y 2.7..3.3) of the given x ranges.
+struct CorridorMap {
+  Eigen::Vector3i dims{534, 44, 22};
+  Eigen::Vector3d origin{0.0, 0.0, -0.15};
+  double alpha{0.075};
+  std::vector<float> values;
+  explicit CorridorMap(const std::vector<std::pair<double, double>>& alcoves) {
+    values.assign(static_cast<size_t>(dims.prod()), 1e-4f);
+    for (int k = 0; k < dims.z(); ++k) {
+      for (int j = 0; j < dims.y(); ++j) {
+        for (int i = 0; i < dims.x(); ++i) {
+          const double x = (i + 0.5) * alpha, y = (j + 0.5) * alpha;
+          const double z = origin.z() + (k + 0.5) * alpha;
+          float& v = values[static_cast<size_t>(i + dims.x() * (j + dims.y() * k))];
+          if (z < 0.0 || y < 0.3 || y > 2.7) v = 0.9999f;
+          for (const auto& [x0, x1] : alcoves) {
+            if (x >= x0 && x < x1 && y > 2.7 && y < 3.3 && z >= 0.0) v = 0.1f;
+          }
+        }
+      }
+    }
+  }
+  PlannerInput Input(double x, double y) const {
+    PlannerInput in;
+    in.map.dims = dims;
+    in.map.origin_m = origin;
+    in.map.resolution_m = alpha;
+    in.map.probability = values.data();
+    in.position_m = Eigen::Vector3d(x, y, 0.75);
+    in.time_s = 10.0;
+    return in;
+  }
+};
+
+// Local first (volumetric.local_horizon_m): a small alcove 3 m ahead against a large one 10 m
+// ahead in a 40 m corridor (the paper's d_max, 1.05 x the farthest cell, is about 41 m, so its
+// bump barely tells 3 m from 10 m). With the horizon the near alcove is the goal; without it the
+// far one. And a pose below the end threshold is never the goal while one above it lies within
+// the horizon.
+TEST(Planner, VolumetricLocalFirst) {
+  PlannerConfig config;
+  config.mode = ExplorationMode::kVolumetric;
+  const CorridorMap two({{4.0, 4.6}, {10.0, 14.0}});
+  auto goal_x = [&](const CorridorMap& map, double horizon_m) {
+    config.volumetric.local_horizon_m = horizon_m;
+    const PlanResult r = VolumetricPlanner(config).Plan(map.Input(1.0, 1.5));
+    EXPECT_EQ(r.status, PlanStatus::kGoal) << r.reason;
+    if (r.chosen < 0) return -1.0;
+    const Candidate& c = r.candidates[static_cast<size_t>(r.chosen)];
+    EXPECT_GE(c.gain_nats, config.volumetric.end_gain_nats);
+    return c.position_m.x();
+  };
+  const double local = goal_x(two, 12.0);
+  const double global = goal_x(two, 0.0);
+  EXPECT_LT(local, 7.0) << "the near alcove";
+  EXPECT_GT(global, 7.0) << "the large alcove, where the flat bump leads";
+  // A 0.15 m alcove (below the end threshold from any pose) near, a large one 8 m ahead: local
+  // first never takes the near one.
+  const CorridorMap faint({{2.5, 2.65}, {8.0, 12.0}});
+  EXPECT_GT(goal_x(faint, 12.0), 5.0);
+}
+
+// skip_viewed_poses: a pose the vehicle reached as a goal (reached_goals) keeps no gain in the
+// choice or the end rule; without the option the same pose is chosen again.
 TEST(Planner, VolumetricViewedPosesKeepNoGain) {
   const RoomMap map(2.2);
   PlannerConfig config;
@@ -276,8 +339,8 @@ TEST(Planner, VolumetricViewedPosesKeepNoGain) {
   ASSERT_EQ(first.status, PlanStatus::kGoal) << first.reason;
   const Candidate goal = first.candidates[static_cast<size_t>(first.chosen)];
   ASSERT_GT(goal.gain_nats, config.volumetric.end_gain_nats);
-  // The vehicle stood 0.2 m from the goal's position, facing 10 deg off its heading.
-  in.reached_views.emplace_back(goal.position_m.x() + 0.2, goal.position_m.y(),
+  // A goal 0.2 m from the candidate's position, 10 deg off its heading, was reached.
+  in.reached_goals.emplace_back(goal.position_m.x() + 0.2, goal.position_m.y(),
                                 goal.yaw_rad + 10.0 * M_PI / 180.0);
   const PlanResult second = planner.Plan(in);
   ASSERT_EQ(second.status, PlanStatus::kGoal) << second.reason;
