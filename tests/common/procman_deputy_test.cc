@@ -9,7 +9,9 @@
 #include <fstream>
 #include <functional>
 #include <sstream>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -143,6 +145,8 @@ TEST_F(DeputyTest, ObeysOrdersForItsHostAndReportsStatus) {
   ASSERT_FALSE(statuses.empty());
   const procman_status_t& st = statuses.back();
   EXPECT_EQ(st.host, "here");
+  EXPECT_NE(st.epoch, 0);
+  EXPECT_EQ(st.epoch, d->epoch());
   ASSERT_EQ(st.num_commands, 1);
   EXPECT_EQ(st.commands[0].id, "a");
   EXPECT_EQ(st.commands[0].pid, d->state("a")->pid);

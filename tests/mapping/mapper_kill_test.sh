@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # kill -9 the mapper process mid-stream, restart it and feed it the stream again from the start:
-# it skips what its checkpoint holds (sequence numbers) and ends bit-identical to an
-# uninterrupted run. Real processes over UDP multicast in a private network namespace.
+# it skips what its checkpoint holds (publisher epoch and sequence numbers; the feeder replays one
+# recording, so its epoch repeats) and ends bit-identical to an uninterrupted run. Real processes
+# over UDP multicast in a private network namespace.
 # Usage: mapper_kill_test.sh MAPPER FEEDER IN_NETNS
 set -euo pipefail
 exec "$3" bash -c '
