@@ -1,7 +1,11 @@
 #include "common/identity.h"
 
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
 #include <mutex>
 #include <random>
+#include <stdexcept>
 
 namespace kestrel {
 
@@ -56,6 +60,48 @@ void SeedPublisherEpochs(uint64_t seed) {
   s.base = Mix(seed ^ 0x6b657374726c4570ULL);  // "kestrlEp": seed 0 does not give base 0
   s.count = 0;
   s.started = true;
+}
+
+std::string NewRunId() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char stamp[32];
+  std::strftime(stamp, sizeof(stamp), "%Y%m%dT%H%M%SZ", &utc);
+  char random[16];
+  std::snprintf(random, sizeof(random), "%08x", static_cast<unsigned>(RandomWord() & 0xffffffffu));
+  return std::string(stamp) + "-" + random;
+}
+
+std::string CheckRunId(const std::string& run_id) {
+  if (run_id.empty()) return "a run id is not empty";
+  if (run_id.size() > 128) {
+    return "a run id has at most 128 characters (this one has " + std::to_string(run_id.size()) +
+           ")";
+  }
+  for (const char c : run_id) {
+    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
+                    c == '.' || c == '_' || c == ':' || c == '+' || c == '-';
+    if (!ok) return "a run id holds only A-Z a-z 0-9 . _ : + - (not '" + std::string(1, c) + "')";
+  }
+  return "";
+}
+
+std::string EnsureRunIdInEnvironment() {
+  const char* value = std::getenv(kRunIdEnvironmentVariable);
+  if (value != nullptr && value[0] != '\0') {
+    const std::string run_id = value;
+    if (const std::string why = CheckRunId(run_id); !why.empty()) {
+      throw std::invalid_argument(std::string("$") + kRunIdEnvironmentVariable + " = '" + run_id +
+                                  "': " + why);
+    }
+    return run_id;
+  }
+  const std::string run_id = NewRunId();
+  if (setenv(kRunIdEnvironmentVariable, run_id.c_str(), 1) != 0) {
+    throw std::runtime_error(std::string("cannot set $") + kRunIdEnvironmentVariable);
+  }
+  return run_id;
 }
 
 }  // namespace kestrel

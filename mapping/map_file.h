@@ -9,7 +9,7 @@
 ///   so ceil((max - min)/alpha) restores the cell counts; growing: = origin),
 ///   f64 max_range_m, f64 updater parameters[5] (exact: p_init, p_min, 0, 0, 0; log-odds: p_hit,
 ///   p_miss, p_clamp_min, p_clamp_max, p_unknown),
-///   u32 run id length, run id bytes (the run that wrote a checkpoint; "" otherwise),
+///   u32 run id length, run id bytes ("" in a map that is not a checkpoint, docs/design.md §3.5),
 ///   u32 stream count, then per stream: u32 name length, name bytes, u32 epoch count, then per
 ///   publisher epoch in the order first applied: i64 epoch, i64 last applied sequence
 ///   (docs/design.md §3.4),
@@ -62,7 +62,7 @@ inline constexpr int64_t kUnknownEpoch = 0;
 struct MapFileInfo {
   uint32_t version{0};        ///< file format version (1 or 2)
   bool dense{true};           ///< dense (true) or growing grid
-  std::string run_id;         ///< the run that wrote it, "" if none
+  std::string run_id;         ///< the run that wrote it, "" if none (docs/design.md §3.5)
   StreamSequences sequences;  ///< the stream positions
 };
 

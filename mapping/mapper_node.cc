@@ -2,9 +2,11 @@
 
 #include <sys/stat.h>
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <stdexcept>
 
 #include "common/check.h"
 #include "common/identity.h"
@@ -30,6 +32,21 @@ bool FileExists(const std::string& path) {
 
 int32_t FloorDiv(int32_t a, int32_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
 
+// Where another run's checkpoint goes: <path>.run-<its run id> (characters a file name should
+// not hold replaced by '_'; "none" when it has no run id), then .2, .3, ... if that exists.
+std::string AsideName(const std::string& path, const std::string& run_id) {
+  std::string id = run_id.empty() ? "none" : run_id.substr(0, 128);
+  for (char& c : id) {
+    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
+                    c == '.' || c == '_' || c == '-' || c == '+' || c == ':';
+    if (!ok) c = '_';
+  }
+  const std::string base = path + ".run-" + id;
+  std::string aside = base;
+  for (int k = 2; FileExists(aside); ++k) aside = base + "." + std::to_string(k);
+  return aside;
+}
+
 std::string DescribeStreams(const StreamSequences& sequences) {
   std::string out;
   for (const auto& [name, epochs] : sequences) {
@@ -54,6 +71,12 @@ MapperNode::MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& c
       heartbeat_(lcm, clock, "kestrel-mapper", config.heartbeat_channel),
       subscriptions_(lcm) {
   config_.Validate();
+  run_id_ = config_.run_id.empty() ? NewRunId() : config_.run_id;
+  if (!config_.checkpoint_path.empty()) {
+    Log(LogLevel::kInfo, "run '" + run_id_ + "'" +
+                             (config_.run_id.empty() ? " (a fresh id: run_id is not set)" : "") +
+                             ", checkpoint " + config_.checkpoint_path);
+  }
   for (const auto& s : config_.sensors) models_.emplace_back(s.model);
   if (!config_.checkpoint_path.empty() && FileExists(config_.checkpoint_path)) {
     LoadCheckpoint();
@@ -117,6 +140,27 @@ void MapperNode::RefuseCheckpoint(const std::string& why) {
 
 void MapperNode::LoadCheckpoint() {
   const std::string& path = config_.checkpoint_path;
+  MapFileInfo info;
+  try {
+    info = ReadMapFileInfo(path);
+  } catch (const std::exception& e) {
+    RefuseCheckpoint(e.what());
+    return;
+  }
+  // Another run's checkpoint (docs/design.md §3.5): set aside, never overwritten, unless asked.
+  if (info.run_id != run_id_ && config_.resume != "any") {
+    const std::string aside = AsideName(path, info.run_id);
+    if (std::rename(path.c_str(), aside.c_str()) != 0) {
+      throw std::runtime_error("checkpoint " + path + " is of run '" + info.run_id +
+                               "', not of this run '" + run_id_ + "', and cannot be moved to " +
+                               aside + " (" + std::strerror(errno) + "); refusing to overwrite it");
+    }
+    Log(LogLevel::kWarning,
+        "checkpoint " + path + " is of run '" + info.run_id + "', not of this run '" + run_id_ +
+            "' (resume: same_run): not resumed, moved to " + aside + "; starting an empty map");
+    CreateEmptyMap();
+    return;
+  }
   try {
     if (config_.grid == "dense") {
       auto loaded = LoadDenseMap(path);
@@ -140,7 +184,11 @@ void MapperNode::LoadCheckpoint() {
     return;
   }
   resumed_ = true;
-  Log(LogLevel::kInfo, "resumed from checkpoint " + path + ":" + DescribeStreams(sequences_));
+  const std::string whose = info.run_id == run_id_
+                                ? "of this run"
+                                : "of run '" + info.run_id + "' (resume: any) into this run";
+  Log(LogLevel::kInfo, "resumed from checkpoint " + path + " " + whose + " '" + run_id_ +
+                           "':" + DescribeStreams(sequences_));
 }
 
 // docs/design.md §3.4: a message was applied before when an earlier message of the same
@@ -528,7 +576,8 @@ void MapperNode::PublishStatus() {
 bool MapperNode::SaveCheckpoint() {
   if (config_.checkpoint_path.empty()) return true;
   try {
-    SaveMapFile(config_.checkpoint_path);
+    std::visit([&](const auto& m) { SaveMap(config_.checkpoint_path, *m, sequences_, run_id_); },
+               map_);
     return true;
   } catch (const std::exception& e) {
     Log(LogLevel::kError, std::string("checkpoint not saved: ") + e.what());

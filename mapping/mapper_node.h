@@ -46,8 +46,11 @@ namespace kestrel {
 class MapperNode {
  public:
   /// Subscribes to the sensors and poses; resumes from config.checkpoint_path if it holds a
-  /// valid map (a corrupt file is moved aside as <path>.corrupt and the map starts empty).
-  /// @throws std::invalid_argument if config.Validate() throws.
+  /// valid map of this run (docs/design.md §3.5): a corrupt file is moved aside as
+  /// <path>.corrupt, another run's checkpoint (unless config.resume is "any") as
+  /// <path>.run-<its run id>, and the map then starts empty.
+  /// @throws std::invalid_argument if config.Validate() throws; std::runtime_error if another
+  /// run's checkpoint cannot be moved aside (it is never overwritten).
   MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& clock);
   MapperNode(const MapperNode&) = delete;
   MapperNode& operator=(const MapperNode&) = delete;
@@ -78,6 +81,8 @@ class MapperNode {
   [[nodiscard]] bool applied_every_message() const;
   /// Per input channel, the last applied sequence number of every publisher epoch.
   [[nodiscard]] const StreamSequences& sequences() const { return sequences_; }
+  /// The run this mapper maps (config.run_id, or the fresh id made at start).
+  [[nodiscard]] const std::string& run_id() const { return run_id_; }
   /// True if the map was resumed from the checkpoint.
   [[nodiscard]] bool resumed() const { return resumed_; }
   /// This mapper's publisher epoch, stamped on its messages (common/identity.h).
@@ -86,8 +91,8 @@ class MapperNode {
   [[nodiscard]] int64_t publisher_restarts() const { return publisher_restarts_; }
   /// Probability of a cell.
   [[nodiscard]] double ProbabilityAt(const CellIndex& cell) const;
-  /// Saves the map to `path` (Kestrel map file, with the stream positions) / exports OctoMap
-  /// .bt/.ot / PLY.
+  /// Saves the map to `path` (Kestrel map file, with the stream positions but no run id: a saved
+  /// map is not a checkpoint) / exports OctoMap .bt/.ot / PLY.
   void SaveMapFile(const std::string& path) const;
   void ExportOctoMapFile(const std::string& path) const;
   size_t ExportPlyFile(const std::string& path) const;
@@ -130,7 +135,8 @@ class MapperNode {
   lcm::LCM& lcm_;
   MapperConfig config_;
   const Clock& clock_;
-  int64_t epoch_;  // this publisher's epoch
+  int64_t epoch_;       // this publisher's epoch
+  std::string run_id_;  // config_.run_id or a fresh one
   bool resumed_{false};
   int64_t publisher_restarts_{0};
   std::vector<SensorModel> models_;

@@ -15,6 +15,8 @@
 
 #include <gtest/gtest.h>
 
+#include "common/identity.h"
+
 namespace kestrel::procman {
 namespace {
 
@@ -104,6 +106,33 @@ TEST_F(DeputyTest, RespawnsWithBackoffOnlyWhenAutoRespawn) {
   PollUntil(
       *d, [] { return false; }, 0.5);
   EXPECT_EQ(d->state("crasher")->restarts, restarts) << "a stopped command is not respawned";
+}
+
+// Every start and respawn of a command sees the runner's $KESTREL_RUN_ID (kestrel-procman sets
+// it once, EnsureRunIdInEnvironment): a mapper respawned within a run resumes its checkpoint
+// (docs/design.md §3.5).
+TEST_F(DeputyTest, RespawnsSeeTheSameRunId) {
+  ASSERT_EQ(unsetenv(kestrel::kRunIdEnvironmentVariable), 0);
+  const std::string run_id = kestrel::EnsureRunIdInEnvironment();
+  auto d = Make(R"(cmd "r" { exec = "echo run=$KESTREL_RUN_ID; exit 1"; host = "here";
+                              auto_respawn = "true"; })");
+  d->Order(procman_order_t::ACTION_START, false, "r");
+  const std::string log_path = config_.log_dir + "/r.log";
+  auto lines = [&] {
+    std::ifstream log(log_path);
+    std::vector<std::string> out;
+    for (std::string line; std::getline(log, line);) out.push_back(line);
+    return out;
+  };
+  EXPECT_TRUE(PollUntil(
+      *d, [&] { return lines().size() >= 3; }, 5.0))
+      << "the first start and two respawns";
+  d->StopAll();
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return d->AllStopped(); }, 5.0));
+  unsetenv(kestrel::kRunIdEnvironmentVariable);
+  EXPECT_GE(d->state("r")->restarts, 2);
+  for (const std::string& line : lines()) EXPECT_EQ(line, "run=" + run_id);
 }
 
 TEST_F(DeputyTest, CapturesOutputInPerCommandLogs) {

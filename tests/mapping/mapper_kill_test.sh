@@ -22,7 +22,8 @@ exec "$3" bash -c '
   kill -TERM $m
   wait $m
   # Interrupted run: checkpoint every 0.2 s, kill -9 after about half the stream.
-  ck=(--set "checkpoint_path=$dir/ck.map" --set checkpoint_period_s=0.2)
+  # One run id for both lives of the mapper (the runner gives a respawn the same one).
+  ck=(--set "checkpoint_path=$dir/ck.map" --set checkpoint_period_s=0.2 --set run_id=kill-test)
   "$mapper" "${common[@]}" "${ck[@]}" 2>"$dir/b1.log" &
   m=$!
   sleep 0.5

@@ -1,10 +1,11 @@
 // The mapper node over memq://: determinism, pose synchronisation, bad input, snapshots and
-// deltas that rebuild the map, checkpoint resume equal to an uninterrupted run and restarted
-// publishers (epochs, docs/design.md §3.4).
+// deltas that rebuild the map, checkpoint resume equal to an uninterrupted run, restarted
+// publishers (epochs, docs/design.md §3.4) and run ids (docs/design.md §3.5).
 #include "mapping/mapper_node.h"
 
 #include <zlib.h>
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -85,6 +86,11 @@ std::vector<StreamEvent> WithSensorRestart(std::vector<StreamEvent> events, size
 std::string TempPath(const std::string& name) {
   return ::testing::TempDir() + "kestrel_mapper_node_test_" + std::to_string(::getpid()) + "_" +
          name;
+}
+
+bool Exists(const std::string& path) {
+  struct stat st {};
+  return stat(path.c_str(), &st) == 0;
 }
 
 std::string ReadAll(const std::string& path) {
@@ -328,6 +334,7 @@ TEST_F(MapperNodeTest, CheckpointResumeEqualsAnUninterruptedRun) {
   }
   MapperConfig with_checkpoint = config_;
   with_checkpoint.checkpoint_path = path;
+  with_checkpoint.run_id = "test-run";  // the same run: the restarted node resumes
   {
     lcm::LCM lcm("memq://");
     SimClock clock;
@@ -427,6 +434,7 @@ TEST_F(MapperNodeTest, AResumedMapperAppliesAReplayedLogExactlyOnce) {
   }
   MapperConfig with_checkpoint = config_;
   with_checkpoint.checkpoint_path = TempPath("replay-checkpoint.kmap");
+  with_checkpoint.run_id = "replay-run";
   int64_t in_checkpoint = 0;
   {
     lcm::LCM lcm("memq://");
@@ -451,6 +459,109 @@ TEST_F(MapperNodeTest, AResumedMapperAppliesAReplayedLogExactlyOnce) {
   resumed.SaveMapFile(resumed_path);
   EXPECT_TRUE(ReadAll(resumed_path) == ReadAll(once_path)) << "the saved map files differ";
   for (const std::string& p : {once_path, resumed_path, with_checkpoint.checkpoint_path}) {
+    std::remove(p.c_str());
+  }
+}
+
+// A checkpoint of another run is not resumed: it is moved aside (never overwritten, nor a
+// second one over the first) and the map starts empty; with resume = any it is resumed. A
+// mapper without a run id gets a fresh one, so it resumes nothing either.
+TEST_F(MapperNodeTest, AnotherRunsCheckpointIsNotResumedUnlessAsked) {
+  const std::string path = TempPath("runs.kmap");
+  MapperConfig flight1 = config_;
+  flight1.checkpoint_path = path;
+  flight1.run_id = "flight-1";
+  uint64_t empty_hash = 0, flight1_hash = 0;
+  StreamSequences flight1_sequences;
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, flight1, clock);
+    EXPECT_FALSE(node.resumed());
+    empty_hash = node.map_hash();
+    Feed(lcm, node, clock, events_, 0, events_.size() / 2);
+    ASSERT_TRUE(node.SaveCheckpoint());
+    flight1_hash = node.map_hash();
+    flight1_sequences = node.sequences();
+  }
+  ASSERT_NE(flight1_hash, empty_hash);
+  // The same run resumes it.
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, flight1, clock);
+    EXPECT_TRUE(node.resumed());
+    EXPECT_EQ(node.map_hash(), flight1_hash);
+  }
+  // Another run does not, and keeps the file aside.
+  MapperConfig flight2 = flight1;
+  flight2.run_id = "flight-2";
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, flight2, clock);
+    EXPECT_FALSE(node.resumed());
+    EXPECT_EQ(node.map_hash(), empty_hash);
+    EXPECT_TRUE(node.sequences().empty());
+    EXPECT_FALSE(Exists(path));
+    ASSERT_TRUE(Exists(path + ".run-flight-1"));
+    EXPECT_EQ(ReadMapFileInfo(path + ".run-flight-1").run_id, "flight-1");
+    Feed(lcm, node, clock, events_, 0, 40);
+    ASSERT_TRUE(node.SaveCheckpoint());
+    EXPECT_EQ(ReadMapFileInfo(path).run_id, "flight-2");
+    EXPECT_EQ(ReadMapFileInfo(path + ".run-flight-1").run_id, "flight-1") << "overwritten";
+  }
+  // A second checkpoint of flight-1 set aside does not replace the first one.
+  ASSERT_EQ(std::rename((path + ".run-flight-1").c_str(), path.c_str()), 0);
+  {
+    std::ofstream(path + ".run-flight-1") << "an earlier file";
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, flight2, clock);
+    EXPECT_FALSE(node.resumed());
+    EXPECT_EQ(ReadAll(path + ".run-flight-1"), "an earlier file");
+    EXPECT_EQ(ReadMapFileInfo(path + ".run-flight-1.2").run_id, "flight-1");
+  }
+  // No run id: a fresh one, which resumes nothing.
+  ASSERT_EQ(std::rename((path + ".run-flight-1.2").c_str(), path.c_str()), 0);
+  MapperConfig unnamed = flight1;
+  unnamed.run_id = "";
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, unnamed, clock);
+    EXPECT_FALSE(node.resumed());
+    EXPECT_FALSE(node.run_id().empty());
+    EXPECT_NE(node.run_id(), "flight-1");
+    EXPECT_TRUE(Exists(path + ".run-flight-1.2"));
+  }
+  // Asked explicitly (resume = any), another run's checkpoint is resumed, and the rest of the
+  // stream then gives the uninterrupted map.
+  ASSERT_EQ(std::rename((path + ".run-flight-1.2").c_str(), path.c_str()), 0);
+  MapperConfig any = flight2;
+  any.run_id = "flight-3";
+  any.resume = "any";
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, any, clock);
+    EXPECT_TRUE(node.resumed());
+    EXPECT_EQ(node.map_hash(), flight1_hash);
+    EXPECT_EQ(node.sequences(), flight1_sequences);
+    Feed(lcm, node, clock, events_);
+    uint64_t uninterrupted = 0;
+    {
+      lcm::LCM lcm2("memq://");
+      SimClock clock2;
+      MapperNode fresh(lcm2, config_, clock2);
+      Feed(lcm2, fresh, clock2, events_);
+      uninterrupted = fresh.map_hash();
+    }
+    EXPECT_EQ(node.map_hash(), uninterrupted);
+    ASSERT_TRUE(node.SaveCheckpoint());
+    EXPECT_EQ(ReadMapFileInfo(path).run_id, "flight-3") << "the checkpoint is now this run's";
+  }
+  for (const std::string& p : {path, path + ".run-flight-1", path + ".run-flight-1.2"}) {
     std::remove(p.c_str());
   }
 }
