@@ -21,7 +21,8 @@ exec "$in_netns" bash -c '
   status=0
   "$build/tools/flight_check/kestrel-flight-check" "$LCM_DEFAULT_URL" "$seconds" || status=1
   # Fault: kill -9 the mapper; the runner respawns it and it resumes from its checkpoint.
-  mapper_pid=$(pgrep -f "^$build/mapping/kestrel-mapper " | head -1)
+  # The mapper of this run (its checkpoint is in $KESTREL_RUN), not one of another test.
+  mapper_pid=$(pgrep -f "^$build/mapping/kestrel-mapper .*checkpoint_path=$KESTREL_RUN/" | head -1)
   kill -9 "$mapper_pid"
   for i in $(seq 100); do
     grep -q "resumed from checkpoint .* of this run" "$KESTREL_RUN/logs/mapper.log" 2>/dev/null && break
