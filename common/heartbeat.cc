@@ -2,6 +2,8 @@
 
 #include <unistd.h>
 
+#include "common/identity.h"
+
 namespace kestrel {
 
 Heartbeat::Heartbeat(lcm::LCM& lcm, const Clock& clock, std::string process, std::string channel)
@@ -9,7 +11,8 @@ Heartbeat::Heartbeat(lcm::LCM& lcm, const Clock& clock, std::string process, std
       clock_(clock),
       process_(std::move(process)),
       channel_(std::move(channel)),
-      start_utime_(clock.NowUtime()) {
+      start_utime_(clock.NowUtime()),
+      epoch_(NewPublisherEpoch()) {
   char name[256] = {};
   if (gethostname(name, sizeof(name) - 1) == 0) host_ = name;
 }
@@ -18,6 +21,7 @@ void Heartbeat::Publish() {
   heartbeat_t msg;
   msg.utime = clock_.NowUtime();
   msg.seq = seq_++;
+  msg.epoch = epoch_;
   msg.process = process_;
   msg.host = host_;
   msg.pid = static_cast<int32_t>(getpid());

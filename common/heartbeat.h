@@ -30,6 +30,8 @@ class Heartbeat {
   void Publish();
 
   [[nodiscard]] const std::string& channel() const { return channel_; }
+  /// The publisher epoch stamped on every heartbeat (common/identity.h).
+  [[nodiscard]] int64_t epoch() const { return epoch_; }
 
  private:
   lcm::LCM& lcm_;
@@ -38,6 +40,7 @@ class Heartbeat {
   std::string channel_;
   std::string host_;
   int64_t start_utime_;
+  int64_t epoch_;
   int64_t seq_{0};
   int8_t state_{heartbeat_t::STATE_STARTING};
   std::string last_error_;

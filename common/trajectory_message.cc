@@ -4,12 +4,13 @@
 
 namespace kestrel {
 
-trajectory_t ToMessage(const PiecewisePolynomialTrajectory& trajectory, int64_t utime,
-                       int64_t seq) {
+trajectory_t ToMessage(const PiecewisePolynomialTrajectory& trajectory, int64_t utime, int64_t seq,
+                       int64_t epoch) {
   const FlatTrajectory flat = trajectory.ToFlat();
   trajectory_t msg{};
   msg.utime = utime;
   msg.seq = seq;
+  msg.epoch = epoch;
   msg.start_utime = SecondsToUtime(flat.start_time_s);
   msg.num_segments = static_cast<int32_t>(flat.durations_s.size());
   msg.num_coeffs = flat.num_coefficients;

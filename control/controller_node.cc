@@ -7,6 +7,7 @@
 
 #include "common/check.h"
 #include "common/config.h"
+#include "common/identity.h"
 #include "common/se3.h"
 #include "kestrel/controller_status_t.hpp"
 #include "kestrel/motor_command_t.hpp"
@@ -21,10 +22,14 @@ void CopyVector(const Eigen::Vector3d& v, double out[3]) {
 
 }  // namespace
 
+LcmMotorOutput::LcmMotorOutput(lcm::LCM& lcm, std::string channel)
+    : lcm_(lcm), channel_(std::move(channel)), epoch_(NewPublisherEpoch()) {}
+
 void LcmMotorOutput::Send(int64_t utime, const FlightOutput& output) {
   motor_command_t msg;
   msg.utime = utime;
   msg.seq = seq_++;
+  msg.epoch = epoch_;
   msg.armed = static_cast<int8_t>(output.armed);
   msg.num_motors = 4;
   msg.thrust_N.assign(output.rotor_thrust_N.data(), output.rotor_thrust_N.data() + 4);
@@ -129,7 +134,8 @@ ControllerNode::ControllerNode(lcm::LCM& lcm, const ControllerConfig& config, Cl
       lcm_motor_output_(lcm, config.motor_channel),
       motor_output_(motor_output != nullptr ? motor_output : &lcm_motor_output_),
       drops_(clock),
-      subscriptions_(lcm) {
+      subscriptions_(lcm),
+      epoch_(NewPublisherEpoch()) {
   config_.Validate();
   auto on_error = [this](const std::string& channel, const std::string& reason) {
     drops_.Count("malformed " + channel, reason);
@@ -184,6 +190,7 @@ void ControllerNode::OnTrajectory(const trajectory_t& msg) {
     return;
   }
   trajectory_seq_ = msg.seq;
+  trajectory_epoch_ = msg.epoch;
   trajectory_end_s_ = trajectory->end_time_s();
 }
 
@@ -210,6 +217,7 @@ void ControllerNode::PublishStatus(int64_t utime) {
   controller_status_t msg;
   msg.utime = utime;
   msg.seq = status_seq_++;
+  msg.epoch = epoch_;
   msg.mode = static_cast<int8_t>(last_.decision.mode);
   msg.reason = last_.decision.reason;
   CopyVector(last_.state.position_m, msg.position_m);
@@ -228,6 +236,7 @@ void ControllerNode::PublishStatus(int64_t utime) {
   CopyVector(last_.moment_Nm, msg.moment_Nm);
   msg.pose_age_s = std::isfinite(last_.pose_age_s) ? last_.pose_age_s : 1e9;
   msg.trajectory_seq = trajectory_seq_;
+  msg.trajectory_epoch = trajectory_epoch_;
   msg.trajectory_done =
       static_cast<int8_t>(trajectory_seq_ >= 0 && UtimeToSeconds(utime) > trajectory_end_s_);
   lcm_.publish(config_.status_channel, &msg);

@@ -38,12 +38,16 @@ class MotorOutput {
 /// Publishes motor_command_t on an LCM channel (the simulator's input).
 class LcmMotorOutput final : public MotorOutput {
  public:
-  LcmMotorOutput(lcm::LCM& lcm, std::string channel) : lcm_(lcm), channel_(std::move(channel)) {}
+  /// Draws the output's publisher epoch (common/identity.h).
+  LcmMotorOutput(lcm::LCM& lcm, std::string channel);
   void Send(int64_t utime, const FlightOutput& output) override;
+  /// The publisher epoch stamped on every motor command.
+  [[nodiscard]] int64_t epoch() const { return epoch_; }
 
  private:
   lcm::LCM& lcm_;
   std::string channel_;
+  int64_t epoch_;
   int64_t seq_{0};
 };
 
@@ -90,6 +94,10 @@ class ControllerNode {
   [[nodiscard]] const FlightOutput& last_output() const { return last_; }
   [[nodiscard]] const DropCounter& drops() const { return drops_; }
   [[nodiscard]] int64_t trajectory_seq() const { return trajectory_seq_; }
+  /// The epoch of the tracked trajectory's publisher (0 if none).
+  [[nodiscard]] int64_t trajectory_epoch() const { return trajectory_epoch_; }
+  /// The publisher epoch stamped on CONTROLLER_STATUS (common/identity.h).
+  [[nodiscard]] int64_t epoch() const { return epoch_; }
 
  private:
   void OnPose(const pose_t& msg);
@@ -106,10 +114,12 @@ class ControllerNode {
   MotorOutput* motor_output_;
   DropCounter drops_;
   GuardedSubscriptions subscriptions_;
+  int64_t epoch_;
   FlightOutput last_;
   int64_t ticks_{0};
   int64_t status_seq_{0};
   int64_t trajectory_seq_{-1};
+  int64_t trajectory_epoch_{0};
   double trajectory_end_s_{0.0};
 };
 

@@ -8,6 +8,7 @@
 
 #include "common/check.h"
 #include "common/config.h"
+#include "common/identity.h"
 #include "common/trajectory_message.h"
 #include "exploration/planner_config_io.h"
 #include "exploration/startup_turn.h"
@@ -118,7 +119,8 @@ ExplorerNode::ExplorerNode(lcm::LCM& lcm, const ExplorerConfig& config, const Cl
                config.p_init),
       drops_(clock),
       heartbeat_(lcm, clock, "kestrel-explorer", config.heartbeat_channel),
-      subscriptions_(lcm) {
+      subscriptions_(lcm),
+      epoch_(NewPublisherEpoch()) {
   config_.Validate();
   auto on_error = [this](const std::string& channel, const std::string& reason) {
     drops_.Count("malformed", channel + ": " + reason);
@@ -145,6 +147,7 @@ ExplorerNode::ExplorerNode(lcm::LCM& lcm, const ExplorerConfig& config, const Cl
         have_controller_ = true;
         controller_mode_ = m.mode;
         controller_trajectory_seq_ = m.trajectory_seq;
+        controller_trajectory_epoch_ = m.trajectory_epoch;
         bool finite = true;
         for (double v : m.velocity_mps) finite = finite && std::isfinite(v);
         if (finite)
@@ -231,7 +234,7 @@ void ExplorerNode::PublishFrom(const PiecewisePolynomialTrajectory& next) {
 
 void ExplorerNode::Publish(const PiecewisePolynomialTrajectory& trajectory) {
   trajectory_ = trajectory;
-  const trajectory_t msg = ToMessage(trajectory, clock_.NowUtime(), ++trajectory_seq_);
+  const trajectory_t msg = ToMessage(trajectory, clock_.NowUtime(), ++trajectory_seq_, epoch_);
   lcm_.publish(config_.trajectory_channel, &msg);
 }
 
@@ -405,6 +408,7 @@ void ExplorerNode::SendLand() {
   command_t cmd{};
   cmd.utime = clock_.NowUtime();
   cmd.seq = ++command_seq_;
+  cmd.epoch = epoch_;
   cmd.source = "explorer";
   cmd.command = command_t::COMMAND_LAND;
   lcm_.publish(config_.command_channel, &cmd);
@@ -455,8 +459,9 @@ void ExplorerNode::Step() {
       break;
     }
     case exploration_status_t::STATE_STARTUP:
+      // Our trajectory, not a predecessor's with the same seq (docs/design.md §3.4).
       if (controller_mode_ == controller_status_t::MODE_TRACK &&
-          controller_trajectory_seq_ == trajectory_seq_) {
+          controller_trajectory_seq_ == trajectory_seq_ && controller_trajectory_epoch_ == epoch_) {
         startup_flown_ = true;
       }
       if (!startup_flown_ && t > trajectory_->start_time_s() + 1.0) {
@@ -526,6 +531,7 @@ void ExplorerNode::PublishStatus(const PlanResult& result, const std::string& re
   exploration_status_t msg{};
   msg.utime = clock_.NowUtime();
   msg.seq = plan_seq_;
+  msg.epoch = epoch_;
   msg.mode = ModeName(config_.planner.mode);
   msg.state = state_;
   msg.reason = result.reason.empty() ? reason : reason + ": " + result.reason;
@@ -580,6 +586,7 @@ void ExplorerNode::PublishMaps(const PlanResult& result) {
     grid_map_t msg{};
     msg.utime = replica_.utime();
     msg.seq = plan_seq_;
+    msg.epoch = epoch_;
     msg.name = name;
     msg.origin_m[0] = g.origin_m.x();
     msg.origin_m[1] = g.origin_m.y();

@@ -132,6 +132,8 @@ class ExplorerNode {
   [[nodiscard]] const std::optional<PlanResult>& last_plan() const { return last_plan_; }
   [[nodiscard]] const MapReplica& replica() const { return replica_; }
   [[nodiscard]] const DropCounter& drops() const { return drops_; }
+  /// The publisher epoch stamped on every message but the heartbeat (common/identity.h).
+  [[nodiscard]] int64_t epoch() const { return epoch_; }
   /// Sum of planning wall time over all plans, s.
   [[nodiscard]] double total_planning_s() const { return total_planning_s_; }
   /// Wall time of every exploration replan, s (not the flights home).
@@ -176,6 +178,7 @@ class ExplorerNode {
   DropCounter drops_;
   Heartbeat heartbeat_;
   GuardedSubscriptions subscriptions_;
+  int64_t epoch_;
 
   int8_t state_{exploration_status_t::STATE_WAITING};
   bool have_pose_{false};
@@ -183,9 +186,10 @@ class ExplorerNode {
   Eigen::Vector3d velocity_mps_{Eigen::Vector3d::Zero()};
   bool have_controller_{false};
   int8_t controller_mode_{0};
-  int64_t controller_trajectory_seq_{-1};  // the trajectory the controller last accepted
-  double lowest_z_m_{1e300};               // lowest pose height seen while waiting, m
-  bool startup_flown_{false};              // the controller tracks the start-up trajectory
+  int64_t controller_trajectory_seq_{-1};   // the trajectory the controller last accepted
+  int64_t controller_trajectory_epoch_{0};  // and its publisher's epoch: ours, or not ours
+  double lowest_z_m_{1e300};                // lowest pose height seen while waiting, m
+  bool startup_flown_{false};               // the controller tracks the start-up trajectory
   Eigen::Vector2d home_xy_{Eigen::Vector2d::Zero()};
   double home_yaw_rad_{0.0};
   std::optional<PiecewisePolynomialTrajectory> trajectory_;

@@ -5,10 +5,11 @@
 namespace kestrel {
 
 grid_map_t ToGridMapMessage(const GridMap2D& map, const std::string& name, int64_t utime,
-                            int64_t seq) {
+                            int64_t seq, int64_t epoch) {
   grid_map_t msg;
   msg.utime = utime;
   msg.seq = seq;
+  msg.epoch = epoch;
   msg.name = name;
   msg.origin_m[0] = map.origin_m.x();
   msg.origin_m[1] = map.origin_m.y();
@@ -23,10 +24,11 @@ grid_map_t ToGridMapMessage(const GridMap2D& map, const std::string& name, int64
 
 exploration_status_t ToStatusMessage(const PlanResult& result, ExplorationMode mode, int8_t state,
                                      double map_entropy_nats, double height_m, int64_t utime,
-                                     int64_t seq) {
+                                     int64_t seq, int64_t epoch) {
   exploration_status_t msg;
   msg.utime = utime;
   msg.seq = seq;
+  msg.epoch = epoch;
   msg.mode = ModeName(mode);
   msg.state = state;
   msg.reason = result.reason;

@@ -69,6 +69,7 @@ class Reader {
 };
 
 struct Header {
+  uint32_t version{0};
   uint8_t grid_kind{0};
   uint8_t updater_kind{0};
   double resolution_m{0.0};
@@ -76,12 +77,26 @@ struct Header {
   Eigen::Vector3d max_m{Eigen::Vector3d::Zero()};
   double max_range_m{0.0};
   double params[5]{};
+  std::string run_id;
   StreamSequences sequences;
 };
 
+// Names, run ids and counts are written with u32 lengths; anything longer cannot be stored.
+constexpr size_t kMaxNameBytes = 4096;
+
+void PutName(Writer* w, const std::string& name, const char* what) {
+  if (name.size() > kMaxNameBytes) {
+    throw MapFileError(std::string("SaveMap: ") + what + " of " + std::to_string(name.size()) +
+                       " bytes (at most " + std::to_string(kMaxNameBytes) + ")");
+  }
+  w->Put(static_cast<uint32_t>(name.size()));
+  w->PutBytes(name.data(), name.size());
+}
+
 template <class Grid>
 void WriteHeader(Writer* w, const OccupancyMap<Grid>& map, uint8_t grid_kind,
-                 const Eigen::Vector3d& max_m, const StreamSequences& sequences) {
+                 const Eigen::Vector3d& max_m, const StreamSequences& sequences,
+                 const std::string& run_id) {
   w->PutBytes(kMagic, sizeof(kMagic));
   w->Put(kMapFileVersion);
   w->Put(kByteOrderMark);
@@ -110,11 +125,15 @@ void WriteHeader(Writer* w, const OccupancyMap<Grid>& map, uint8_t grid_kind,
   for (int a = 0; a < 3; ++a) w->Put(max_m[a]);
   w->Put(map.max_range_m());
   for (double p : params) w->Put(p);
+  PutName(w, run_id, "run id");
   w->Put(static_cast<uint32_t>(sequences.size()));
-  for (const auto& [name, seq] : sequences) {
-    w->Put(static_cast<uint32_t>(name.size()));
-    w->PutBytes(name.data(), name.size());
-    w->Put(seq);
+  for (const auto& [name, epochs] : sequences) {
+    PutName(w, name, "stream name");
+    w->Put(static_cast<uint32_t>(epochs.size()));
+    for (const EpochSequence& e : epochs) {
+      w->Put(e.epoch);
+      w->Put(e.last_seq);
+    }
   }
 }
 
@@ -163,14 +182,15 @@ Header ReadHeader(const std::string& path, Reader* r) {
   char magic[8];
   r->GetBytes(magic, 8, "magic");
   const auto version = r->Get<uint32_t>("version");
-  if (version != kMapFileVersion) {
+  if (version != 1 && version != kMapFileVersion) {
     throw MapFileError("map file " + path + ": version " + std::to_string(version) +
-                       ", this build reads version " + std::to_string(kMapFileVersion));
+                       ", this build reads versions 1 to " + std::to_string(kMapFileVersion));
   }
   if (r->Get<uint32_t>("byte-order mark") != kByteOrderMark) {
     throw MapFileError("map file " + path + ": written with another byte order");
   }
   Header h;
+  h.version = version;
   h.grid_kind = r->Get<uint8_t>("grid kind");
   h.updater_kind = r->Get<uint8_t>("updater kind");
   r->Get<uint16_t>("reserved");
@@ -179,16 +199,36 @@ Header ReadHeader(const std::string& path, Reader* r) {
   for (int a = 0; a < 3; ++a) h.max_m[a] = r->Get<double>("limits");
   h.max_range_m = r->Get<double>("max range");
   for (double& p : h.params) p = r->Get<double>("updater parameters");
-  const auto streams = r->Get<uint32_t>("stream count");
-  for (uint32_t i = 0; i < streams; ++i) {
-    const auto length = r->Get<uint32_t>("stream name length");
+  auto get_name = [&](const char* what) {
+    const auto length = r->Get<uint32_t>(what);
     if (length > r->remaining()) {
-      throw MapFileError("map file " + path + ": stream name length " + std::to_string(length) +
+      throw MapFileError("map file " + path + ": " + what + " " + std::to_string(length) +
                          " exceeds the file");
     }
     std::string name(length, '\0');
-    r->GetBytes(name.data(), length, "stream name");
-    h.sequences[name] = r->Get<int64_t>("stream sequence");
+    r->GetBytes(name.data(), length, what);
+    return name;
+  };
+  if (version >= 2) h.run_id = get_name("run id length");
+  const auto streams = r->Get<uint32_t>("stream count");
+  for (uint32_t i = 0; i < streams; ++i) {
+    const std::string name = get_name("stream name length");
+    std::vector<EpochSequence>& epochs = h.sequences[name];
+    if (version == 1) {  // one sequence, from before publisher epochs
+      epochs.push_back(EpochSequence{kUnknownEpoch, r->Get<int64_t>("stream sequence")});
+      continue;
+    }
+    const auto count = r->Get<uint32_t>("epoch count");
+    if (count > r->remaining() / (2 * sizeof(int64_t))) {
+      throw MapFileError("map file " + path + ": " + std::to_string(count) + " epochs of stream " +
+                         name + " exceed the file");
+    }
+    for (uint32_t k = 0; k < count; ++k) {
+      EpochSequence e;
+      e.epoch = r->Get<int64_t>("stream epoch");
+      e.last_seq = r->Get<int64_t>("stream sequence");
+      epochs.push_back(e);
+    }
   }
   if (h.updater_kind != kExact && h.updater_kind != kLogOdds) {
     throw MapFileError("map file " + path + ": unknown updater kind " +
@@ -287,23 +327,23 @@ size_t ExportPlyImpl(const std::string& path, const OccupancyMap<Grid>& map) {
 }  // namespace
 
 void SaveMap(const std::string& path, const DenseOccupancyMap& map,
-             const StreamSequences& sequences) {
+             const StreamSequences& sequences, const std::string& run_id) {
   Writer w;
   const GridGeometry& g = map.grid().geometry();
   Eigen::Vector3d max_m;
   // Half a cell inside the last cell: ceil((max - min)/alpha) gives the same count on loading,
   // immune to rounding.
   for (int a = 0; a < 3; ++a) max_m[a] = g.origin_m()[a] + (g.upper()[a] - 0.5) * g.resolution_m();
-  WriteHeader(&w, map, kDense, max_m, sequences);
+  WriteHeader(&w, map, kDense, max_m, sequences, run_id);
   w.Put(static_cast<uint64_t>(map.grid().size()));
   w.PutBytes(map.grid().values().data(), map.grid().size() * sizeof(float));
   WriteFile(path, &w.bytes());
 }
 
 void SaveMap(const std::string& path, const GrowingOccupancyMap& map,
-             const StreamSequences& sequences) {
+             const StreamSequences& sequences, const std::string& run_id) {
   Writer w;
-  WriteHeader(&w, map, kGrowing, map.grid().geometry().origin_m(), sequences);
+  WriteHeader(&w, map, kGrowing, map.grid().geometry().origin_m(), sequences, run_id);
   w.Put(static_cast<uint64_t>(map.grid().block_count()));
   map.grid().ForEachBlock([&](const CellIndex& origin, const GrowingGrid::Block& block) {
     w.Put(origin.x);
@@ -340,6 +380,7 @@ LoadedMap<DenseOccupancyMap> LoadDenseMap(const std::string& path) {
   LoadedMap<DenseOccupancyMap> out;
   out.map =
       std::make_unique<DenseOccupancyMap>(std::move(*grid), std::move(updater), h.max_range_m);
+  out.run_id = h.run_id;
   out.sequences = h.sequences;
   return out;
 }
@@ -379,8 +420,24 @@ LoadedMap<GrowingOccupancyMap> LoadGrowingMap(const std::string& path) {
   LoadedMap<GrowingOccupancyMap> out;
   out.map =
       std::make_unique<GrowingOccupancyMap>(std::move(*grid), std::move(updater), h.max_range_m);
+  out.run_id = h.run_id;
   out.sequences = h.sequences;
   return out;
+}
+
+MapFileInfo ReadMapFileInfo(const std::string& path) {
+  const std::string bytes = ReadVerified(path);
+  Reader r(path, bytes.data(), bytes.size());
+  const Header h = ReadHeader(path, &r);
+  if (h.grid_kind != kDense && h.grid_kind != kGrowing) {
+    throw MapFileError("map file " + path + ": unknown grid kind " + std::to_string(h.grid_kind));
+  }
+  MapFileInfo info;
+  info.version = h.version;
+  info.dense = h.grid_kind == kDense;
+  info.run_id = h.run_id;
+  info.sequences = h.sequences;
+  return info;
 }
 
 void ExportOctoMap(const std::string& path, const DenseOccupancyMap& map) {

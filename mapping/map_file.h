@@ -2,17 +2,23 @@
 /// @file
 /// Map files: Kestrel's own checkpoint format, and exports for existing tools.
 ///
-/// Kestrel map file, version 1 (little-endian, as written by an x86/ARM host):
-///   "KSTRLMAP" (8 bytes), u32 version = 1, u32 byte-order mark 0x01020304,
+/// Kestrel map file, version 2 (little-endian, as written by an x86/ARM host):
+///   "KSTRLMAP" (8 bytes), u32 version = 2, u32 byte-order mark 0x01020304,
 ///   u8 grid kind (0 dense, 1 growing), u8 updater (0 exact, 1 log-odds), u16 reserved = 0,
 ///   f64 resolution_m, f64 origin_m[3], f64 max_m[3] (dense: half a cell inside the last cell,
 ///   so ceil((max - min)/alpha) restores the cell counts; growing: = origin),
 ///   f64 max_range_m, f64 updater parameters[5] (exact: p_init, p_min, 0, 0, 0; log-odds: p_hit,
 ///   p_miss, p_clamp_min, p_clamp_max, p_unknown),
-///   u32 stream count, then per stream: u32 name length, name bytes, i64 last applied sequence,
+///   u32 run id length, run id bytes ("" in a map that is not a checkpoint, docs/design.md §3.5),
+///   u32 stream count, then per stream: u32 name length, name bytes, u32 epoch count, then per
+///   publisher epoch in the order first applied: i64 epoch, i64 last applied sequence
+///   (docs/design.md §3.4),
 ///   dense: u64 cell count, f32 values (x fastest); growing: u64 block count, then per block
 ///   i32 origin cell[3] and 512 f32 values,
 ///   u32 CRC-32 (zlib crc32) of every byte before it.
+/// Version 1 (before publisher epochs) has no run id, and per stream only an i64 last applied
+/// sequence; it still loads, with run id "" and each stream's sequence under epoch 0
+/// (kUnknownEpoch), which no publisher stamps, so it matches no message.
 /// Loading reads the whole file, checks size, checksum, magic, version and every length before
 /// building anything, and returns a new map or throws MapFileError: a corrupt or truncated file
 /// is refused and never half-loaded. Saving writes `path.tmp` and renames it over `path`, so a
@@ -23,6 +29,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "mapping/occupancy_map.h"
 
@@ -34,27 +41,56 @@ class MapFileError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// Last applied sequence number of every named input stream (e.g. "DEPTH_XTION" -> 1234).
-using StreamSequences = std::map<std::string, int64_t>;
+/// The last applied sequence number of one publisher epoch on an input stream.
+struct EpochSequence {
+  int64_t epoch{0};     ///< the publisher's epoch (common/identity.h)
+  int64_t last_seq{0};  ///< the highest seq applied (or skipped for good) from that epoch
+  bool operator==(const EpochSequence& o) const {
+    return epoch == o.epoch && last_seq == o.last_seq;
+  }
+};
+
+/// Per input stream (channel, e.g. "DEPTH_XTION"), every publisher epoch applied, in the order
+/// each was first applied (the last one is the current publisher), with its last applied
+/// sequence number (docs/design.md §3.4).
+using StreamSequences = std::map<std::string, std::vector<EpochSequence>>;
+
+/// The epoch of the sequences read from a version 1 file, which no publisher stamps.
+inline constexpr int64_t kUnknownEpoch = 0;
+
+/// What a map file says about itself, read without building the map.
+struct MapFileInfo {
+  uint32_t version{0};        ///< file format version (1 or 2)
+  bool dense{true};           ///< dense (true) or growing grid
+  std::string run_id;         ///< the run that wrote it, "" if none (docs/design.md §3.5)
+  StreamSequences sequences;  ///< the stream positions
+};
 
 /// A loaded map with its stream positions.
 template <class Map>
 struct LoadedMap {
   std::unique_ptr<Map> map;   ///< the map, entropy recomputed
-  StreamSequences sequences;  ///< last applied sequence per stream
+  std::string run_id;         ///< the run that wrote it, "" if none
+  StreamSequences sequences;  ///< last applied sequence per stream and publisher epoch
 };
 
-/// Current file format version.
-inline constexpr uint32_t kMapFileVersion = 1;
+/// Current file format version (written); version 1 is still read.
+inline constexpr uint32_t kMapFileVersion = 2;
 
-/// Saves a dense map (exact or log-odds) with its stream positions.
-/// @throws MapFileError if the file cannot be written.
+/// Saves a dense map (exact or log-odds) with its stream positions and the run id of a
+/// checkpoint ("" for a map that is not one). @throws MapFileError if the file cannot be
+/// written or a name does not fit the format.
 void SaveMap(const std::string& path, const DenseOccupancyMap& map,
-             const StreamSequences& sequences);
-/// Saves a growing map with its stream positions.
-/// @throws MapFileError if the file cannot be written.
+             const StreamSequences& sequences, const std::string& run_id = "");
+/// Saves a growing map with its stream positions and run id.
+/// @throws MapFileError if the file cannot be written or a name does not fit the format.
 void SaveMap(const std::string& path, const GrowingOccupancyMap& map,
-             const StreamSequences& sequences);
+             const StreamSequences& sequences, const std::string& run_id = "");
+
+/// Reads and checks a map file (size, checksum, magic, version, header) and returns what it
+/// says about itself, without building the map.
+/// @throws MapFileError (missing, truncated, corrupt, unknown version).
+MapFileInfo ReadMapFileInfo(const std::string& path);
 
 /// Loads a dense map saved by SaveMap.
 /// @throws MapFileError (missing, truncated, corrupt, wrong version or grid kind).

@@ -45,9 +45,11 @@ bool MapReplica::Apply(const map3d_chunk_t& chunk, std::string* error) {
   if (chunk.chunk_index == 0) {
     staging_.assign(probabilities_.size(), static_cast<float>(chunk.p_init));
     staging_id_ = chunk.snapshot_id;
+    staging_epoch_ = chunk.epoch;
     staging_next_chunk_ = 0;
   }
-  if (chunk.snapshot_id != staging_id_ || chunk.chunk_index != staging_next_chunk_) {
+  if (chunk.snapshot_id != staging_id_ || chunk.epoch != staging_epoch_ ||
+      chunk.chunk_index != staging_next_chunk_) {
     staging_id_ = -1;  // a chunk was lost: wait for the next snapshot
     *error = "snapshot " + std::to_string(chunk.snapshot_id) + " chunk " +
              std::to_string(chunk.chunk_index) + " out of sequence";
@@ -71,6 +73,7 @@ bool MapReplica::Apply(const map3d_chunk_t& chunk, std::string* error) {
   if (staging_next_chunk_ == chunk.num_chunks) {
     probabilities_.swap(staging_);
     seq_ = chunk.map_seq;
+    epoch_ = chunk.epoch;
     utime_ = chunk.utime;
     has_snapshot_ = true;
     stale_ = false;
@@ -89,6 +92,12 @@ bool MapReplica::Apply(const map3d_delta_t& delta, std::string* error) {
     return false;
   }
   if (!SameLattice(delta.origin_m, delta.resolution_m, error)) return false;
+  if (delta.epoch != epoch_) {  // a restarted mapper: its seq says nothing about this copy
+    stale_ = true;
+    *error = "delta of mapper epoch " + std::to_string(delta.epoch) + " on a copy of epoch " +
+             std::to_string(epoch_) + ": stale until that mapper's next snapshot";
+    return false;
+  }
   if (delta.seq <= seq_) return true;  // already reflected by a newer snapshot
   if (delta.prev_seq != seq_) {
     stale_ = true;

@@ -4,8 +4,10 @@
 /// MAP3D_DELTA messages over a fixed dense lattice (the explorer, viewers, the replay check).
 ///
 /// A snapshot is staged until all of its chunks have arrived, then replaces the copy (cells in
-/// no block hold p_init). A delta applies when its prev_seq equals the copy's sequence; a delta
-/// that does not follow (a lost message) marks the copy stale until the next full snapshot.
+/// no block hold p_init). A delta applies when it comes from the same mapper (publisher epoch,
+/// docs/design.md §3.4) as the copy and its prev_seq equals the copy's sequence; a delta that does
+/// not follow (a lost message) or comes from another epoch (a restarted mapper, which counts from
+/// 0 again) marks the copy stale until the next full snapshot.
 /// Cells outside the lattice are ignored (a growing map may extend past it).
 
 #include <cstdint>
@@ -37,6 +39,8 @@ class MapReplica {
   [[nodiscard]] bool current() const { return has_snapshot_ && !stale_; }
   /// Map updates reflected (map3d_delta_t.seq / map3d_chunk_t.map_seq), -1 before any snapshot.
   [[nodiscard]] int64_t seq() const { return seq_; }
+  /// The epoch of the mapper the copy comes from (0 before any snapshot).
+  [[nodiscard]] int64_t epoch() const { return epoch_; }
   /// Time of the newest data in the copy (us).
   [[nodiscard]] int64_t utime() const { return utime_; }
   [[nodiscard]] const Eigen::Vector3i& dims() const { return dims_; }
@@ -64,12 +68,14 @@ class MapReplica {
   float p_init_;
   std::vector<float> probabilities_;
   int64_t seq_{-1};
+  int64_t epoch_{0};
   int64_t utime_{0};
   bool has_snapshot_{false};
   bool stale_{false};
   // Snapshot being assembled.
   std::vector<float> staging_;
   int64_t staging_id_{-1};
+  int64_t staging_epoch_{0};
   int staging_next_chunk_{0};
 };
 

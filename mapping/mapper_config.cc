@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include "common/check.h"
+#include "common/identity.h"
 #include "common/vehicle_config.h"
 #include "mapping/mapping_config.h"
 
@@ -47,6 +48,10 @@ void MapperConfig::Validate() const {
       "snapshot_blocks_per_chunk = " << snapshot_blocks_per_chunk << " must be in [1, 4096]");
   KESTREL_THROW_UNLESS(checkpoint_period_s > 0,
                        "checkpoint_period_s = " << checkpoint_period_s << " must be > 0");
+  KESTREL_THROW_UNLESS(run_id.empty() || CheckRunId(run_id).empty(),
+                       "run_id = '" << run_id << "': " << CheckRunId(run_id));
+  KESTREL_THROW_UNLESS(resume == "same_run" || resume == "any",
+                       "resume = '" << resume << "' must be same_run or any");
   KESTREL_THROW_UNLESS(max_queue >= 1, "max_queue = " << max_queue << " must be >= 1");
   KESTREL_THROW_UNLESS(max_backlog_s > 0, "max_backlog_s = " << max_backlog_s << " must be > 0");
 }
@@ -111,6 +116,8 @@ MapperConfig LoadMapperConfig(const ConfigNode& node) {
   node.Read("snapshot_blocks_per_chunk", &c.snapshot_blocks_per_chunk, Range::Closed(1, 4096));
   node.Read("checkpoint_path", &c.checkpoint_path);
   node.Read("checkpoint_period_s", &c.checkpoint_period_s, Range::Positive());
+  node.Read("run_id", &c.run_id);
+  node.Read("resume", &c.resume, {"same_run", "any"});
   node.Read("max_queue", &c.max_queue, Range::Closed(1, 100000));
   node.Read("max_backlog_s", &c.max_backlog_s, Range::Positive());
   node.Read("traversal_thread", &c.traversal_thread);

@@ -45,6 +45,13 @@ struct MapperConfig {
 
   std::string checkpoint_path;      ///< map file to resume from and save to ("" = none)
   double checkpoint_period_s{5.0};  ///< checkpoint period, s (and at exit)
+  /// The run this mapper maps (docs/design.md §3.5), written into its checkpoints; "" = a fresh
+  /// id made at start (NewRunId), so that no earlier checkpoint is resumed unless resume = any.
+  /// The sheets pass $KESTREL_RUN_ID, which kestrel-procman gives every command it starts.
+  std::string run_id;
+  /// Which checkpoint to resume: "same_run" (only one written under run_id; another run's is
+  /// moved aside) or "any" (whichever run wrote it).
+  std::string resume{"same_run"};
 
   int max_queue{60};          ///< scans held at most; beyond, the oldest is dropped (counted)
   double max_backlog_s{0.5};  ///< backlog beyond which rays are decimated (status shows it)

@@ -2,11 +2,14 @@
 
 #include <sys/stat.h>
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <stdexcept>
 
 #include "common/check.h"
+#include "common/identity.h"
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
 #include "kestrel/map_status_t.hpp"
@@ -29,18 +32,51 @@ bool FileExists(const std::string& path) {
 
 int32_t FloorDiv(int32_t a, int32_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
 
+// Where another run's checkpoint goes: <path>.run-<its run id> (characters a file name should
+// not hold replaced by '_'; "none" when it has no run id), then .2, .3, ... if that exists.
+std::string AsideName(const std::string& path, const std::string& run_id) {
+  std::string id = run_id.empty() ? "none" : run_id.substr(0, 128);
+  for (char& c : id) {
+    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
+                    c == '.' || c == '_' || c == '-' || c == '+' || c == ':';
+    if (!ok) c = '_';
+  }
+  const std::string base = path + ".run-" + id;
+  std::string aside = base;
+  for (int k = 2; FileExists(aside); ++k) aside = base + "." + std::to_string(k);
+  return aside;
+}
+
+std::string DescribeStreams(const StreamSequences& sequences) {
+  std::string out;
+  for (const auto& [name, epochs] : sequences) {
+    for (const EpochSequence& e : epochs) {
+      out += " " + name + "@" + std::to_string(e.last_seq) + " (epoch " + std::to_string(e.epoch) +
+             ")";
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 MapperNode::MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& clock)
     : lcm_(lcm),
       config_(config),
       clock_(clock),
+      epoch_(NewPublisherEpoch()),
       poses_(config.pose_history),
       skipped_(clock),
       bad_poses_(clock),
       heartbeat_(lcm, clock, "kestrel-mapper", config.heartbeat_channel),
       subscriptions_(lcm) {
   config_.Validate();
+  run_id_ = config_.run_id.empty() ? NewRunId() : config_.run_id;
+  if (!config_.checkpoint_path.empty()) {
+    Log(LogLevel::kInfo, "run '" + run_id_ + "'" +
+                             (config_.run_id.empty() ? " (a fresh id: run_id is not set)" : "") +
+                             ", checkpoint " + config_.checkpoint_path);
+  }
   for (const auto& s : config_.sensors) models_.emplace_back(s.model);
   if (!config_.checkpoint_path.empty() && FileExists(config_.checkpoint_path)) {
     LoadCheckpoint();
@@ -91,8 +127,40 @@ void MapperNode::CreateIntegrator() {
       std::visit([&](auto& m) { return std::make_unique<ScanIntegrator>(m.get(), options); }, map_);
 }
 
+void MapperNode::RefuseCheckpoint(const std::string& why) {
+  const std::string& path = config_.checkpoint_path;
+  const std::string aside = path + ".corrupt";
+  std::rename(path.c_str(), aside.c_str());
+  Log(LogLevel::kError,
+      "checkpoint refused (" + why + "); moved to " + aside + "; starting an empty map");
+  heartbeat_.SetLastError("checkpoint refused: " + why);
+  sequences_.clear();
+  CreateEmptyMap();
+}
+
 void MapperNode::LoadCheckpoint() {
   const std::string& path = config_.checkpoint_path;
+  MapFileInfo info;
+  try {
+    info = ReadMapFileInfo(path);
+  } catch (const std::exception& e) {
+    RefuseCheckpoint(e.what());
+    return;
+  }
+  // Another run's checkpoint (docs/design.md §3.5): set aside, never overwritten, unless asked.
+  if (info.run_id != run_id_ && config_.resume != "any") {
+    const std::string aside = AsideName(path, info.run_id);
+    if (std::rename(path.c_str(), aside.c_str()) != 0) {
+      throw std::runtime_error("checkpoint " + path + " is of run '" + info.run_id +
+                               "', not of this run '" + run_id_ + "', and cannot be moved to " +
+                               aside + " (" + std::strerror(errno) + "); refusing to overwrite it");
+    }
+    Log(LogLevel::kWarning,
+        "checkpoint " + path + " is of run '" + info.run_id + "', not of this run '" + run_id_ +
+            "' (resume: same_run): not resumed, moved to " + aside + "; starting an empty map");
+    CreateEmptyMap();
+    return;
+  }
   try {
     if (config_.grid == "dense") {
       auto loaded = LoadDenseMap(path);
@@ -111,27 +179,51 @@ void MapperNode::LoadCheckpoint() {
       map_ = std::move(loaded.map);
       sequences_ = std::move(loaded.sequences);
     }
-    std::string streams;
-    for (const auto& [name, seq] : sequences_) streams += " " + name + "@" + std::to_string(seq);
-    Log(LogLevel::kInfo, "resumed from checkpoint " + path + ":" + streams);
   } catch (const std::exception& e) {
-    const std::string aside = path + ".corrupt";
-    std::rename(path.c_str(), aside.c_str());
-    Log(LogLevel::kError, std::string("checkpoint refused (") + e.what() + "); moved to " + aside +
-                              "; starting an empty map");
-    heartbeat_.SetLastError(std::string("checkpoint refused: ") + e.what());
-    sequences_.clear();
-    CreateEmptyMap();
+    RefuseCheckpoint(e.what());
+    return;
   }
+  resumed_ = true;
+  const std::string whose = info.run_id == run_id_
+                                ? "of this run"
+                                : "of run '" + info.run_id + "' (resume: any) into this run";
+  Log(LogLevel::kInfo, "resumed from checkpoint " + path + " " + whose + " '" + run_id_ +
+                           "':" + DescribeStreams(sequences_));
 }
 
-bool MapperNode::AlreadyApplied(const std::string& channel, int64_t seq) {
+// docs/design.md §3.4: a message was applied before when an earlier message of the same
+// publisher epoch on the same channel had a sequence number at least as high. Every epoch ever
+// applied counts, not only the latest: a log replayed into a resumed mapper repeats the
+// publishers' restarts, and the messages of an earlier epoch must still be recognised.
+bool MapperNode::AlreadyApplied(const std::string& channel, int64_t epoch, int64_t seq) {
   const auto it = sequences_.find(channel);
-  if (it == sequences_.end() || seq > it->second) return false;
-  skipped_.Count("already_applied", channel + " seq " + std::to_string(seq) +
-                                        " is in the checkpoint (last " +
-                                        std::to_string(it->second) + ")");
-  return true;
+  if (it == sequences_.end()) return false;
+  for (const EpochSequence& e : it->second) {
+    if (e.epoch != epoch) continue;
+    if (seq > e.last_seq) return false;
+    skipped_.Count("already_applied", channel + " seq " + std::to_string(seq) + " of epoch " +
+                                          std::to_string(epoch) + " was applied (last " +
+                                          std::to_string(e.last_seq) + ")");
+    return true;
+  }
+  return false;
+}
+
+void MapperNode::Record(const Pending& p) {
+  std::vector<EpochSequence>& epochs = sequences_[p.channel];
+  for (EpochSequence& e : epochs) {
+    if (e.epoch == p.epoch) {
+      e.last_seq = std::max(e.last_seq, p.seq);
+      return;
+    }
+  }
+  if (!epochs.empty()) {
+    ++publisher_restarts_;
+    Log(LogLevel::kInfo, "channel " + p.channel + ": publisher restarted (epoch " +
+                             std::to_string(epochs.back().epoch) + " -> " +
+                             std::to_string(p.epoch) + ")");
+  }
+  epochs.push_back(EpochSequence{p.epoch, p.seq});
 }
 
 void MapperNode::OnPose(const pose_t& msg) {
@@ -153,7 +245,7 @@ void MapperNode::OnPose(const pose_t& msg) {
 }
 
 void MapperNode::OnDepth(size_t sensor, const std::string& channel, const depth_image_t& msg) {
-  if (AlreadyApplied(channel, msg.seq)) return;
+  if (AlreadyApplied(channel, msg.epoch, msg.seq)) return;
   auto bad = [&](const std::string& why) {
     skipped_.Count("malformed", channel + " seq " + std::to_string(msg.seq) + ": " + why);
   };
@@ -169,12 +261,12 @@ void MapperNode::OnDepth(size_t sensor, const std::string& channel, const depth_
   auto metadata = std::make_shared<depth_image_t>(msg);
   metadata->data.clear();  // the pixels travel decoded, in counts
   metadata->data_size = 0;
-  Enqueue(Pending{msg.utime, msg.seq, sensor, channel, std::move(metadata), std::move(counts),
-                  nullptr});
+  Enqueue(Pending{msg.utime, msg.seq, msg.epoch, sensor, channel, std::move(metadata),
+                  std::move(counts), nullptr});
 }
 
 void MapperNode::OnScan(size_t sensor, const std::string& channel, const planar_scan_t& msg) {
-  if (AlreadyApplied(channel, msg.seq)) return;
+  if (AlreadyApplied(channel, msg.epoch, msg.seq)) return;
   auto bad = [&](const std::string& why) {
     skipped_.Count("malformed", channel + " seq " + std::to_string(msg.seq) + ": " + why);
   };
@@ -189,7 +281,8 @@ void MapperNode::OnScan(size_t sensor, const std::string& channel, const planar_
     if (r < 0 || std::isinf(r)) return bad("negative or infinite range " + std::to_string(r));
     if (r == 0.0f) r = std::numeric_limits<float>::infinity();  // "no return"
   }
-  Enqueue(Pending{msg.utime, msg.seq, sensor, channel, nullptr, nullptr, std::move(scan)});
+  Enqueue(
+      Pending{msg.utime, msg.seq, msg.epoch, sensor, channel, nullptr, nullptr, std::move(scan)});
 }
 
 void MapperNode::Enqueue(Pending p) {
@@ -208,7 +301,7 @@ void MapperNode::Enqueue(Pending p) {
 void MapperNode::Skip(const Pending& p, const std::string& reason, const std::string& detail) {
   skipped_.Count(reason, p.channel + " seq " + std::to_string(p.seq) + " at " +
                              std::to_string(p.utime) + " us: " + detail);
-  sequences_[p.channel] = std::max(sequences_[p.channel], p.seq);
+  Record(p);
 }
 
 int MapperNode::ProcessPending(int max_scans) {
@@ -280,7 +373,7 @@ void MapperNode::Apply(const Pending& p, const Pose3& X_WB) {
   ++map_seq_;
   ++scans_applied_;
   newest_applied_utime_ = std::max(newest_applied_utime_, p.utime);
-  sequences_[p.channel] = std::max(sequences_[p.channel], p.seq);
+  Record(p);
 }
 
 double MapperNode::entropy_nats() const {
@@ -370,6 +463,7 @@ void MapperNode::PublishSnapshot() {
     msg.utime = newest_applied_utime_;
     msg.snapshot_id = snapshot_id_;
     msg.map_seq = map_seq_;
+    msg.epoch = epoch_;
     msg.chunk_index = c;
     msg.num_chunks = num_chunks;
     for (int a = 0; a < 3; ++a) {
@@ -417,6 +511,7 @@ void MapperNode::PublishDelta() {
   }
   msg.utime = newest_applied_utime_;
   msg.seq = map_seq_;
+  msg.epoch = epoch_;
   msg.prev_seq = last_delta_map_seq_;
   msg.base_snapshot_id = snapshot_id_;
   for (int a = 0; a < 3; ++a) msg.origin_m[a] = g.origin_m()[a];
@@ -432,6 +527,7 @@ void MapperNode::PublishStatus() {
   map_status_t msg{};
   msg.utime = now;
   msg.seq = status_seq_++;
+  msg.epoch = epoch_;
   msg.map_seq = map_seq_;
   msg.map_entropy_nats = entropy_nats();
   if (last_status_utime_ >= 0 && now > last_status_utime_) {
@@ -471,6 +567,7 @@ void MapperNode::PublishStatus() {
   heartbeat_.SetValue("scans_applied", static_cast<double>(scans_applied_));
   heartbeat_.SetValue("scans_skipped", static_cast<double>(skipped_.total()));
   heartbeat_.SetValue("queue_depth", static_cast<double>(queue_.size()));
+  heartbeat_.SetValue("publisher_restarts", static_cast<double>(publisher_restarts_));
   heartbeat_.SetValue("entropy_nats", msg.map_entropy_nats);
   if (!skipped_.last_reason().empty()) heartbeat_.SetLastError(skipped_.last_reason());
   heartbeat_.Publish();
@@ -479,7 +576,8 @@ void MapperNode::PublishStatus() {
 bool MapperNode::SaveCheckpoint() {
   if (config_.checkpoint_path.empty()) return true;
   try {
-    SaveMapFile(config_.checkpoint_path);
+    std::visit([&](const auto& m) { SaveMap(config_.checkpoint_path, *m, sequences_, run_id_); },
+               map_);
     return true;
   } catch (const std::exception& e) {
     Log(LogLevel::kError, std::string("checkpoint not saved: ") + e.what());

@@ -8,10 +8,12 @@
 /// map bit for bit. A scan newer than the latest pose waits, until a pose after it arrives or the
 /// newest input stamp passes it by pose_history.max_wait_s (message time, so that a replayed log
 /// pairs exactly as live); scans older than the
-/// history, across a pose gap, malformed, or already in the checkpoint (sequence number) are
-/// counted by reason and skipped. Outputs: full snapshots in chunks (MAP3D) at a low rate, deltas
-/// of the changed cells in between (MAP3D_DELTA: the cells the map tracked as changed since the
-/// last delta or snapshot, OccupancyMap::ForEachChangedCell), MAP_STATUS and a heartbeat.
+/// history, across a pose gap, malformed, or already applied (the same publisher epoch and a
+/// sequence number not above the last one applied from it: docs/design.md §3.4) are counted by
+/// reason and skipped; a restarted publisher (a new epoch) is applied at once. Outputs: full
+/// snapshots in chunks (MAP3D) at a low rate, deltas of the changed cells in between (MAP3D_DELTA:
+/// the cells the map tracked as changed since the last delta or snapshot,
+/// OccupancyMap::ForEachChangedCell), MAP_STATUS and a heartbeat.
 ///
 /// Overload policy (documented in config/mapper.yaml): when the oldest queued scan is more than
 /// max_backlog_s behind the newest input, the next scans apply only every k-th ray (k doubles
@@ -44,8 +46,11 @@ namespace kestrel {
 class MapperNode {
  public:
   /// Subscribes to the sensors and poses; resumes from config.checkpoint_path if it holds a
-  /// valid map (a corrupt file is moved aside as <path>.corrupt and the map starts empty).
-  /// @throws std::invalid_argument if config.Validate() throws.
+  /// valid map of this run (docs/design.md §3.5): a corrupt file is moved aside as
+  /// <path>.corrupt, another run's checkpoint (unless config.resume is "any") as
+  /// <path>.run-<its run id>, and the map then starts empty.
+  /// @throws std::invalid_argument if config.Validate() throws; std::runtime_error if another
+  /// run's checkpoint cannot be moved aside (it is never overwritten).
   MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& clock);
   MapperNode(const MapperNode&) = delete;
   MapperNode& operator=(const MapperNode&) = delete;
@@ -74,11 +79,20 @@ class MapperNode {
   /// True while no input has been skipped for a reason other than "already in the checkpoint",
   /// and no ray was decimated.
   [[nodiscard]] bool applied_every_message() const;
-  /// The last applied sequence number per input channel.
+  /// Per input channel, the last applied sequence number of every publisher epoch.
   [[nodiscard]] const StreamSequences& sequences() const { return sequences_; }
+  /// The run this mapper maps (config.run_id, or the fresh id made at start).
+  [[nodiscard]] const std::string& run_id() const { return run_id_; }
+  /// True if the map was resumed from the checkpoint.
+  [[nodiscard]] bool resumed() const { return resumed_; }
+  /// This mapper's publisher epoch, stamped on its messages (common/identity.h).
+  [[nodiscard]] int64_t epoch() const { return epoch_; }
+  /// Input channels on which a new publisher epoch appeared after another had been applied.
+  [[nodiscard]] int64_t publisher_restarts() const { return publisher_restarts_; }
   /// Probability of a cell.
   [[nodiscard]] double ProbabilityAt(const CellIndex& cell) const;
-  /// Saves the map to `path` (Kestrel map file) / exports OctoMap .bt/.ot / PLY.
+  /// Saves the map to `path` (Kestrel map file, with the stream positions but no run id: a saved
+  /// map is not a checkpoint) / exports OctoMap .bt/.ot / PLY.
   void SaveMapFile(const std::string& path) const;
   void ExportOctoMapFile(const std::string& path) const;
   size_t ExportPlyFile(const std::string& path) const;
@@ -89,6 +103,7 @@ class MapperNode {
   struct Pending {
     int64_t utime;
     int64_t seq;
+    int64_t epoch;
     size_t sensor;  // index into config_.sensors
     std::string channel;
     std::shared_ptr<const depth_image_t> depth;  // metadata; its pixels decoded in `counts`
@@ -102,11 +117,15 @@ class MapperNode {
   void OnDepth(size_t sensor, const std::string& channel, const depth_image_t& msg);
   void OnScan(size_t sensor, const std::string& channel, const planar_scan_t& msg);
   void Enqueue(Pending p);
-  bool AlreadyApplied(const std::string& channel, int64_t seq);
+  bool AlreadyApplied(const std::string& channel, int64_t epoch, int64_t seq);
+  // Records (channel, epoch, seq) as applied or skipped for good; logs a new epoch once.
+  void Record(const Pending& p);
   void Skip(const Pending& p, const std::string& reason, const std::string& detail);
   void Apply(const Pending& p, const Pose3& X_WB);
   void CreateEmptyMap();
   void LoadCheckpoint();
+  // Moves a corrupt checkpoint to <path>.corrupt and starts an empty map.
+  void RefuseCheckpoint(const std::string& why);
   // The integrator into map_ (after map_ was made or loaded).
   void CreateIntegrator();
   /// Calls f(block_origin_cell, probabilities[512]) for every block holding any observed cell.
@@ -116,6 +135,10 @@ class MapperNode {
   lcm::LCM& lcm_;
   MapperConfig config_;
   const Clock& clock_;
+  int64_t epoch_;       // this publisher's epoch
+  std::string run_id_;  // config_.run_id or a fresh one
+  bool resumed_{false};
+  int64_t publisher_restarts_{0};
   std::vector<SensorModel> models_;
   MapPtr map_;
   std::unique_ptr<ScanIntegrator> integrator_;  // into map_

@@ -3,6 +3,7 @@
 #include <cstring>
 
 #include "common/check.h"
+#include "common/identity.h"
 #include "kestrel/depth_image_t.hpp"
 #include "kestrel/imu_t.hpp"
 #include "kestrel/planar_scan_t.hpp"
@@ -18,6 +19,7 @@ SimNode::SimNode(lcm::LCM& lcm, const SimConfig& config, SimClock& clock)
       simulator_(std::make_unique<Simulator>(config, clock.NowUtime())),
       subscriptions_(lcm),
       heartbeat_(lcm, clock, "kestrel-sim", config.heartbeat_channel),
+      epoch_(NewPublisherEpoch()),
       next_heartbeat_utime_(clock.NowUtime() + 1000000),
       wall_at_heartbeat_(std::chrono::steady_clock::now()),
       utime_at_heartbeat_(clock.NowUtime()) {
@@ -89,6 +91,7 @@ void SimNode::Publish(const SimFrame& frame) {
     pose_t msg;
     msg.utime = s.utime;
     msg.seq = pose_seq_++;
+    msg.epoch = epoch_;
     msg.frame_id = "world";
     msg.child_frame_id = "kestrel";
     msg.valid = static_cast<int8_t>(s.valid);
@@ -105,6 +108,7 @@ void SimNode::Publish(const SimFrame& frame) {
     imu_t msg;
     msg.utime = frame.imu->utime;
     msg.seq = imu_seq_++;
+    msg.epoch = epoch_;
     msg.sensor_name = "imu";
     for (int a = 0; a < 3; ++a) {
       msg.angular_velocity_radps[a] = frame.imu->angular_velocity_radps[a];
@@ -117,6 +121,7 @@ void SimNode::Publish(const SimFrame& frame) {
     depth_image_t msg;
     msg.utime = sim.depth_utime();
     msg.seq = depth_seq_++;
+    msg.epoch = epoch_;
     msg.sensor_name = config.depth_sensor_name;
     msg.width = config.depth.width_px;
     msg.height = config.depth.height_px;
@@ -135,6 +140,7 @@ void SimNode::Publish(const SimFrame& frame) {
     planar_scan_t msg;
     msg.utime = sim.scan_utime();
     msg.seq = scan_seq_++;
+    msg.epoch = epoch_;
     msg.sensor_name = config.lidar_sensor_name;
     msg.angle_min_rad = static_cast<float>(lidar.angle_min_rad);
     msg.angle_step_rad = static_cast<float>(lidar.angle_step_rad);
@@ -163,6 +169,7 @@ void SimNode::Publish(const SimFrame& frame) {
     sim_truth_t msg;
     msg.utime = now;
     msg.seq = truth_seq_++;
+    msg.epoch = epoch_;
     for (int a = 0; a < 3; ++a) {
       msg.position_m[a] = s.p_W[a];
       msg.velocity_mps[a] = s.v_W[a];

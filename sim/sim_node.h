@@ -25,7 +25,8 @@ namespace kestrel {
 
 /// kestrel-sim's LCM node (see the file comment). Not thread-safe; neither copyable nor movable.
 /// SIM_TRUTH's real_time_factor and the heartbeat depend on the wall clock; every other field
-/// of every message is deterministic for a seed.
+/// of every message is deterministic for a seed, but for the publisher epoch, which is drawn at
+/// construction (deterministic after SeedPublisherEpochs, common/identity.h).
 class SimNode {
  public:
   /// Builds the simulator at the clock's current time and subscribes. The lcm and clock must
@@ -45,6 +46,8 @@ class SimNode {
   [[nodiscard]] int64_t rejected_messages() const { return rejected_; }
   /// Simulated seconds per wall second since the last heartbeat (0 before the first).
   [[nodiscard]] double real_time_factor() const { return real_time_factor_; }
+  /// The publisher epoch stamped on every message but the heartbeat (common/identity.h).
+  [[nodiscard]] int64_t epoch() const { return epoch_; }
 
  private:
   void OnMotorCommand(const motor_command_t& msg);
@@ -57,6 +60,7 @@ class SimNode {
   std::unique_ptr<Simulator> simulator_;
   GuardedSubscriptions subscriptions_;
   Heartbeat heartbeat_;
+  int64_t epoch_;
   int64_t pose_seq_{0}, imu_seq_{0}, depth_seq_{0}, scan_seq_{0}, truth_seq_{0};
   int64_t rejected_{0};
   int64_t next_heartbeat_utime_;

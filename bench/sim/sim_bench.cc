@@ -229,6 +229,7 @@ void BM_RealTimeFactor(benchmark::State& state) {
         motor_command_t cmd;
         cmd.utime = clock.NowUtime();
         cmd.seq = k;
+        cmd.epoch = 1;  // one publisher, never restarted
         cmd.armed = true;
         cmd.num_motors = 4;
         cmd.thrust_N.assign(thrust.data(), thrust.data() + 4);

@@ -14,6 +14,7 @@
 #include <stdexcept>
 
 #include "common/check.h"
+#include "common/identity.h"
 #include "common/log.h"
 
 namespace kestrel::procman {
@@ -32,7 +33,8 @@ Deputy::Deputy(lcm::LCM& lcm, Sheet sheet, DeputyConfig config, const Clock& clo
       sheet_(std::move(sheet)),
       config_(std::move(config)),
       clock_(clock),
-      subscriptions_(lcm) {
+      subscriptions_(lcm),
+      epoch_(NewPublisherEpoch()) {
   config_.Validate();
   for (const Command& c : sheet_.commands) {
     if (c.host == config_.host) local_[c.id].command = &c;
@@ -97,6 +99,7 @@ void Deputy::Order(int8_t action, bool is_group, const std::string& target) {
   procman_order_t order;
   order.utime = clock_.NowUtime();
   order.seq = order_seq_++;
+  order.epoch = epoch_;
   order.source = config_.host;
   order.host = "";
   order.action = action;
@@ -335,6 +338,7 @@ void Deputy::PublishStatus() {
   procman_status_t msg;
   msg.utime = clock_.NowUtime();
   msg.seq = status_seq_++;
+  msg.epoch = epoch_;
   msg.host = config_.host;
   msg.sheet = sheet_.file;
   msg.script = script_stack_.empty() ? "" : script_stack_.back().script->name;

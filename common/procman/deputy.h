@@ -81,6 +81,8 @@ class Deputy {
 
   [[nodiscard]] const CommandState* state(const std::string& id) const;
   [[nodiscard]] const Sheet& sheet() const { return sheet_; }
+  /// The publisher epoch stamped on its status and orders (common/identity.h).
+  [[nodiscard]] int64_t epoch() const { return epoch_; }
 
  private:
   void Start(CommandState* s);
@@ -101,6 +103,7 @@ class Deputy {
   std::map<std::string, CommandState> local_;        // by command id, this host's only
   std::map<std::string, procman_command_t> remote_;  // other hosts' reports, by command id
   GuardedSubscriptions subscriptions_;
+  int64_t epoch_;  // this publisher's epoch (common/identity.h)
   int64_t status_seq_{0};
   int64_t order_seq_{0};
 

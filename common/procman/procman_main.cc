@@ -5,6 +5,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "common/identity.h"
 #include "common/log.h"
 #include "common/node_loop.h"
 #include "common/process.h"
@@ -16,7 +17,8 @@ const char* const kUsage =
     "                       [--exit-after-script]\n"
     "Runs the commands of SHEET (bot-procman format) whose host is NAME, like a procman deputy:\n"
     "reports their state on PROCMAN_STATUS, obeys PROCMAN_ORDERS (kestrel-cmd), respawns\n"
-    "auto_respawn commands, and stops them all on SIGINT/SIGTERM.\n"
+    "auto_respawn commands, and stops them all on SIGINT/SIGTERM. Every command it starts, and\n"
+    "every respawn, sees the same $KESTREL_RUN_ID: the runner's own, or a new one it makes.\n"
     "  TARGET: all | cmd:ID | group:PATH       (started at once)\n"
     "  --script NAME        run the sheet's script NAME (orders other hosts' runners too)\n"
     "  --exit-after-script  stop everything and exit when the script is done\n";
@@ -60,6 +62,11 @@ int main(int argc, char** argv) {
           return 2;
         }
         const kestrel::procman::Sheet sheet = kestrel::procman::LoadSheet(sheet_path);
+        // One run id for every command and respawn of this runner (docs/design.md §3.5).
+        const std::string run_id = kestrel::EnsureRunIdInEnvironment();
+        kestrel::Log(kestrel::LogLevel::kInfo, std::string("run id ") + run_id + " ($" +
+                                                   kestrel::kRunIdEnvironmentVariable +
+                                                   " of every command)");
         lcm::LCM lcm(args.lcm_url);
         if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");
         kestrel::WallClock clock;

@@ -5,6 +5,7 @@
 
 #include <time.h>
 
+#include "common/identity.h"
 #include "kestrel/heartbeat_t.hpp"
 #include "kestrel/planar_scan_t.hpp"
 
@@ -17,7 +18,8 @@ HokuyoNode::HokuyoNode(lcm::LCM& lcm, const HokuyoConfig& config, Clock& clock)
       driver_(config),
       heartbeat_(lcm, clock, "kestrel-hokuyo", config.heartbeat_channel),
       drops_(clock),
-      backoff_s_(config.reopen_backoff_min_s) {
+      backoff_s_(config.reopen_backoff_min_s),
+      epoch_(NewPublisherEpoch()) {
   rate_window_start_utime_ = clock_.NowUtime();
 }
 
@@ -75,6 +77,7 @@ void HokuyoNode::PublishScans() {
     planar_scan_t msg;
     msg.utime = scan.utime;
     msg.seq = seq_++;
+    msg.epoch = epoch_;
     msg.sensor_name = config_.sensor_name;
     msg.angle_min_rad = scan.angle_min_rad;
     msg.angle_step_rad = scan.angle_step_rad;

@@ -45,6 +45,8 @@ class HokuyoNode {
   /// Successful opens of the port (the first included).
   [[nodiscard]] int64_t opens() const { return opens_; }
   [[nodiscard]] const DropCounter& drops() const { return drops_; }
+  /// The publisher epoch stamped on every scan (common/identity.h).
+  [[nodiscard]] int64_t epoch() const { return epoch_; }
 
  private:
   void TryOpen(int64_t now_utime);
@@ -64,6 +66,7 @@ class HokuyoNode {
   double backoff_s_;
   int64_t opens_{0};
   int64_t scans_published_{0};
+  int64_t epoch_;
   int64_t seq_{0};
   int64_t rate_window_start_utime_{0};
   int64_t rate_window_scans_{0};

@@ -12,6 +12,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "common/identity.h"
+
 namespace kestrel {
 namespace {
 
@@ -28,6 +30,7 @@ ViconNode::ViconNode(lcm::LCM& lcm, const ViconConfig& config, const Clock& cloc
       bridge_(config),
       heartbeat_(lcm, clock, "kestrel-vicon", config.heartbeat_channel),
       drops_(clock),
+      epoch_(NewPublisherEpoch()),
       buffer_(kReceiveBufferBytes) {
   fd_ = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
   if (fd_ < 0) throw std::runtime_error(std::string("vicon: socket: ") + std::strerror(errno));
@@ -107,7 +110,7 @@ int ViconNode::ReceiveOnce(int timeout_ms) {
       drops_.Count(std::string("malformed vicon datagram ") + ViconPacketErrorName(error), reason);
       heartbeat_.SetLastError(reason);
     }
-    Publish(outputs_);
+    Publish(&outputs_);
     ++handled;
   }
   return handled;
@@ -117,11 +120,14 @@ void ViconNode::CheckTimeouts() {
   std::lock_guard<std::mutex> lock(mutex_);
   outputs_.clear();
   bridge_.CheckTimeouts(clock_.NowUtime(), &outputs_);
-  Publish(outputs_);
+  Publish(&outputs_);
 }
 
-void ViconNode::Publish(const std::vector<ViconPoseOutput>& outputs) {
-  for (const ViconPoseOutput& output : outputs) lcm_.publish(output.channel, &output.pose);
+void ViconNode::Publish(std::vector<ViconPoseOutput>* outputs) {
+  for (ViconPoseOutput& output : *outputs) {
+    output.pose.epoch = epoch_;
+    lcm_.publish(output.channel, &output.pose);
+  }
 }
 
 void ViconNode::PublishHeartbeat() {

@@ -56,9 +56,12 @@ class ViconNode {
   [[nodiscard]] int bound_port() const { return bound_port_; }
   /// A copy of the bridge counters (thread-safe).
   [[nodiscard]] ViconBridgeStats stats() const;
+  /// The publisher epoch stamped on every pose (common/identity.h).
+  [[nodiscard]] int64_t epoch() const { return epoch_; }
 
  private:
-  void Publish(const std::vector<ViconPoseOutput>& outputs);
+  // Stamps the epoch on each pose and publishes it.
+  void Publish(std::vector<ViconPoseOutput>* outputs);
 
   lcm::LCM& lcm_;
   const ViconConfig config_;
@@ -70,6 +73,7 @@ class ViconNode {
   ViconBridge bridge_;
   Heartbeat heartbeat_;
   DropCounter drops_;
+  int64_t epoch_;
   std::vector<uint8_t> buffer_;
   std::vector<ViconPoseOutput> outputs_;
   std::atomic<bool> stop_thread_{false};

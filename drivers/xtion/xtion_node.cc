@@ -4,16 +4,18 @@
 #include <chrono>
 #include <thread>
 
+#include "common/identity.h"
 #include "kestrel/heartbeat_t.hpp"
 #include "lcmtypes/message_codecs.h"
 
 namespace kestrel {
 
 depth_image_t MakeDepthImage(const DepthFrame& frame, const PinholeIntrinsics& k, int64_t utime,
-                             int64_t seq, const XtionConfig& config) {
+                             int64_t seq, int64_t epoch, const XtionConfig& config) {
   depth_image_t msg;
   msg.utime = utime;
   msg.seq = seq;
+  msg.epoch = epoch;
   msg.sensor_name = config.sensor_name;
   msg.width = frame.width;
   msg.height = frame.height;
@@ -39,6 +41,7 @@ XtionNode::XtionNode(lcm::LCM& lcm, const XtionConfig& config, const Clock& cloc
       heartbeat_(lcm, clock, "kestrel-xtion", config.heartbeat_channel),
       drops_(clock),
       offset_(config.offset_window, SecondsToUtime(config.offset_reset_s)),
+      epoch_(NewPublisherEpoch()),
       backoff_s_(config.reopen_initial_s) {
   config_.Validate();
   heartbeat_.SetState(heartbeat_t::STATE_STARTING);
@@ -155,7 +158,7 @@ void XtionNode::Poll(int timeout_ms) {
   if (offset_.AddSample(frame_.device_us, now)) ++stats_.offset_resets;
   const int64_t utime = offset_.ToHostUtime(frame_.device_us);
   try {
-    const depth_image_t msg = MakeDepthImage(frame_, intrinsics_, utime, seq_++, config_);
+    const depth_image_t msg = MakeDepthImage(frame_, intrinsics_, utime, seq_++, epoch_, config_);
     lcm_.publish(config_.channel, &msg);
     ++stats_.frames_published;
   } catch (const std::runtime_error& e) {

@@ -23,11 +23,12 @@
 
 namespace kestrel {
 
-/// Builds the message for one frame: host time `utime`, sequence `seq`, intrinsics `k`, payload
-/// encoded per `config` (depth_scale_m 1e-3 for DEPTH_1_MM, 1e-4 for DEPTH_100_UM).
-/// @throws std::runtime_error if encoding fails.
+/// Builds the message for one frame: host time `utime`, sequence `seq` and publisher `epoch`
+/// (common/identity.h), intrinsics `k`, payload encoded per `config` (depth_scale_m 1e-3 for
+/// DEPTH_1_MM, 1e-4 for DEPTH_100_UM). @throws std::runtime_error if encoding fails.
 [[nodiscard]] depth_image_t MakeDepthImage(const DepthFrame& frame, const PinholeIntrinsics& k,
-                                           int64_t utime, int64_t seq, const XtionConfig& config);
+                                           int64_t utime, int64_t seq, int64_t epoch,
+                                           const XtionConfig& config);
 
 /// What the node has done so far (also published in the heartbeat under these names).
 struct XtionStats {
@@ -57,6 +58,8 @@ class XtionNode {
   [[nodiscard]] const XtionStats& stats() const { return stats_; }
   [[nodiscard]] bool streaming() const { return camera_.is_open(); }
   /// Current smoothed host-minus-device offset, us (0 before the first frame).
+  /// The publisher epoch stamped on every depth image (common/identity.h).
+  [[nodiscard]] int64_t epoch() const { return epoch_; }
   [[nodiscard]] int64_t clock_offset_us() const { return offset_.offset_us(); }
   /// Intrinsics of the open stream (from its field of view).
   [[nodiscard]] const PinholeIntrinsics& intrinsics() const { return intrinsics_; }
@@ -78,6 +81,7 @@ class XtionNode {
   PinholeIntrinsics intrinsics_;
   XtionStats stats_;
   DepthFrame frame_;
+  int64_t epoch_;
   int64_t seq_{0};
   int64_t last_frame_index_{-1};
   int64_t last_frame_utime_{0};

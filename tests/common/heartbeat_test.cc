@@ -35,6 +35,31 @@ TEST(Heartbeat, PublishesStateUptimeAndValues) {
   EXPECT_EQ(got[0].values[0].name, "scans_dropped");
   EXPECT_EQ(got[0].values[0].value, 3.0);
   EXPECT_EQ(got[1].seq, got[0].seq + 1);
+  EXPECT_NE(got[0].epoch, 0);
+  EXPECT_EQ(got[0].epoch, hb.epoch());
+  EXPECT_EQ(got[1].epoch, got[0].epoch);
+}
+
+// Two heartbeats (two publishers) in one process carry different epochs.
+TEST(Heartbeat, TwoPublishersHaveDifferentEpochs) {
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  Heartbeat a(lcm, clock, "kestrel-a", "HEARTBEAT_TEST");
+  Heartbeat b(lcm, clock, "kestrel-b", "HEARTBEAT_TEST");
+  std::vector<heartbeat_t> got;
+  GuardedSubscriptions subs(lcm);
+  subs.Add<heartbeat_t>(
+      "HEARTBEAT_TEST", [&](const std::string&, const heartbeat_t& m) { got.push_back(m); },
+      nullptr);
+  a.Publish();
+  b.Publish();
+  while (lcm.handleTimeout(0) > 0) {
+  }
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[0].seq, got[1].seq) << "both count from 0";
+  EXPECT_NE(got[0].epoch, got[1].epoch);
+  EXPECT_NE(got[0].epoch, 0);
+  EXPECT_NE(got[1].epoch, 0);
 }
 
 TEST(DropCounter, CountsEveryDropByKind) {

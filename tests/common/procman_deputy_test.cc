@@ -9,9 +9,13 @@
 #include <fstream>
 #include <functional>
 #include <sstream>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
+
+#include "common/identity.h"
 
 namespace kestrel::procman {
 namespace {
@@ -104,6 +108,33 @@ TEST_F(DeputyTest, RespawnsWithBackoffOnlyWhenAutoRespawn) {
   EXPECT_EQ(d->state("crasher")->restarts, restarts) << "a stopped command is not respawned";
 }
 
+// Every start and respawn of a command sees the runner's $KESTREL_RUN_ID (kestrel-procman sets
+// it once, EnsureRunIdInEnvironment): a mapper respawned within a run resumes its checkpoint
+// (docs/design.md §3.5).
+TEST_F(DeputyTest, RespawnsSeeTheSameRunId) {
+  ASSERT_EQ(unsetenv(kestrel::kRunIdEnvironmentVariable), 0);
+  const std::string run_id = kestrel::EnsureRunIdInEnvironment();
+  auto d = Make(R"(cmd "r" { exec = "echo run=$KESTREL_RUN_ID; exit 1"; host = "here";
+                              auto_respawn = "true"; })");
+  d->Order(procman_order_t::ACTION_START, false, "r");
+  const std::string log_path = config_.log_dir + "/r.log";
+  auto lines = [&] {
+    std::ifstream log(log_path);
+    std::vector<std::string> out;
+    for (std::string line; std::getline(log, line);) out.push_back(line);
+    return out;
+  };
+  EXPECT_TRUE(PollUntil(
+      *d, [&] { return lines().size() >= 3; }, 5.0))
+      << "the first start and two respawns";
+  d->StopAll();
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return d->AllStopped(); }, 5.0));
+  unsetenv(kestrel::kRunIdEnvironmentVariable);
+  EXPECT_GE(d->state("r")->restarts, 2);
+  for (const std::string& line : lines()) EXPECT_EQ(line, "run=" + run_id);
+}
+
 TEST_F(DeputyTest, CapturesOutputInPerCommandLogs) {
   auto d =
       Make(R"(cmd "talker" { exec = "echo hello-from-talker; echo oops >&2"; host = "here"; })");
@@ -143,6 +174,8 @@ TEST_F(DeputyTest, ObeysOrdersForItsHostAndReportsStatus) {
   ASSERT_FALSE(statuses.empty());
   const procman_status_t& st = statuses.back();
   EXPECT_EQ(st.host, "here");
+  EXPECT_NE(st.epoch, 0);
+  EXPECT_EQ(st.epoch, d->epoch());
   ASSERT_EQ(st.num_commands, 1);
   EXPECT_EQ(st.commands[0].id, "a");
   EXPECT_EQ(st.commands[0].pid, d->state("a")->pid);

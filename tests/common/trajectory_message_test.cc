@@ -17,8 +17,9 @@ PiecewisePolynomialTrajectory MakeTrajectory() {
 
 TEST(TrajectoryMessage, RoundTripsExactly) {
   const PiecewisePolynomialTrajectory t = MakeTrajectory();
-  const trajectory_t msg = ToMessage(t, 42, 7);
+  const trajectory_t msg = ToMessage(t, 42, 7, 0x1234567890);
   EXPECT_EQ(msg.seq, 7);
+  EXPECT_EQ(msg.epoch, 0x1234567890);
   EXPECT_EQ(msg.start_utime, 1234500000);
   EXPECT_EQ(msg.num_segments, 2);
   EXPECT_EQ(msg.num_coeffs, 4);
@@ -34,7 +35,7 @@ TEST(TrajectoryMessage, RoundTripsExactly) {
 }
 
 TEST(TrajectoryMessage, InconsistentMessagesAreRefused) {
-  trajectory_t msg = ToMessage(MakeTrajectory(), 0, 0);
+  trajectory_t msg = ToMessage(MakeTrajectory(), 0, 0, 1);
   std::string error;
   trajectory_t short_row = msg;
   short_row.coeffs_y[1].pop_back();

@@ -18,6 +18,7 @@ namespace kestrel {
 namespace {
 
 constexpr int64_t kTickUs = 2500;  // 400 Hz
+constexpr int64_t kTestEpoch = 3;  // the test's publisher epoch
 
 class ControllerNodeTest : public ::testing::Test {
  protected:
@@ -59,6 +60,7 @@ class ControllerNodeTest : public ::testing::Test {
         pose_t pose;
         pose.utime = now;
         pose.seq = pose_seq_++;
+        pose.epoch = kTestEpoch;
         pose.frame_id = "world";
         pose.child_frame_id = "kestrel";
         pose.valid = true;
@@ -75,6 +77,7 @@ class ControllerNodeTest : public ::testing::Test {
       imu_t imu;
       imu.utime = now;
       imu.seq = imu_seq_++;
+      imu.epoch = kTestEpoch;
       imu.sensor_name = "imu";
       const Eigen::Vector3d f = sim_.specific_force_B_mps2();
       for (int i = 0; i < 3; ++i) {
@@ -98,6 +101,7 @@ class ControllerNodeTest : public ::testing::Test {
     command_t msg;
     msg.utime = clock_.NowUtime();
     msg.seq = 0;
+    msg.epoch = kTestEpoch;
     msg.source = "test";
     msg.command = command;
     msg.height_m = 1.2;
@@ -137,6 +141,7 @@ TEST_F(ControllerNodeTest, TakesOffAndTracksOverLcm) {
   trajectory_t trajectory;
   trajectory.utime = clock_.NowUtime();
   trajectory.seq = 7;
+  trajectory.epoch = 0x7e57;
   trajectory.start_utime = clock_.NowUtime();
   trajectory.num_segments = 1;
   trajectory.num_coeffs = 4;
@@ -151,6 +156,7 @@ TEST_F(ControllerNodeTest, TakesOffAndTracksOverLcm) {
   Advance(1.0);
   EXPECT_EQ(status_.mode, controller_status_t::MODE_TRACK) << status_.reason;
   EXPECT_EQ(status_.trajectory_seq, 7);
+  EXPECT_EQ(status_.trajectory_epoch, 0x7e57) << "whose trajectory 7 it is";
   Advance(4.0);
   EXPECT_TRUE(status_.trajectory_done);
   EXPECT_LT((sim_.state().position_m - Eigen::Vector3d(1.0, -0.5, 1.2)).norm(), 0.03);
@@ -177,6 +183,7 @@ TEST_F(ControllerNodeTest, CountsAndDropsBadInput) {
   pose_t invalid;
   invalid.utime = clock_.NowUtime();
   invalid.seq = 0;
+  invalid.epoch = kTestEpoch;
   invalid.frame_id = "world";
   invalid.child_frame_id = "kestrel";
   invalid.valid = false;
@@ -184,6 +191,7 @@ TEST_F(ControllerNodeTest, CountsAndDropsBadInput) {
   command_t bad;
   bad.utime = 0;
   bad.seq = 0;
+  bad.epoch = kTestEpoch;
   bad.source = "test";
   bad.command = 42;
   bad.height_m = 0.0;
@@ -232,6 +240,33 @@ TEST(LoadControllerConfig, ReadsKeysAndNamesErrors) {
       EXPECT_NE(std::string(e.what()).find("controller.yaml"), std::string::npos) << e.what();
     }
   }
+}
+
+// Motor commands and status carry their publisher's epoch; a second controller in the process has
+// other epochs.
+TEST_F(ControllerNodeTest, StampsItsEpochs) {
+  Advance(0.1);
+  ASSERT_GT(motors_, 0);
+  ASSERT_GT(statuses_, 0);
+  EXPECT_NE(motor_.epoch, 0);
+  EXPECT_EQ(status_.epoch, node_.epoch());
+  EXPECT_NE(status_.epoch, 0);
+  EXPECT_EQ(status_.trajectory_epoch, 0) << "no trajectory yet";
+  const int64_t motor_epoch = motor_.epoch;
+  ControllerConfig second_config = config_;
+  second_config.motor_channel = "MOTOR_COMMAND_2";
+  second_config.status_channel = "CONTROLLER_STATUS_2";
+  ControllerNode second(lcm_, second_config, clock_);
+  motor_command_t second_motor{};
+  GuardedSubscriptions subs(lcm_);
+  subs.Add<motor_command_t>(
+      "MOTOR_COMMAND_2", [&](const std::string&, const motor_command_t& m) { second_motor = m; },
+      nullptr);
+  second.Tick(clock_.NowUtime());
+  Dispatch();
+  EXPECT_NE(second.epoch(), node_.epoch());
+  EXPECT_NE(second_motor.epoch, 0);
+  EXPECT_NE(second_motor.epoch, motor_epoch);
 }
 
 }  // namespace

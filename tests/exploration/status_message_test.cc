@@ -26,13 +26,15 @@ TEST(StatusMessage, EncodesTheDecision) {
   r.chosen = 2;
   r.timings.total_s = 0.01;
   const exploration_status_t msg = ToStatusMessage(
-      r, ExplorationMode::kTwoMap, exploration_status_t::STATE_EXPLORING, 123.0, 0.75, 5, 6);
+      r, ExplorationMode::kTwoMap, exploration_status_t::STATE_EXPLORING, 123.0, 0.75, 5, 6, 77);
   // Consistent sizes: the message encodes completely.
   std::vector<uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
   ASSERT_EQ(msg.encode(bytes.data(), 0, static_cast<int>(bytes.size())),
             static_cast<int>(bytes.size()));
   const exploration_status_t& back = msg;
   EXPECT_EQ(back.mode, "two_map");
+  EXPECT_EQ(back.seq, 6);
+  EXPECT_EQ(back.epoch, 77);
   EXPECT_EQ(back.num_candidates, 3);
   EXPECT_EQ(back.chosen_index, 2);
   EXPECT_EQ(back.best_unweighted_gain_nats, 7.5);  // the end-test gain in two-map mode
@@ -42,14 +44,16 @@ TEST(StatusMessage, EncodesTheDecision) {
   EXPECT_EQ(back.total_time_s, 0.01);
   r.chosen = -1;
   EXPECT_TRUE(std::isnan(
-      ToStatusMessage(r, ExplorationMode::kCombined, 0, 0.0, 0.75, 0, 0).goal_position_m[0]));
+      ToStatusMessage(r, ExplorationMode::kCombined, 0, 0.0, 0.75, 0, 0, 1).goal_position_m[0]));
 }
 
 // A 2D map message has the map's geometry and values.
 TEST(StatusMessage, GridMapMessage) {
   GridMap2D g = GridMap2D::Filled({-4.0, -6.0}, 0.9, 0.75, 9, 14, 0.1);
   g.at(3, 4) = 0.7;
-  const grid_map_t m = ToGridMapMessage(g, "collision", 1, 2);
+  const grid_map_t m = ToGridMapMessage(g, "collision", 1, 2, 99);
+  EXPECT_EQ(m.seq, 2);
+  EXPECT_EQ(m.epoch, 99);
   EXPECT_EQ(m.width, 9);
   EXPECT_EQ(m.height, 14);
   EXPECT_EQ(m.num_values, 126);

@@ -295,7 +295,7 @@ TEST(TrajectoryPlanner, RoundTripsThroughTheMessage) {
                      Eigen::Vector3d::Zero(), 0.0, 2.0, 0.75, 12.5, TrajectoryConfig());
   ASSERT_TRUE(plan.trajectory.has_value()) << plan.error;
   std::string error;
-  const auto back = FromMessage(ToMessage(*plan.trajectory, 1, 2), &error);
+  const auto back = FromMessage(ToMessage(*plan.trajectory, 1, 2, 3), &error);
   ASSERT_TRUE(back.has_value()) << error;
   for (double time = 12.5; time < plan.trajectory->end_time_s(); time += 0.37) {
     const FlatOutput a = plan.trajectory->Evaluate(time), b = back->Evaluate(time);

@@ -149,10 +149,10 @@ TEST(LcmDecode, HugeLengthIsRejectedBeforeAllocation) {
 // A string length of 0 (lcm-gen would assign length -1) or past the end is rejected.
 TEST(LcmDecode, BadStringLengthsAreRejected) {
   std::vector<uint8_t> bytes = Encode(MakeSample<imu_t>(1));
-  // imu_t: hash(8) utime(8) seq(8) then sensor_name's int32 length.
+  // imu_t: hash(8) utime(8) seq(8) epoch(8) then sensor_name's int32 length.
   for (const int32_t bad : {0, -1, 1 << 30}) {
     std::vector<uint8_t> copy = bytes;
-    PutInt32(&copy, 24, bad);
+    PutInt32(&copy, 32, bad);
     imu_t imu;
     std::string error;
     EXPECT_FALSE(GuardedDecode(copy.data(), copy.size(), &imu, &error)) << bad;

@@ -71,6 +71,7 @@ inline void Fill(Filler& f, candidate_t* m) {
 inline void Fill(Filler& f, pose_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->frame_id = f.Text();
   m->child_frame_id = f.Text();
   m->valid = true;
@@ -83,6 +84,7 @@ inline void Fill(Filler& f, pose_t* m) {
 inline void Fill(Filler& f, imu_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->sensor_name = f.Text();
   f.Reals(m->angular_velocity_radps);
   f.Reals(m->specific_force_mps2);
@@ -90,6 +92,7 @@ inline void Fill(Filler& f, imu_t* m) {
 inline void Fill(Filler& f, depth_image_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->sensor_name = f.Text();
   m->width = 16;
   m->height = 12;
@@ -107,6 +110,7 @@ inline void Fill(Filler& f, depth_image_t* m) {
 inline void Fill(Filler& f, planar_scan_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->sensor_name = f.Text();
   m->angle_min_rad = -2.09f;
   m->angle_step_rad = 0.00614f;
@@ -126,6 +130,7 @@ inline void Fill(Filler& f, map3d_chunk_t* m) {
   m->utime = f.Int();
   m->snapshot_id = f.Int();
   m->map_seq = f.Int();
+  m->epoch = f.Int();
   m->chunk_index = 2;
   m->num_chunks = 5;
   f.Reals(m->origin_m);
@@ -146,6 +151,7 @@ inline void Fill(Filler& f, map3d_chunk_t* m) {
 inline void Fill(Filler& f, map3d_delta_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->prev_seq = f.Int();
   m->base_snapshot_id = f.Int();
   f.Reals(m->origin_m);
@@ -161,6 +167,7 @@ inline void Fill(Filler& f, map3d_delta_t* m) {
 inline void Fill(Filler& f, grid_map_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->name = f.Text();
   m->origin_m[0] = f.Real();
   m->origin_m[1] = f.Real();
@@ -175,6 +182,7 @@ inline void Fill(Filler& f, grid_map_t* m) {
 inline void Fill(Filler& f, exploration_status_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->mode = f.Text();
   m->state = exploration_status_t::STATE_EXPLORING;
   m->reason = f.Text();
@@ -195,6 +203,7 @@ inline void Fill(Filler& f, exploration_status_t* m) {
 inline void Fill(Filler& f, trajectory_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->start_utime = f.Int();
   m->num_segments = 3;
   m->num_coeffs = 8;
@@ -208,6 +217,7 @@ inline void Fill(Filler& f, trajectory_t* m) {
 inline void Fill(Filler& f, motor_command_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->armed = true;
   m->num_motors = 4;
   m->thrust_N = {f.Real(), f.Real(), f.Real(), f.Real()};
@@ -217,6 +227,7 @@ inline void Fill(Filler& f, motor_command_t* m) {
 inline void Fill(Filler& f, controller_status_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->mode = controller_status_t::MODE_TRACK;
   m->reason = f.Text();
   f.Reals(m->position_m);
@@ -230,11 +241,13 @@ inline void Fill(Filler& f, controller_status_t* m) {
   f.Reals(m->moment_Nm);
   m->pose_age_s = f.Real();
   m->trajectory_seq = f.Int();
+  m->trajectory_epoch = f.Int();
   m->trajectory_done = true;
 }
 inline void Fill(Filler& f, command_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->source = f.Text();
   m->command = command_t::COMMAND_LAND;
   m->height_m = f.Real();
@@ -242,6 +255,7 @@ inline void Fill(Filler& f, command_t* m) {
 inline void Fill(Filler& f, sim_truth_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   f.Reals(m->position_m);
   f.Reals(m->orientation_wxyz);
   f.Reals(m->velocity_mps);
@@ -255,6 +269,7 @@ inline void Fill(Filler& f, sim_truth_t* m) {
 inline void Fill(Filler& f, heartbeat_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->process = f.Text();
   m->host = f.Text();
   m->pid = f.Small(2, 99999);
@@ -268,6 +283,7 @@ inline void Fill(Filler& f, heartbeat_t* m) {
 inline void Fill(Filler& f, map_status_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->map_seq = f.Int();
   m->map_entropy_nats = f.Real();
   m->rays_per_s = f.Real();
@@ -299,6 +315,7 @@ inline void Fill(Filler& f, procman_command_t* m) {
 inline void Fill(Filler& f, procman_status_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->host = f.Text();
   m->sheet = f.Text();
   m->script = f.Text();
@@ -309,6 +326,7 @@ inline void Fill(Filler& f, procman_status_t* m) {
 inline void Fill(Filler& f, procman_order_t* m) {
   m->utime = f.Int();
   m->seq = f.Int();
+  m->epoch = f.Int();
   m->source = f.Text();
   m->host = f.Text();
   m->action = procman_order_t::ACTION_RESTART;

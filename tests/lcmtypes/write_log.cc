@@ -54,6 +54,7 @@ int main(int argc, char** argv) {
   kestrel::pose_t pose{};
   pose.utime = 1234567;
   pose.seq = 42;
+  pose.epoch = 4611686018427387904;  // 2^62: the Python type reads the full 64 bits
   pose.frame_id = "world";
   pose.child_frame_id = "kestrel";
   pose.valid = true;
@@ -63,7 +64,8 @@ int main(int argc, char** argv) {
   pose.orientation_wxyz[0] = 1.0;
   writer.Write("POSE_VICON", pose);
   std::printf(
-      "POSE_VICON seq=42\nPOSE_VICON child_frame_id='kestrel'\n"
+      "POSE_VICON seq=42\nPOSE_VICON epoch=4611686018427387904\n"
+      "POSE_VICON child_frame_id='kestrel'\n"
       "POSE_VICON position_m=[1.5, -2.25, 0.75]\nPOSE_VICON valid=True\n");
 
   kestrel::heartbeat_t heartbeat{};

@@ -2,9 +2,11 @@
 
 #include <gtest/gtest.h>
 #include <unistd.h>
+#include <zlib.h>
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <iterator>
 #include <random>
@@ -53,17 +55,27 @@ std::string ErrorOf(F&& f) {
   return "";
 }
 
-// Save then load gives a bit-identical map (hash), the same entropy and the stream positions, for
-// the exact dense, the log-odds dense and the exact growing map.
+// Save then load gives a bit-identical map (hash), the same entropy, the run id and the stream
+// positions (every publisher epoch, in order), for the exact dense, the log-odds dense and the
+// exact growing map.
 TEST(MapFile, RoundTripIsBitIdentical) {
-  const StreamSequences seqs{{"DEPTH_XTION", 1234}, {"SCAN_HOKUYO", -1}, {"POSE_VICON", 99}};
+  const StreamSequences seqs{
+      {"DEPTH_XTION", {{0x7123456789abcdef, 1234}, {42, 7}}},  // a restart: two epochs, in order
+      {"SCAN_HOKUYO", {{5, -1}}},
+      {"POSE_VICON", {{9, 99}}}};
   auto dense = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
   FillRandom(dense.get(), 1);
   const std::string path = TempPath("dense.kmap");
-  SaveMap(path, *dense, seqs);
+  SaveMap(path, *dense, seqs, "20240611T093012Z-5f3a9c01");
   const LoadedMap<DenseOccupancyMap> loaded = LoadDenseMap(path);
   EXPECT_EQ(loaded.map->Hash(), dense->Hash());
   EXPECT_EQ(loaded.sequences, seqs);
+  EXPECT_EQ(loaded.run_id, "20240611T093012Z-5f3a9c01");
+  const MapFileInfo info = ReadMapFileInfo(path);
+  EXPECT_EQ(info.version, kMapFileVersion);
+  EXPECT_TRUE(info.dense);
+  EXPECT_EQ(info.run_id, "20240611T093012Z-5f3a9c01");
+  EXPECT_EQ(info.sequences, seqs);
   EXPECT_NEAR(loaded.map->entropy_nats(), dense->entropy_nats(), 1e-10 * dense->entropy_nats());
   EXPECT_STREQ(loaded.map->updater().name(), "exact");
 
@@ -72,6 +84,8 @@ TEST(MapFile, RoundTripIsBitIdentical) {
   SaveMap(path, *log_odds, {});
   const LoadedMap<DenseOccupancyMap> loaded_lo = LoadDenseMap(path);
   EXPECT_EQ(loaded_lo.map->Hash(), log_odds->Hash());
+  EXPECT_EQ(loaded_lo.run_id, "");
+  EXPECT_TRUE(loaded_lo.sequences.empty());
   EXPECT_STREQ(loaded_lo.map->updater().name(), "log_odds");
 
   auto growing = MakeExactGrowingMap(MapLimits{}, OccupancyLimits{}, 4.0);
@@ -82,6 +96,8 @@ TEST(MapFile, RoundTripIsBitIdentical) {
   EXPECT_EQ(loaded_g.map->Hash(), growing->Hash());
   EXPECT_EQ(loaded_g.map->grid().block_count(), growing->grid().block_count());
   EXPECT_EQ(loaded_g.sequences, seqs);
+  EXPECT_EQ(loaded_g.run_id, "");
+  EXPECT_FALSE(ReadMapFileInfo(gpath).dense);
   // A loaded map keeps working: the same further rays give the same map.
   FillRandom(growing.get(), 4, 500);
   FillRandom(loaded_g.map.get(), 4, 500);
@@ -99,7 +115,7 @@ TEST(MapFile, RefusesCorruptFiles) {
   auto map = MakeExactDenseMap(small, OccupancyLimits{}, 4.0);
   FillRandom(map.get(), 5, 200);
   const std::string path = TempPath("corrupt.kmap");
-  SaveMap(path, *map, {{"DEPTH_XTION", 7}});
+  SaveMap(path, *map, {{"DEPTH_XTION", {{3, 7}}}}, "run-a");
   const std::string good = ReadAll(path);
   ASSERT_NO_THROW(LoadDenseMap(path));
   for (size_t i = 0; i < good.size(); i += (i < 200 ? 1 : 97)) {
@@ -124,7 +140,7 @@ TEST(MapFile, RefusesTruncatedFiles) {
   auto map = MakeExactGrowingMap(small, OccupancyLimits{}, 4.0);
   FillRandom(map.get(), 6, 100);
   const std::string path = TempPath("truncated.kmap");
-  SaveMap(path, *map, {{"SCAN_HOKUYO", 3}});
+  SaveMap(path, *map, {{"SCAN_HOKUYO", {{4, 3}}}}, "run-b");
   const std::string good = ReadAll(path);
   for (size_t len : {size_t{0}, size_t{5}, size_t{40}, size_t{130}, good.size() / 2,
                      good.size() - 5, good.size() - 1}) {
@@ -137,6 +153,77 @@ TEST(MapFile, RefusesTruncatedFiles) {
   }
   EXPECT_NE(ErrorOf([&] { LoadGrowingMap(TempPath("missing.kmap")); }).find("cannot open"),
             std::string::npos);
+  std::remove(path.c_str());
+}
+
+// A version 1 file (before publisher epochs and run ids) as the earlier build wrote it: the
+// version 2 bytes of `v2` (one epoch per stream) without the run id and the epoch counts and
+// epochs, with version 1 and the checksum recomputed.
+std::string AsVersion1(const std::string& v2) {
+  auto u32 = [&](size_t at) {
+    uint32_t v;
+    std::memcpy(&v, v2.data() + at, 4);
+    return v;
+  };
+  const size_t header = 8 + 4 + 4 + 4 + 13 * 8;  // through the updater parameters
+  std::string v1 = v2.substr(0, header);
+  const uint32_t one = 1;
+  std::memcpy(v1.data() + 8, &one, 4);
+  size_t at = header;
+  at += 4 + u32(at);  // the run id
+  const uint32_t streams = u32(at);
+  v1.append(v2, at, 4);
+  at += 4;
+  for (uint32_t i = 0; i < streams; ++i) {
+    const uint32_t name = u32(at);
+    v1.append(v2, at, 4 + name);
+    at += 4 + name;
+    EXPECT_EQ(u32(at), 1u) << "one epoch per stream";
+    at += 4 + 8;           // the epoch count and the epoch
+    v1.append(v2, at, 8);  // the sequence
+    at += 8;
+  }
+  v1.append(v2, at, v2.size() - 4 - at);  // the cells, without the old checksum
+  const auto crc = static_cast<uint32_t>(
+      crc32(0L, reinterpret_cast<const Bytef*>(v1.data()), static_cast<uInt>(v1.size())));
+  v1.append(reinterpret_cast<const char*>(&crc), 4);
+  return v1;
+}
+
+// Files of version 1 still load (map_score, the report and gain_probe read older maps): the same
+// cells, no run id, and each stream's sequence under kUnknownEpoch, which no publisher stamps.
+// A version this build does not know is refused by number.
+TEST(MapFile, ReadsVersion1AndRefusesUnknownVersions) {
+  MapLimits small;
+  small.max_m = Eigen::Vector3d(-3.0, -5.0, 0.5);
+  auto map = MakeExactDenseMap(small, OccupancyLimits{}, 4.0);
+  FillRandom(map.get(), 8, 300);
+  const std::string path = TempPath("v1.kmap");
+  SaveMap(path, *map,
+          {{"DEPTH_XTION", {{kUnknownEpoch, 17}}}, {"SCAN_HOKUYO", {{kUnknownEpoch, 4}}}}, "");
+  const std::string v2 = ReadAll(path);
+  WriteAll(path, AsVersion1(v2));
+  const LoadedMap<DenseOccupancyMap> loaded = LoadDenseMap(path);
+  EXPECT_EQ(loaded.map->Hash(), map->Hash());
+  EXPECT_EQ(loaded.run_id, "");
+  const StreamSequences expected{{"DEPTH_XTION", {{kUnknownEpoch, 17}}},
+                                 {"SCAN_HOKUYO", {{kUnknownEpoch, 4}}}};
+  EXPECT_EQ(loaded.sequences, expected);
+  EXPECT_EQ(ReadMapFileInfo(path).version, 1u);
+  EXPECT_LT(ReadAll(path).size(), v2.size());  // it really is the shorter, older layout
+
+  std::string v3 = v2;
+  const uint32_t three = 3;
+  std::memcpy(v3.data() + 8, &three, 4);
+  v3.resize(v3.size() - 4);
+  const auto crc = static_cast<uint32_t>(
+      crc32(0L, reinterpret_cast<const Bytef*>(v3.data()), static_cast<uInt>(v3.size())));
+  v3.append(reinterpret_cast<const char*>(&crc), 4);
+  WriteAll(path, v3);
+  EXPECT_NE(
+      ErrorOf([&] { LoadDenseMap(path); }).find("version 3, this build reads versions 1 to 2"),
+      std::string::npos)
+      << ErrorOf([&] { LoadDenseMap(path); });
   std::remove(path.c_str());
 }
 

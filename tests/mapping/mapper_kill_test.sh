@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # kill -9 the mapper process mid-stream, restart it and feed it the stream again from the start:
-# it skips what its checkpoint holds (sequence numbers) and ends bit-identical to an
-# uninterrupted run. Real processes over UDP multicast in a private network namespace.
+# it skips what its checkpoint holds (publisher epoch and sequence numbers; the feeder replays one
+# recording, so its epoch repeats) and ends bit-identical to an uninterrupted run. Real processes
+# over UDP multicast in a private network namespace.
 # Usage: mapper_kill_test.sh MAPPER FEEDER IN_NETNS
 set -euo pipefail
 exec "$3" bash -c '
@@ -21,7 +22,8 @@ exec "$3" bash -c '
   kill -TERM $m
   wait $m
   # Interrupted run: checkpoint every 0.2 s, kill -9 after about half the stream.
-  ck=(--set "checkpoint_path=$dir/ck.map" --set checkpoint_period_s=0.2)
+  # One run id for both lives of the mapper (the runner gives a respawn the same one).
+  ck=(--set "checkpoint_path=$dir/ck.map" --set checkpoint_period_s=0.2 --set run_id=kill-test)
   "$mapper" "${common[@]}" "${ck[@]}" 2>"$dir/b1.log" &
   m=$!
   sleep 0.5

@@ -1,15 +1,23 @@
 // The mapper node over memq://: determinism, pose synchronisation, bad input, snapshots and
-// deltas that rebuild the map, and checkpoint resume equal to an uninterrupted run.
+// deltas that rebuild the map, checkpoint resume equal to an uninterrupted run, restarted
+// publishers (epochs, docs/design.md §3.4) and run ids (docs/design.md §3.5).
 #include "mapping/mapper_node.h"
 
 #include <zlib.h>
 
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <map>
+#include <set>
 #include <tuple>
 
 #include <gtest/gtest.h>
 
+#include "kestrel/heartbeat_t.hpp"
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
 #include "kestrel/map_status_t.hpp"
@@ -54,6 +62,40 @@ void Feed(lcm::LCM& lcm, MapperNode& node, SimClock& clock, const std::vector<St
     }
     node.ProcessPending();
   }
+}
+
+/// The stream with its depth camera and LIDAR publishers restarted before event `restart_at`:
+/// from there on their messages carry `epoch` and a seq counted from 0 again, as a driver
+/// respawned by the runner sends them. Poses and every payload are unchanged.
+std::vector<StreamEvent> WithSensorRestart(std::vector<StreamEvent> events, size_t restart_at,
+                                           int64_t epoch) {
+  int64_t depth_seq = 0, scan_seq = 0;
+  for (size_t i = restart_at; i < events.size(); ++i) {
+    if (events[i].kind == StreamEvent::Kind::kDepth) {
+      events[i].depth.epoch = epoch;
+      events[i].depth.seq = depth_seq++;
+    } else if (events[i].kind == StreamEvent::Kind::kScan) {
+      events[i].scan.epoch = epoch;
+      events[i].scan.seq = scan_seq++;
+    }
+  }
+  return events;
+}
+
+/// A fresh temporary path (the file does not exist).
+std::string TempPath(const std::string& name) {
+  return ::testing::TempDir() + "kestrel_mapper_node_test_" + std::to_string(::getpid()) + "_" +
+         name;
+}
+
+bool Exists(const std::string& path) {
+  struct stat st {};
+  return stat(path.c_str(), &st) == 0;
+}
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
 class MapperNodeTest : public ::testing::Test {
@@ -292,6 +334,7 @@ TEST_F(MapperNodeTest, CheckpointResumeEqualsAnUninterruptedRun) {
   }
   MapperConfig with_checkpoint = config_;
   with_checkpoint.checkpoint_path = path;
+  with_checkpoint.run_id = "test-run";  // the same run: the restarted node resumes
   {
     lcm::LCM lcm("memq://");
     SimClock clock;
@@ -304,7 +347,8 @@ TEST_F(MapperNodeTest, CheckpointResumeEqualsAnUninterruptedRun) {
     lcm::LCM lcm("memq://");
     SimClock clock;
     MapperNode node(lcm, with_checkpoint, clock);  // resumes
-    Feed(lcm, node, clock, events_);               // the stream again, from the start
+    EXPECT_TRUE(node.resumed());
+    Feed(lcm, node, clock, events_);  // the stream again, from the start
     EXPECT_GT(node.skipped().count("already_applied"), 20);
     EXPECT_EQ(node.map_hash(), uninterrupted);
     EXPECT_TRUE(node.applied_every_message());
@@ -325,6 +369,251 @@ TEST_F(MapperNodeTest, CheckpointResumeEqualsAnUninterruptedRun) {
     if (aside) std::fclose(aside);
   }
   std::remove((std::string(path) + ".corrupt").c_str());
+}
+
+// A publisher restarted mid-stream (a new epoch, seq from 0 again) is applied at once: nothing
+// is skipped as already applied, and the map equals the one a fresh mapper builds from the same
+// messages without the restart. (Compared by seq alone, the restarted sensors' first 15 scans
+// each would be dropped and the maps would differ.)
+TEST_F(MapperNodeTest, ARestartedPublisherIsAppliedAtOnce) {
+  const size_t restart_at = events_.size() / 2;
+  const std::vector<StreamEvent> restarted = WithSensorRestart(events_, restart_at, 0x0badcafe);
+  size_t first_depth = restart_at;
+  while (restarted[first_depth].kind != StreamEvent::Kind::kDepth) ++first_depth;
+  ASSERT_EQ(restarted[first_depth].depth.seq, 0);
+  ASSERT_GT(events_[first_depth].depth.seq, 10) << "the restart must send seqs seen before";
+  uint64_t expected = 0;
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode fresh(lcm, config_, clock);
+    Feed(lcm, fresh, clock, events_);
+    expected = fresh.map_hash();
+  }
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  MapperNode node(lcm, config_, clock);
+  Feed(lcm, node, clock, restarted, 0, restart_at);
+  const int64_t before = node.scans_applied();
+  EXPECT_GT(before, 10);
+  EXPECT_EQ(node.publisher_restarts(), 0);
+  Feed(lcm, node, clock, restarted, restart_at);
+  EXPECT_EQ(node.scans_applied(), 60);
+  EXPECT_EQ(node.skipped().count("already_applied"), 0);
+  EXPECT_TRUE(node.applied_every_message());
+  EXPECT_EQ(node.publisher_restarts(), 2) << "the depth camera and the LIDAR restarted";
+  EXPECT_EQ(node.map_hash(), expected);
+  // Both epochs of each sensor are remembered, the new one last.
+  for (const char* channel : {"DEPTH_XTION", "SCAN_HOKUYO"}) {
+    const auto& epochs = node.sequences().at(channel);
+    ASSERT_EQ(epochs.size(), 2u) << channel;
+    EXPECT_EQ(epochs[0].epoch, testing::kStreamEpoch) << channel;
+    EXPECT_EQ(epochs[1].epoch, 0x0badcafe) << channel;
+    EXPECT_EQ(epochs[0].last_seq + 1 + epochs[1].last_seq + 1, 30) << channel;
+  }
+}
+
+// A mapper restarted from its checkpoint and fed the whole log again (which holds a publisher
+// restart) applies every message exactly once: its final map and saved file equal bit for bit
+// those of a mapper fed the log once. The log's first epoch precedes the restart, so a rule that
+// remembered only each channel's latest epoch would apply its messages twice.
+TEST_F(MapperNodeTest, AResumedMapperAppliesAReplayedLogExactlyOnce) {
+  const size_t restart_at = events_.size() / 3;
+  const std::vector<StreamEvent> log = WithSensorRestart(events_, restart_at, 0x0badcafe);
+  const std::string once_path = TempPath("once.kmap");
+  const std::string resumed_path = TempPath("resumed.kmap");
+  uint64_t once_hash = 0;
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode once(lcm, config_, clock);
+    Feed(lcm, once, clock, log);
+    ASSERT_EQ(once.scans_applied(), 60);
+    once_hash = once.map_hash();
+    once.SaveMapFile(once_path);
+  }
+  MapperConfig with_checkpoint = config_;
+  with_checkpoint.checkpoint_path = TempPath("replay-checkpoint.kmap");
+  with_checkpoint.run_id = "replay-run";
+  int64_t in_checkpoint = 0;
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode first(lcm, with_checkpoint, clock);
+    Feed(lcm, first, clock, log, 0, 2 * log.size() / 3);  // past the restart
+    ASSERT_TRUE(first.SaveCheckpoint());
+    in_checkpoint = first.scans_applied();
+    ASSERT_EQ(first.sequences().at("DEPTH_XTION").size(), 2u);
+    Feed(lcm, first, clock, log, 2 * log.size() / 3, 2 * log.size() / 3 + 50);  // lost work
+  }
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  MapperNode resumed(lcm, with_checkpoint, clock);
+  ASSERT_TRUE(resumed.resumed());
+  Feed(lcm, resumed, clock, log);  // the whole log again
+  EXPECT_EQ(in_checkpoint + resumed.scans_applied(), 60) << "every message exactly once";
+  EXPECT_EQ(resumed.skipped().count("already_applied"), in_checkpoint);
+  EXPECT_EQ(resumed.publisher_restarts(), 0) << "both epochs were in the checkpoint";
+  EXPECT_TRUE(resumed.applied_every_message());
+  EXPECT_EQ(resumed.map_hash(), once_hash);
+  resumed.SaveMapFile(resumed_path);
+  EXPECT_TRUE(ReadAll(resumed_path) == ReadAll(once_path)) << "the saved map files differ";
+  for (const std::string& p : {once_path, resumed_path, with_checkpoint.checkpoint_path}) {
+    std::remove(p.c_str());
+  }
+}
+
+// A checkpoint of another run is not resumed: it is moved aside (never overwritten, nor a
+// second one over the first) and the map starts empty; with resume = any it is resumed. A
+// mapper without a run id gets a fresh one, so it resumes nothing either.
+TEST_F(MapperNodeTest, AnotherRunsCheckpointIsNotResumedUnlessAsked) {
+  const std::string path = TempPath("runs.kmap");
+  MapperConfig flight1 = config_;
+  flight1.checkpoint_path = path;
+  flight1.run_id = "flight-1";
+  uint64_t empty_hash = 0, flight1_hash = 0;
+  StreamSequences flight1_sequences;
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, flight1, clock);
+    EXPECT_FALSE(node.resumed());
+    empty_hash = node.map_hash();
+    Feed(lcm, node, clock, events_, 0, events_.size() / 2);
+    ASSERT_TRUE(node.SaveCheckpoint());
+    flight1_hash = node.map_hash();
+    flight1_sequences = node.sequences();
+  }
+  ASSERT_NE(flight1_hash, empty_hash);
+  // The same run resumes it.
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, flight1, clock);
+    EXPECT_TRUE(node.resumed());
+    EXPECT_EQ(node.map_hash(), flight1_hash);
+  }
+  // Another run does not, and keeps the file aside.
+  MapperConfig flight2 = flight1;
+  flight2.run_id = "flight-2";
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, flight2, clock);
+    EXPECT_FALSE(node.resumed());
+    EXPECT_EQ(node.map_hash(), empty_hash);
+    EXPECT_TRUE(node.sequences().empty());
+    EXPECT_FALSE(Exists(path));
+    ASSERT_TRUE(Exists(path + ".run-flight-1"));
+    EXPECT_EQ(ReadMapFileInfo(path + ".run-flight-1").run_id, "flight-1");
+    Feed(lcm, node, clock, events_, 0, 40);
+    ASSERT_TRUE(node.SaveCheckpoint());
+    EXPECT_EQ(ReadMapFileInfo(path).run_id, "flight-2");
+    EXPECT_EQ(ReadMapFileInfo(path + ".run-flight-1").run_id, "flight-1") << "overwritten";
+  }
+  // A second checkpoint of flight-1 set aside does not replace the first one.
+  ASSERT_EQ(std::rename((path + ".run-flight-1").c_str(), path.c_str()), 0);
+  {
+    std::ofstream(path + ".run-flight-1") << "an earlier file";
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, flight2, clock);
+    EXPECT_FALSE(node.resumed());
+    EXPECT_EQ(ReadAll(path + ".run-flight-1"), "an earlier file");
+    EXPECT_EQ(ReadMapFileInfo(path + ".run-flight-1.2").run_id, "flight-1");
+  }
+  // No run id: a fresh one, which resumes nothing.
+  ASSERT_EQ(std::rename((path + ".run-flight-1.2").c_str(), path.c_str()), 0);
+  MapperConfig unnamed = flight1;
+  unnamed.run_id = "";
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, unnamed, clock);
+    EXPECT_FALSE(node.resumed());
+    EXPECT_FALSE(node.run_id().empty());
+    EXPECT_NE(node.run_id(), "flight-1");
+    EXPECT_TRUE(Exists(path + ".run-flight-1.2"));
+  }
+  // Asked explicitly (resume = any), another run's checkpoint is resumed, and the rest of the
+  // stream then gives the uninterrupted map.
+  ASSERT_EQ(std::rename((path + ".run-flight-1.2").c_str(), path.c_str()), 0);
+  MapperConfig any = flight2;
+  any.run_id = "flight-3";
+  any.resume = "any";
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, any, clock);
+    EXPECT_TRUE(node.resumed());
+    EXPECT_EQ(node.map_hash(), flight1_hash);
+    EXPECT_EQ(node.sequences(), flight1_sequences);
+    Feed(lcm, node, clock, events_);
+    uint64_t uninterrupted = 0;
+    {
+      lcm::LCM lcm2("memq://");
+      SimClock clock2;
+      MapperNode fresh(lcm2, config_, clock2);
+      Feed(lcm2, fresh, clock2, events_);
+      uninterrupted = fresh.map_hash();
+    }
+    EXPECT_EQ(node.map_hash(), uninterrupted);
+    ASSERT_TRUE(node.SaveCheckpoint());
+    EXPECT_EQ(ReadMapFileInfo(path).run_id, "flight-3") << "the checkpoint is now this run's";
+  }
+  for (const std::string& p : {path, path + ".run-flight-1", path + ".run-flight-1.2"}) {
+    std::remove(p.c_str());
+  }
+}
+
+// Every message the mapper publishes carries its epoch, and two mappers in one process have
+// different epochs (and so does each one's heartbeat).
+TEST_F(MapperNodeTest, StampsItsEpochAndTwoNodesDiffer) {
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  MapperNode a(lcm, config_, clock);
+  MapperNode b(lcm, config_, clock);
+  EXPECT_NE(a.epoch(), 0);
+  EXPECT_NE(b.epoch(), 0);
+  EXPECT_NE(a.epoch(), b.epoch());
+  std::vector<int64_t> epochs;
+  int statuses = 0;
+  std::set<int64_t> heartbeat_epochs;
+  GuardedSubscriptions subs(lcm);
+  subs.Add<map3d_chunk_t>(
+      "MAP3D", [&](const std::string&, const map3d_chunk_t& m) { epochs.push_back(m.epoch); },
+      nullptr);
+  subs.Add<map3d_delta_t>(
+      "MAP3D_DELTA", [&](const std::string&, const map3d_delta_t& m) { epochs.push_back(m.epoch); },
+      nullptr);
+  subs.Add<map_status_t>(
+      "MAP_STATUS",
+      [&](const std::string&, const map_status_t& m) {
+        epochs.push_back(m.epoch);
+        ++statuses;
+      },
+      nullptr);
+  subs.Add<heartbeat_t>(
+      "HEARTBEAT_MAPPER",
+      [&](const std::string&, const heartbeat_t& m) { heartbeat_epochs.insert(m.epoch); }, nullptr);
+  Feed(lcm, a, clock, events_, 0, 60);  // both nodes hear the stream
+  for (MapperNode* node : {&a, &b}) {
+    epochs.clear();
+    statuses = 0;
+    node->PublishSnapshot();
+    while (lcm.handleTimeout(0) > 0) {
+    }
+    Feed(lcm, *node, clock, events_, 60, 80);
+    node->PublishDelta();
+    node->PublishStatus();
+    while (lcm.handleTimeout(0) > 0) {
+    }
+    ASSERT_GE(epochs.size(), 3u) << "snapshot chunks, a delta (or a snapshot) and a status";
+    EXPECT_EQ(statuses, 1);
+    for (int64_t e : epochs) EXPECT_EQ(e, node->epoch());
+  }
+  EXPECT_EQ(heartbeat_epochs.size(), 2u);
+  EXPECT_EQ(heartbeat_epochs.count(0), 0u);
 }
 
 TEST_F(MapperNodeTest, StatusReportsSkipsAndEntropy) {

@@ -3,7 +3,8 @@
 /// A deterministic synthetic sensor stream for mapper tests: the vehicle turns in place at
 /// (0, 0, 0.8) inside a box room (x -3..3, y -4..4, z 0..2.5 m); depth images (exact ray-plane
 /// depths, 1 mm counts, 0 beyond 4 m) and planar scans (0 = no return beyond 4 m) are rendered
-/// from the true pose; poses at 100 Hz. Messages come out in time order with sequence numbers.
+/// from the true pose; poses at 100 Hz. Messages come out in time order with sequence numbers
+/// and one publisher epoch, as a recorded log replays them (the same epoch every time).
 
 #include <cmath>
 #include <cstdint>
@@ -46,11 +47,16 @@ inline Pose3 TruePose(double t) {
   return X_WB;
 }
 
+/// The publisher epoch of the synthetic stream (a recording: fixed, so replays match).
+inline constexpr int64_t kStreamEpoch = 0x5eed0001;
+
 /// Renders `seconds` of stream: poses at 100 Hz, depth (w x h) at 10 Hz, scans (181 beams) at
-/// 10 Hz, with the given extrinsics. Sensor stamps fall between pose stamps.
+/// 10 Hz, with the given extrinsics, every message of publisher epoch `epoch`. Sensor stamps fall
+/// between pose stamps.
 inline std::vector<StreamEvent> MakeStream(double seconds, const Pose3& X_BS_depth,
                                            const Pose3& X_BS_scan, int w = 32, int h = 24,
-                                           int64_t start_utime = 1000000) {
+                                           int64_t start_utime = 1000000,
+                                           int64_t epoch = kStreamEpoch) {
   std::vector<StreamEvent> events;
   const double fx = (w / 2.0) / std::tan(0.5 * 58.0 * M_PI / 180.0);
   const double fy = (h / 2.0) / std::tan(0.5 * 45.0 * M_PI / 180.0);
@@ -62,6 +68,7 @@ inline std::vector<StreamEvent> MakeStream(double seconds, const Pose3& X_BS_dep
     const Pose3 X_WB = TruePose(t);
     pe.pose.utime = utime;
     pe.pose.seq = pose_seq++;
+    pe.pose.epoch = epoch;
     pe.pose.frame_id = "world";
     pe.pose.child_frame_id = "kestrel";
     pe.pose.valid = true;
@@ -79,6 +86,7 @@ inline std::vector<StreamEvent> MakeStream(double seconds, const Pose3& X_BS_dep
       depth_image_t& img = de.depth;
       img.utime = s_utime;
       img.seq = depth_seq++;
+      img.epoch = epoch;
       img.sensor_name = "xtion";
       img.width = w;
       img.height = h;
@@ -110,6 +118,7 @@ inline std::vector<StreamEvent> MakeStream(double seconds, const Pose3& X_BS_dep
       planar_scan_t& scan = se.scan;
       scan.utime = s_utime + 1000;
       scan.seq = scan_seq++;
+      scan.epoch = epoch;
       scan.sensor_name = "hokuyo";
       scan.angle_min_rad = static_cast<float>(-M_PI / 2);
       scan.angle_step_rad = static_cast<float>(M_PI / 180);

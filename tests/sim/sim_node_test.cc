@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "common/identity.h"
 #include "kestrel/depth_image_t.hpp"
 #include "kestrel/imu_t.hpp"
 #include "kestrel/planar_scan_t.hpp"
@@ -46,6 +47,7 @@ std::vector<std::pair<std::string, std::vector<uint8_t>>> RunHovering(
   lcm::LCM lcm("memq://");
   Recorder recorder(lcm);
   SimClock clock(5'000'000);
+  SeedPublisherEpochs(77);  // the node's epoch, like every other field, repeats (as in missions)
   SimNode node(lcm, config, clock);
   const RotorGeometry geometry = ComputeRotorGeometry(config.vehicle);
   for (int k = 0; k < steps; ++k) {
@@ -97,6 +99,46 @@ TEST(SimNode, SameSeedGivesIdenticalMessages) {
   ASSERT_EQ(a.size(), b.size());
   EXPECT_TRUE(a == b);
   EXPECT_FALSE(a == c);
+}
+
+// Every stream the simulator publishes in the drivers' place carries the node's epoch, and two
+// simulators in one process have different epochs.
+TEST(SimNode, EveryStreamCarriesTheNodesEpoch) {
+  const SimConfig config = SmallConfig(5);
+  std::vector<int64_t> node_epochs;
+  for (int n = 0; n < 2; ++n) {
+    lcm::LCM lcm("memq://");
+    SimClock clock(1'000'000);
+    SimNode node(lcm, config, clock);
+    std::map<std::string, std::vector<int64_t>> epochs;
+    auto on = [&](const std::string& channel, int64_t epoch) { epochs[channel].push_back(epoch); };
+    GuardedSubscriptions subs(lcm);
+    subs.Add<pose_t>(
+        "POSE_VICON", [&](const std::string& c, const pose_t& m) { on(c, m.epoch); }, nullptr);
+    subs.Add<imu_t>(
+        "IMU", [&](const std::string& c, const imu_t& m) { on(c, m.epoch); }, nullptr);
+    subs.Add<depth_image_t>(
+        "DEPTH_XTION", [&](const std::string& c, const depth_image_t& m) { on(c, m.epoch); },
+        nullptr);
+    subs.Add<planar_scan_t>(
+        "SCAN_HOKUYO", [&](const std::string& c, const planar_scan_t& m) { on(c, m.epoch); },
+        nullptr);
+    subs.Add<sim_truth_t>(
+        "SIM_TRUTH", [&](const std::string& c, const sim_truth_t& m) { on(c, m.epoch); }, nullptr);
+    for (int k = 0; k < 300; ++k) {
+      node.Step();
+      while (lcm.handleTimeout(0) > 0) {
+      }
+    }
+    EXPECT_NE(node.epoch(), 0);
+    ASSERT_EQ(epochs.size(), 5u);
+    for (const auto& [channel, list] : epochs) {
+      ASSERT_FALSE(list.empty()) << channel;
+      for (int64_t e : list) ASSERT_EQ(e, node.epoch()) << channel;
+    }
+    node_epochs.push_back(node.epoch());
+  }
+  EXPECT_NE(node_epochs[0], node_epochs[1]);
 }
 
 // One simulated second publishes each stream at its configured rate: IMU 500, truth 100,

@@ -108,13 +108,14 @@ class SimFlight {
     command_t msg{};
     msg.utime = clock_.NowUtime();
     msg.seq = ++command_seq_;
+    msg.epoch = kEpoch;
     msg.source = "flight_modes_test";
     msg.command = command;
     msg.height_m = height_m;
     lcm_.publish("COMMAND", &msg);
   }
   void Publish(const PiecewisePolynomialTrajectory& trajectory) {
-    const trajectory_t msg = ToMessage(trajectory, clock_.NowUtime(), ++trajectory_seq_);
+    const trajectory_t msg = ToMessage(trajectory, clock_.NowUtime(), ++trajectory_seq_, kEpoch);
     lcm_.publish("TRAJECTORY", &msg);
   }
   // Poses acquired in [now + from_s, now + from_s + duration_s) are not relayed.
@@ -175,6 +176,7 @@ class SimFlight {
   std::unique_ptr<ControllerNode> controller_;
   int64_t period_us_{0};
   int64_t next_tick_us_{0};
+  static constexpr int64_t kEpoch = 7;  // the test's own publisher epoch
   int64_t command_seq_{0};
   int64_t trajectory_seq_{0};
   int64_t outage_begin_us_{-1};

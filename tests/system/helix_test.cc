@@ -99,7 +99,7 @@ double FlyHelix(bool sensor_noise, double* max_error_m) {
   const double t_start = UtimeToSeconds(clock.NowUtime()) + 0.5;
   const Eigen::Vector3d base = hover - Eigen::Vector3d(0, 0, 0.6);
   const PiecewisePolynomialTrajectory helix = Helix(t_start, base, 10.0);
-  const trajectory_t msg = ToMessage(helix, clock.NowUtime(), 1);
+  const trajectory_t msg = ToMessage(helix, clock.NowUtime(), 1, 1);
   lcm.publish("TRAJECTORY", &msg);
   double sum2 = 0;
   int n = 0;

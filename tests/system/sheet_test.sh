@@ -4,7 +4,7 @@
 # a private network namespace and runs the sheet's "fly" script (take-off by kestrel-cmd);
 # kestrel-flight-check then listens and asserts every process alive, message counts, entropy falling,
 # the vehicle moving. Finally the mapper is killed with -9 and must be respawned by the runner,
-# resuming from its checkpoint.
+# resuming from its checkpoint (the same run: the runner gives the respawn the same run id).
 # Usage: sheet_test.sh BUILD_DIR ROOT IN_NETNS SECONDS
 set -euo pipefail
 build=$1; root=$2; in_netns=$3; seconds=${4:-40}
@@ -21,13 +21,14 @@ exec "$in_netns" bash -c '
   status=0
   "$build/tools/flight_check/kestrel-flight-check" "$LCM_DEFAULT_URL" "$seconds" || status=1
   # Fault: kill -9 the mapper; the runner respawns it and it resumes from its checkpoint.
-  mapper_pid=$(pgrep -f "^$build/mapping/kestrel-mapper " | head -1)
+  # The mapper of this run (its checkpoint is in $KESTREL_RUN), not one of another test.
+  mapper_pid=$(pgrep -f "^$build/mapping/kestrel-mapper .*checkpoint_path=$KESTREL_RUN/" | head -1)
   kill -9 "$mapper_pid"
   for i in $(seq 100); do
-    grep -q "resumed from checkpoint" "$KESTREL_RUN/logs/mapper.log" 2>/dev/null && break
+    grep -q "resumed from checkpoint .* of this run" "$KESTREL_RUN/logs/mapper.log" 2>/dev/null && break
     sleep 0.1
   done
-  if grep -q "resumed from checkpoint" "$KESTREL_RUN/logs/mapper.log"; then
+  if grep -q "resumed from checkpoint .* of this run" "$KESTREL_RUN/logs/mapper.log"; then
     echo "mapper killed with -9, respawned, resumed: $(grep "resumed from checkpoint" "$KESTREL_RUN/logs/mapper.log" | tail -1)"
   else
     echo "FAIL: the mapper did not resume after kill -9"; tail -20 "$KESTREL_RUN/runner.log"; status=1

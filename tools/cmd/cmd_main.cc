@@ -7,6 +7,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/clock.h"
+#include "common/identity.h"
 #include "common/lcm_decode.h"
 #include "common/process.h"
 #include "common/procman/operator_status.h"
@@ -88,7 +89,8 @@ int main(int argc, char** argv) {
         if (vehicle.count(verb) != 0) {
           command_t cmd{};
           cmd.utime = clock.NowUtime();
-          cmd.seq = cmd.utime;  // unique per invocation; receivers ignore repeats of a seq
+          cmd.seq = cmd.utime;  // unique per invocation (the e-stop is sent three times)
+          cmd.epoch = NewPublisherEpoch();
           cmd.source = "operator";
           cmd.command = vehicle.at(verb).first;
           cmd.height_m = ArgDouble(p, "--height", 1.0);
@@ -133,6 +135,7 @@ int main(int argc, char** argv) {
             procman_order_t order{};
             order.utime = clock.NowUtime();
             order.seq = order.utime;
+            order.epoch = NewPublisherEpoch();
             order.source = "kestrel-cmd";
             order.host = ArgString(p, "--host", "");
             order.action = actions.at(p[1]);

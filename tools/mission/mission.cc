@@ -14,6 +14,7 @@
 #include "common/check.h"
 #include "common/clock.h"
 #include "common/config.h"
+#include "common/identity.h"
 #include "common/log.h"
 #include "control/controller_node.h"
 #include "exploration/explorer_node.h"
@@ -52,6 +53,10 @@ double Median(std::vector<double> v) {
 
 MissionResult RunMission(const MissionConfig& mc) {
   const auto wall_start = std::chrono::steady_clock::now();
+  // The nodes' publisher epochs from the seed, so that the same seed gives the same messages
+  // (docs/design.md §7.5); the nodes are built in a fixed order below.
+  SeedPublisherEpochs(static_cast<uint64_t>(mc.seed));
+  const int64_t mission_epoch = NewPublisherEpoch();  // the take-off command's
   // --- Configuration: one world, its limits everywhere.
   std::vector<std::string> sim_overrides = mc.sim_overrides;
   const bool faults = mc.sensor_drop_fraction > 0 || mc.mocap_outage_s > 0;
@@ -270,6 +275,7 @@ MissionResult RunMission(const MissionConfig& mc) {
       command_t cmd{};
       cmd.utime = now;
       cmd.seq = 1;
+      cmd.epoch = mission_epoch;
       cmd.source = "mission";
       cmd.command = command_t::COMMAND_TAKEOFF;
       cmd.height_m = world.exploration_height_m - world.start_X_WB.p.z();

@@ -75,9 +75,11 @@ bool VoxelStream::Apply(const map3d_chunk_t& chunk, std::string* error) {
   if (chunk.chunk_index == 0) {
     staging_.clear();
     staging_id_ = chunk.snapshot_id;
+    staging_epoch_ = chunk.epoch;
     staging_next_chunk_ = 0;
   }
-  if (chunk.snapshot_id != staging_id_ || chunk.chunk_index != staging_next_chunk_) {
+  if (chunk.snapshot_id != staging_id_ || chunk.epoch != staging_epoch_ ||
+      chunk.chunk_index != staging_next_chunk_) {
     staging_id_ = -1;  // a chunk was lost: wait for the next snapshot
     *error = "snapshot " + std::to_string(chunk.snapshot_id) + " chunk " +
              std::to_string(chunk.chunk_index) + " out of sequence";
@@ -117,8 +119,9 @@ bool VoxelStream::Apply(const map3d_chunk_t& chunk, std::string* error) {
   if (staging_next_chunk_ < chunk.num_chunks) return true;
 
   staging_id_ = -1;
-  if (current() && chunk.map_seq < seq_ && SameLattice(chunk.origin_m, chunk.resolution_m)) {
-    return true;  // deltas already took the copy past this snapshot
+  if (current() && chunk.epoch == epoch_ && chunk.map_seq < seq_ &&
+      SameLattice(chunk.origin_m, chunk.resolution_m)) {
+    return true;  // deltas already took the copy past this snapshot (of the same mapper)
   }
   if (!has_snapshot_ || !SameLattice(chunk.origin_m, chunk.resolution_m)) {
     // A new lattice: the receivers start over from the whole set.
@@ -137,6 +140,7 @@ bool VoxelStream::Apply(const map3d_chunk_t& chunk, std::string* error) {
   }
   staging_.clear();
   seq_ = chunk.map_seq;
+  epoch_ = chunk.epoch;
   utime_ = chunk.utime;
   has_snapshot_ = true;
   stale_ = false;
@@ -154,6 +158,12 @@ bool VoxelStream::Apply(const map3d_delta_t& delta, std::string* error) {
   }
   if (!SameLattice(delta.origin_m, delta.resolution_m)) {
     *error = "delta lattice differs from the snapshot's";
+    return false;
+  }
+  if (delta.epoch != epoch_) {  // a restarted mapper (docs/design.md §3.4): wait for its snapshot
+    stale_ = true;
+    *error = "delta of mapper epoch " + std::to_string(delta.epoch) + " on a copy of epoch " +
+             std::to_string(epoch_) + ": stale until that mapper's next snapshot";
     return false;
   }
   if (delta.seq <= seq_) return true;  // already reflected by a newer snapshot

@@ -75,6 +75,9 @@ class VoxelStream {
   [[nodiscard]] bool current() const { return has_snapshot_ && !stale_; }
   /// Map updates reflected (map3d_delta_t.seq / map3d_chunk_t.map_seq), -1 before a snapshot.
   [[nodiscard]] int64_t map_seq() const { return seq_; }
+  /// The publisher epoch of the mapper the copy comes from (docs/design.md §3.4), 0 before a
+  /// snapshot.
+  [[nodiscard]] int64_t map_epoch() const { return epoch_; }
   /// Time of the newest map data reflected (us).
   [[nodiscard]] int64_t utime() const { return utime_; }
   /// Lower corner of cell (0, 0, 0) in W (m), and the cell edge (m).
@@ -100,6 +103,7 @@ class VoxelStream {
   Eigen::Vector3d origin_m_{Eigen::Vector3d::Zero()};
   double resolution_m_{0.0};
   int64_t seq_{-1};
+  int64_t epoch_{0};
   int64_t utime_{0};
   bool has_snapshot_{false};
   bool stale_{false};
@@ -107,6 +111,7 @@ class VoxelStream {
   // Snapshot being assembled.
   CellSet staging_;
   int64_t staging_id_{-1};
+  int64_t staging_epoch_{0};
   int staging_next_chunk_{0};
 };
 

@@ -159,6 +159,29 @@ TEST_F(HokuyoNodeTest, StreamsAtTheSensorScanRate) {
   }
 }
 
+// A driver restarted (as the runner respawns it) counts seq from 0 again under a new epoch, so
+// that consumers tell its scans from the ones before (docs/design.md §3.4); every scan of one
+// driver carries the same epoch.
+TEST_F(HokuyoNodeTest, ARestartedDriverStartsANewEpoch) {
+  HokuyoEmulatorOptions options;
+  options.model = Utm30lxModel();
+  StartEmulator(options);
+  StartNode(HokuyoConfig{});
+  ASSERT_TRUE(WaitForScans(3, 5.0));
+  const int64_t first_epoch = node_->epoch();
+  EXPECT_NE(first_epoch, 0);
+  for (const planar_scan_t& s : scans_) EXPECT_EQ(s.epoch, first_epoch);
+  EXPECT_GT(scans_.back().seq, 0);
+  node_.reset();
+  scans_.clear();
+  StartNode(HokuyoConfig{});
+  ASSERT_TRUE(WaitForScans(1, 5.0));
+  EXPECT_EQ(scans_.front().seq, 0);
+  EXPECT_NE(scans_.front().epoch, 0);
+  EXPECT_NE(scans_.front().epoch, first_epoch);
+  EXPECT_EQ(scans_.front().epoch, node_->epoch());
+}
+
 // Angles and ranges against the synthetic room computed here: walls at x = 4, y = 3, y = -1.5,
 // x = -2 (m); the doorway (5..15 deg) and beyond DMAX give "no return" (0); the interference
 // code (step % 101 == 50) gives NaN.

@@ -143,6 +143,8 @@ TEST(ViconNode, ReceivesUdpDropsMalformedAndKeepsGoing) {
   EXPECT_DOUBLE_EQ(poses[1].position_m[2], 0.5);
   EXPECT_EQ(poses[1].utime, 1000000 - 2000);
   EXPECT_TRUE(poses[1].valid);
+  EXPECT_NE(node.epoch(), 0);
+  for (const pose_t& p : poses) EXPECT_EQ(p.epoch, node.epoch());
 
   node.PublishHeartbeat();
   while (lcm.handleTimeout(0) > 0) {
@@ -167,7 +169,11 @@ TEST(ViconNode, ReceivesUdpDropsMalformedAndKeepsGoing) {
   }
   ASSERT_EQ(poses.size(), 1u);
   EXPECT_FALSE(poses[0].valid);
+  EXPECT_EQ(poses[0].epoch, node.epoch()) << "the time-out's invalid pose too";
   EXPECT_EQ(beats.back().state, int8_t{heartbeat_t::STATE_DEGRADED});
+  // Another bridge in the same process is another publisher.
+  ViconNode other(lcm, LoopbackConfig(), clock);
+  EXPECT_NE(other.epoch(), node.epoch());
 }
 
 TEST(ViconNode, RepeatedAndLateFramesOverUdpAreIgnored) {

@@ -167,6 +167,7 @@ TEST_F(XtionOpenNi, StreamsTheAnalyticWallOnHostTime) {
     ASSERT_EQ(m.width, 320);
     ASSERT_EQ(m.height, 240);
     EXPECT_EQ(m.seq, static_cast<int64_t>(i));
+    EXPECT_EQ(m.epoch, node.epoch());
     EXPECT_EQ(m.encoding, depth_image_t::ENCODING_RAW_U16);
     EXPECT_EQ(m.data_size, 320 * 240 * 2);
     EXPECT_DOUBLE_EQ(m.depth_scale_m, 1e-3);
@@ -179,6 +180,7 @@ TEST_F(XtionOpenNi, StreamsTheAnalyticWallOnHostTime) {
     // 1e15 us away, so an unconverted stamp would miss by 31 years).
     EXPECT_LT(std::llabs(capture_.receive_utime[i] - m.utime), kHandledToleranceUs) << i;
   }
+  EXPECT_NE(node.epoch(), 0);
   EXPECT_EQ(CountImagesOffTheWall(images, 0), 0);
   // The smoothed offset is host - device = -(device - host) plus the median arrival latency.
   const int64_t excess_us = node.clock_offset_us() + device_minus_host_us;

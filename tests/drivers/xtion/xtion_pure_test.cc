@@ -140,9 +140,10 @@ TEST(XtionDepthImage, CarriesScaleIntrinsicsAndPayload) {
   XtionConfig config;
   config.encoding = "raw";
   const PinholeIntrinsics k{10.0, 11.0, 1.0, 0.5};
-  const depth_image_t msg = MakeDepthImage(frame, k, 123456, 7, config);
+  const depth_image_t msg = MakeDepthImage(frame, k, 123456, 7, 0x5eed, config);
   EXPECT_EQ(msg.utime, 123456);
   EXPECT_EQ(msg.seq, 7);
+  EXPECT_EQ(msg.epoch, 0x5eed);
   EXPECT_EQ(msg.sensor_name, "xtion");
   EXPECT_EQ(msg.width, 3);
   EXPECT_EQ(msg.height, 2);
@@ -155,7 +156,7 @@ TEST(XtionDepthImage, CarriesScaleIntrinsicsAndPayload) {
   EXPECT_EQ(counts, frame.counts);
   frame.hundred_um = false;
   config.encoding = "zlib";
-  const depth_image_t z = MakeDepthImage(frame, k, 1, 1, config);
+  const depth_image_t z = MakeDepthImage(frame, k, 1, 1, 1, config);
   EXPECT_DOUBLE_EQ(z.depth_scale_m, 1e-3);
   EXPECT_EQ(z.encoding, depth_image_t::ENCODING_ZLIB_U16);
   EXPECT_EQ(static_cast<size_t>(z.data_size), z.data.size());

@@ -1,0 +1,115 @@
+// The explorer node over memq://: its messages carry its publisher epoch, and it tells its own
+// trajectory from a predecessor's with the same number (docs/design.md §3.4).
+#include "exploration/explorer_node.h"
+
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "common/lcm_decode.h"
+#include "kestrel/controller_status_t.hpp"
+#include "kestrel/map3d_chunk_t.hpp"
+#include "kestrel/pose_t.hpp"
+#include "kestrel/trajectory_t.hpp"
+#include "lcmtypes/message_codecs.h"
+
+namespace kestrel {
+namespace {
+
+class ExplorerNodeTest : public ::testing::Test {
+ protected:
+  ExplorerNodeTest() {
+    config_.map.min_m = Eigen::Vector3d(-2.0, -2.0, -0.15);
+    config_.map.max_m = Eigen::Vector3d(2.0, 2.0, 1.5);
+    config_.map.resolution_m = 0.1;
+    subs_.Add<trajectory_t>(
+        config_.trajectory_channel,
+        [this](const std::string&, const trajectory_t& m) { trajectories_.push_back(m); }, nullptr);
+  }
+
+  void Dispatch() {
+    while (lcm_.handleTimeout(0) > 0) {
+    }
+  }
+
+  // An empty map snapshot, a pose at the exploration height and the controller in `mode`
+  // tracking trajectory (seq, epoch).
+  void SendWorld(int8_t mode, int64_t trajectory_seq, int64_t trajectory_epoch) {
+    map3d_chunk_t chunk{};
+    chunk.utime = clock_.NowUtime();
+    chunk.snapshot_id = 1;
+    chunk.epoch = 11;
+    chunk.num_chunks = 1;
+    for (int a = 0; a < 3; ++a) chunk.origin_m[a] = config_.map.min_m[a];
+    chunk.resolution_m = config_.map.resolution_m;
+    chunk.p_init = config_.p_init;
+    chunk.block_edge = 8;
+    EncodeMapChunkCells({}, map3d_chunk_t::ENCODING_FLOAT32, 0, &chunk);
+    lcm_.publish(config_.map_channel, &chunk);
+    pose_t pose{};
+    pose.utime = clock_.NowUtime();
+    pose.epoch = 12;
+    pose.frame_id = "world";
+    pose.child_frame_id = "kestrel";
+    pose.valid = true;
+    pose.position_m[2] = config_.planner.projection.height_m;
+    pose.orientation_wxyz[0] = 1.0;
+    lcm_.publish(config_.pose_channel, &pose);
+    controller_status_t status{};
+    status.utime = clock_.NowUtime();
+    status.epoch = 13;
+    status.mode = mode;
+    status.trajectory_seq = trajectory_seq;
+    status.trajectory_epoch = trajectory_epoch;
+    lcm_.publish(config_.controller_channel, &status);
+    Dispatch();
+  }
+
+  ExplorerConfig config_;
+  lcm::LCM lcm_{"memq://"};
+  SimClock clock_{1'000'000'000};
+  GuardedSubscriptions subs_{lcm_};
+  std::vector<trajectory_t> trajectories_;
+};
+
+// The start-up turn goes out stamped with the explorer's epoch; the controller flying trajectory
+// 1 of another explorer (one that ran before a restart) is not flying ours, so ours counts as
+// not flown; when the controller names our epoch it is flown.
+TEST_F(ExplorerNodeTest, TellsItsTrajectoryFromAPredecessorsWithTheSameSeq) {
+  for (const bool predecessor : {true, false}) {
+    SCOPED_TRACE(predecessor ? "the controller flies a predecessor's trajectory 1"
+                             : "the controller flies ours");
+    trajectories_.clear();
+    ExplorerNode node(lcm_, config_, clock_);
+    EXPECT_NE(node.epoch(), 0);
+    SendWorld(controller_status_t::MODE_HOLD, -1, 0);
+    node.Step();
+    Dispatch();
+    ASSERT_EQ(node.state(), exploration_status_t::STATE_STARTUP) << node.drops().last_reason();
+    ASSERT_EQ(trajectories_.size(), 1u);
+    EXPECT_EQ(trajectories_[0].seq, 1);
+    EXPECT_EQ(trajectories_[0].epoch, node.epoch());
+    const int64_t flown_epoch = predecessor ? node.epoch() + 1 : node.epoch();
+    for (int i = 0; i < 20; ++i) {  // 2 s, past the 1 s the controller has to take it
+      clock_.AdvanceUtime(100000);
+      SendWorld(controller_status_t::MODE_TRACK, 1, flown_epoch);
+      node.Step();
+    }
+    EXPECT_EQ(node.drops().count("startup_not_flown"), predecessor ? 1 : 0);
+    EXPECT_EQ(node.state(), predecessor ? exploration_status_t::STATE_WAITING
+                                        : exploration_status_t::STATE_STARTUP);
+  }
+}
+
+// Two explorers in one process are two publishers.
+TEST_F(ExplorerNodeTest, TwoNodesHaveDifferentEpochs) {
+  ExplorerNode a(lcm_, config_, clock_);
+  ExplorerNode b(lcm_, config_, clock_);
+  EXPECT_NE(a.epoch(), 0);
+  EXPECT_NE(b.epoch(), 0);
+  EXPECT_NE(a.epoch(), b.epoch());
+}
+
+}  // namespace
+}  // namespace kestrel
