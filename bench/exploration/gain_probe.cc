@@ -59,8 +59,7 @@ int PlanOnce(int argc, char** argv) {
     if (r.chosen >= 0) {
       const Candidate& c = r.candidates[static_cast<size_t>(r.chosen)];
       std::printf("goal (%.2f, %.2f) yaw %.2f rad: gain %.2f nats, %.2f m away, bump %.3f\n",
-                  c.position_m.x(), c.position_m.y(), c.yaw_rad, c.gain_nats, c.distance_m,
-                  c.bump);
+                  c.position_m.x(), c.position_m.y(), c.yaw_rad, c.gain_nats, c.distance_m, c.bump);
     }
   }
   return 0;
@@ -85,22 +84,6 @@ int FrontierOnce(char** argv) {
   std::printf("%ld frontier cells; %zu cells examined; status %d (%s)\n",
               std::count(f.begin(), f.end(), true), r.candidates.size(), static_cast<int>(r.status),
               r.reason.c_str());
-  if (getenv("PROBE_XY")) {
-    double px = 0, py = 0;
-    std::sscanf(getenv("PROBE_XY"), "%lf,%lf", &px, &py);
-    const auto cell = t.band.CellOf(Eigen::Vector2d(px, py));
-    const int idx = t.band.IndexOf(*cell);
-    int seen = 0;
-    FrontierView view{config.frontier.view_min_range_m, config.frontier.view_max_range_m,
-                      config.frontier.horizontal_fov_deg * M_PI / 180};
-    (void)BestFrontierHeading(t.band, f, t.band.CenterOf(*cell), view,
-                              config.projection.collision_threshold, 36, &seen);
-    bool listed = false;
-    for (const Candidate& c : r.candidates) listed = listed || c.cell == idx;
-    std::printf("probe cell: traversable %d reachable %d dist %.2f listed %d seen %d\n",
-                static_cast<int>(t.traversable[idx]), static_cast<int>(r.field.Reachable(idx)),
-                r.field.distance_m[idx], static_cast<int>(listed), seen);
-  }
   if (r.chosen >= 0) {
     const Candidate& c = r.candidates[static_cast<size_t>(r.chosen)];
     std::printf("goal (%.2f, %.2f) yaw %.2f rad, %.2f m away\n", c.position_m.x(), c.position_m.y(),
