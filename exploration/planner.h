@@ -71,7 +71,7 @@ struct VolumetricConfig {
   /// farthest reachable cell) and the flight does not wander among poses the end rule already
   /// calls explored; only when no pose within it is worth end_gain_nats is the choice made over
   /// every pose with the paper's d_max.
-  double local_horizon_m{12.0};
+  double local_horizon_m{0.0};
   /// A candidate pose (position within candidate_spacing_m / 2, heading within half a step) that
   /// the vehicle has reached as a goal (PlannerInput::reached_goals) keeps no gain, in the choice
   /// and in the end rule: a gain the model still predicts after the flight went there is one the

@@ -310,8 +310,16 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
     p.max_bound = *std::max_element(c.bounds.begin(), c.bounds.end());
     if (config_.volumetric.skip_viewed_poses) {
       p.viewed.assign(static_cast<size_t>(n_yaw), false);
-      for (const Eigen::Vector3d& v : input.reached_goals) {
+      for (size_t i = 0; i < input.reached_goals.size(); ++i) {
+        const Eigen::Vector3d& v = input.reached_goals[i];
         if ((v.head<2>() - p.xy).norm() >= half_spacing) continue;
+        // Only where the vehicle faced the goal's heading when it got there (within half a
+        // step): a goal passed mid-turn was not looked from.
+        if (i >= input.reached_views.size() ||
+            std::abs(std::remainder(input.reached_views[i].z() - v.z(), 2.0 * M_PI)) >=
+                M_PI / n_yaw) {
+          continue;
+        }
         const long m = std::lround(v.z() / (2.0 * M_PI / n_yaw));
         p.viewed[static_cast<size_t>(((m % n_yaw) + n_yaw) % n_yaw)] = true;
       }

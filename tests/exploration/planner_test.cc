@@ -339,9 +339,18 @@ TEST(Planner, VolumetricViewedPosesKeepNoGain) {
   ASSERT_EQ(first.status, PlanStatus::kGoal) << first.reason;
   const Candidate goal = first.candidates[static_cast<size_t>(first.chosen)];
   ASSERT_GT(goal.gain_nats, config.volumetric.end_gain_nats);
-  // A goal 0.2 m from the candidate's position, 10 deg off its heading, was reached.
+  // A goal 0.2 m from the candidate's position, 10 deg off its heading, was reached while the
+  // vehicle faced 40 deg away from it (mid-turn): nothing is masked.
   in.reached_goals.emplace_back(goal.position_m.x() + 0.2, goal.position_m.y(),
                                 goal.yaw_rad + 10.0 * M_PI / 180.0);
+  in.reached_views.emplace_back(goal.position_m.x() + 0.2, goal.position_m.y(),
+                                goal.yaw_rad + 50.0 * M_PI / 180.0);
+  const PlanResult passed = planner.Plan(in);
+  ASSERT_GE(passed.chosen, 0);
+  EXPECT_EQ(passed.candidates[static_cast<size_t>(passed.chosen)].cell, goal.cell);
+  EXPECT_EQ(passed.candidates[static_cast<size_t>(passed.chosen)].yaw_rad, goal.yaw_rad);
+  // Facing it (5 deg off the goal's heading): the pose keeps no gain.
+  in.reached_views.back().z() = goal.yaw_rad + 15.0 * M_PI / 180.0;
   const PlanResult second = planner.Plan(in);
   ASSERT_EQ(second.status, PlanStatus::kGoal) << second.reason;
   const Candidate& next = second.candidates[static_cast<size_t>(second.chosen)];
