@@ -73,9 +73,10 @@ struct VolumetricConfig {
   /// every pose with the paper's d_max.
   double local_horizon_m{0.0};
   /// A candidate pose (position within candidate_spacing_m / 2, heading within half a step) that
-  /// the vehicle has reached as a goal (PlannerInput::reached_goals) keeps no gain, in the choice
-  /// and in the end rule: a gain the model still predicts after the flight went there is one the
-  /// sensor does not collect (docs/exploration.md, "Ending and the flight home").
+  /// the vehicle has reached as a goal (PlannerInput::reached_goals) while facing the goal's
+  /// heading (within half a step, PlannerInput::reached_views) keeps no gain, in the choice and
+  /// in the end rule: a gain the model still predicts after the flight looked from there is one
+  /// the sensor does not collect (docs/exploration.md, "Ending and the flight home").
   bool skip_viewed_poses{true};
   VolumetricGainConfig gain;  ///< sensors' 3D rays (gain.sensors' vertical keys), azimuth bins
 
@@ -115,9 +116,10 @@ struct PlannerInput {
   /// candidates.skip_reached_goals, a candidate in the same collision cell with the same heading
   /// (within half a heading step) is not scored.
   std::vector<Eigen::Vector3d> reached_goals;
-  /// The vehicle's own pose (x m, y m, yaw rad; W) at the moment it reached each goal: in
-  /// non-stop flight it can pass a goal before it has turned to the goal's heading, so what it
-  /// saw there is judged from this (the fine frontiers' covered cells).
+  /// The vehicle's own pose (x m, y m, yaw rad; W) at the moment it reached each goal, one per
+  /// reached_goals entry: in non-stop flight it can pass a goal before it has turned to the
+  /// goal's heading, so what it saw there is judged from this (the fine frontiers' covered cells,
+  /// the volumetric mode's skip_viewed_poses).
   std::vector<Eigen::Vector3d> reached_views;
   /// The goal (x m, y m, yaw rad; W) being flown to, if any: kept unless another candidate's
   /// objective exceeds its own by candidates.switch_margin.
