@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "exploration/planner.h"
+#include "tests/exploration/test_input.h"
 
 namespace kestrel {
 namespace {
@@ -199,14 +200,7 @@ struct BlockRoom {
     }
   }
   PlannerInput Input(double x, double y) const {
-    PlannerInput in;
-    in.map.dims = dims;
-    in.map.origin_m = origin;
-    in.map.resolution_m = alpha;
-    in.map.probability = values.data();
-    in.position_m = Eigen::Vector3d(x, y, 0.75);
-    in.time_s = 10.0;
-    return in;
+    return test::InputOn(test::GridView(dims, origin, alpha, values), x, y);
   }
 };
 

@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <vector>
 
+#include "tests/exploration/test_input.h"
+
 namespace kestrel {
 namespace {
 
@@ -40,22 +42,11 @@ struct RoomMap {
   float& at(int i, int j, int k) {
     return values[static_cast<size_t>(i + dims.x() * (j + dims.y() * k))];
   }
-  OccupancyGridView view() const {
-    OccupancyGridView v;
-    v.dims = dims;
-    v.origin_m = origin;
-    v.resolution_m = alpha;
-    v.probability = values.data();
-    return v;
-  }
+  OccupancyGridView view() const { return test::GridView(dims, origin, alpha, values); }
 };
 
 PlannerInput InputAt(const RoomMap& map, Eigen::Vector2d xy) {
-  PlannerInput in;
-  in.map = map.view();
-  in.position_m = Eigen::Vector3d(xy.x(), xy.y(), 0.75);
-  in.time_s = 10.0;
-  return in;
+  return test::InputOn(map.view(), xy.x(), xy.y());
 }
 
 void ExpectTrajectoryInside(const PlanResult& r, const PlannerInput& in, const PlannerConfig& c) {
@@ -287,14 +278,7 @@ struct CorridorMap {
     }
   }
   PlannerInput Input(double x, double y) const {
-    PlannerInput in;
-    in.map.dims = dims;
-    in.map.origin_m = origin;
-    in.map.resolution_m = alpha;
-    in.map.probability = values.data();
-    in.position_m = Eigen::Vector3d(x, y, 0.75);
-    in.time_s = 10.0;
-    return in;
+    return test::InputOn(test::GridView(dims, origin, alpha, values), x, y);
   }
 };
 
