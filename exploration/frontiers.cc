@@ -15,15 +15,15 @@ bool Free(const GridMap2D& band, int i, double free_threshold) {
 }
 
 // Whether the frontier cell `to` lies in [min_range, max_range] of `from_m`, inside the field of
-// view centred on `yaw_rad` and in sight.
+// view centred on `yaw_rad` and in sight past cells of band P <= max_crossed_p.
 bool Covers(const GridMap2D& band, const Eigen::Vector2d& from_m, double yaw_rad, int to,
-            const FrontierView& view, double free_threshold) {
+            const FrontierView& view, double max_crossed_p) {
   const Eigen::Vector2d d = band.CenterOf(band.CellAt(to)) - from_m;
   const double r = d.norm();
   if (r < view.min_range_m || r > view.max_range_m) return false;
   const double off = std::remainder(std::atan2(d.y(), d.x()) - yaw_rad, 2.0 * M_PI);
   if (std::abs(off) > 0.5 * view.horizontal_fov_rad) return false;
-  return InSight(band, from_m, to, free_threshold);
+  return InSight(band, from_m, to, max_crossed_p);
 }
 
 // Calls f(i) for every frontier cell within max_range of p.
@@ -64,7 +64,7 @@ std::vector<bool> FrontierCells(const Traversability& map, double free_threshold
   return frontier;
 }
 
-bool InSight(const GridMap2D& band, const Eigen::Vector2d& from_m, int to, double free_threshold) {
+bool InSight(const GridMap2D& band, const Eigen::Vector2d& from_m, int to, double max_crossed_p) {
   thread_local Ray2D ray;
   const Eigen::Vector2d d = band.CenterOf(band.CellAt(to)) - from_m;
   const double length = d.norm();
@@ -73,21 +73,20 @@ bool InSight(const GridMap2D& band, const Eigen::Vector2d& from_m, int to, doubl
   for (int k = 0; k < ray.size; ++k) {
     const int i = ray.index[static_cast<size_t>(k)];
     if (i == to) return true;
-    if (!Free(band, i, free_threshold)) return false;
+    if (!Free(band, i, max_crossed_p)) return false;
   }
   return true;  // the segment ended on the target's boundary
 }
 
 int ClearCoveredFrontiers(const GridMap2D& band, const std::vector<Eigen::Vector3d>& views,
-                          const FrontierView& view, double free_threshold,
-                          std::vector<bool>* frontier) {
+                          const FrontierView& view, std::vector<bool>* frontier) {
   KESTREL_THROW_UNLESS(frontier != nullptr && frontier->size() == band.values.size(),
                        "ClearCoveredFrontiers: frontier must have one entry per band cell");
   int cleared = 0;
   for (const Eigen::Vector3d& g : views) {
     std::vector<int> covered;
     ForFrontiersNear(band, *frontier, g.head<2>(), view.max_range_m, [&](int i) {
-      if (Covers(band, g.head<2>(), g.z(), i, view, free_threshold)) covered.push_back(i);
+      if (Covers(band, g.head<2>(), g.z(), i, view, kOccupiedBandP)) covered.push_back(i);
     });
     for (const int i : covered) (*frontier)[static_cast<size_t>(i)] = false;
     cleared += static_cast<int>(covered.size());

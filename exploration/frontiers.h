@@ -18,11 +18,15 @@ namespace kestrel {
 /// Per band cell, x fastest: whether it is a frontier cell (file comment).
 [[nodiscard]] std::vector<bool> FrontierCells(const Traversability& map, double free_threshold);
 
+/// Band P above which a band cell is known occupied (Traversability: unknown is [P_init/2, 0.5]).
+inline constexpr double kOccupiedBandP = 0.5;
+
 /// Whether the band cell `to` is in sight from the point `from_m`: every cell the 2D segment
-/// between their centres crosses before `to` is known free (band P <= free_threshold). Strict on
-/// purpose: a cell seen past uncertain space counts as not in sight.
+/// between their centres crosses before `to` has band P <= max_crossed_p. With the free
+/// threshold (a goal's sight) it is strict: a cell past uncertain space counts as not in sight.
+/// With kOccupiedBandP (what a reached view covered) only known occupied cells hide it.
 [[nodiscard]] bool InSight(const GridMap2D& band, const Eigen::Vector2d& from_m, int to,
-                           double free_threshold);
+                           double max_crossed_p);
 
 /// A view of the frontier cells from one pose: what the vehicle's camera covers in the plane.
 struct FrontierView {
@@ -33,13 +37,14 @@ struct FrontierView {
 
 /// Clears in *frontier every cell that was covered from one of the views (x, y, yaw; the
 /// vehicle's poses where it reached its goals):
-/// within [min_range, max_range] of it, inside the field of view about its yaw and InSight. A
-/// frontier cell still unknown after the vehicle stood there facing it is one that the sensors
-/// cannot resolve (e.g. under furniture, behind the camera's minimum range band), so it stops
-/// being a goal. Returns how many cells it cleared.
+/// within [min_range, max_range] of it, inside the field of view about its yaw and in sight past
+/// no known occupied cell (InSight with kOccupiedBandP: the camera looked through the unknown
+/// cells on the way, and any it could resolve are resolved). A frontier cell still unknown after
+/// the vehicle stood there facing it is one that the sensors cannot resolve (e.g. under
+/// furniture, a strip along a wall seen only at grazing angles), so it stops being a goal.
+/// Returns how many cells it cleared.
 int ClearCoveredFrontiers(const GridMap2D& band, const std::vector<Eigen::Vector3d>& views,
-                          const FrontierView& view, double free_threshold,
-                          std::vector<bool>* frontier);
+                          const FrontierView& view, std::vector<bool>* frontier);
 
 /// The heading (rad, in (-pi, pi]) from `position_m` that covers the most frontier cells (as in
 /// ClearCoveredFrontiers), over `bins` evenly spaced headings; the count in *covered. Ties go

@@ -127,6 +127,12 @@ void PlannerConfig::Validate() const {
       "frontier.view_min_range_m = " << frontier.view_min_range_m
                                      << ", view_max_range_m = " << frontier.view_max_range_m
                                      << ", accepted 0 <= min < max < inf");
+  KESTREL_THROW_UNLESS(frontier.goal_max_range_m > frontier.view_min_range_m &&
+                           frontier.goal_max_range_m <= frontier.view_max_range_m,
+                       "frontier.goal_max_range_m = "
+                           << frontier.goal_max_range_m
+                           << ", accepted (view_min_range_m = " << frontier.view_min_range_m
+                           << ", view_max_range_m = " << frontier.view_max_range_m << "]");
   KESTREL_THROW_UNLESS(
       frontier.horizontal_fov_deg > 0.0 && frontier.horizontal_fov_deg <= 360.0,
       "frontier.horizontal_fov_deg = " << frontier.horizontal_fov_deg << ", accepted (0, 360]");

@@ -44,8 +44,12 @@ struct FrontierConfig {
   /// search and trajectories); false: on the paper's collision map C.
   bool fine_traversability{true};
   // Fine frontiers only (exploration/frontiers.h): what a goal must see.
-  double view_min_range_m{0.7};     ///< frontier cells nearer than this are not seen, m
-  double view_max_range_m{4.0};     ///< frontier cells farther than this are not seen, m
+  double view_min_range_m{0.7};  ///< frontier cells nearer than this are not seen, m
+  double view_max_range_m{4.0};  ///< frontier cells farther than this are not seen, m
+  /// A goal sees some frontier cell at most this far (view_min_range_m < this <= view_max_range_m),
+  /// m: a reached goal covers cells to view_max_range_m, so the next goal on the same stretch of
+  /// frontier lies at least the difference farther on (no crawl along it one cell at a time).
+  double goal_max_range_m{2.5};
   double horizontal_fov_deg{58.0};  ///< the camera's horizontal field of view, deg
   int min_frontier_cells{1};        ///< a goal sees at least this many frontier cells (>= 1)
 };

@@ -131,6 +131,7 @@ PlannerConfig LoadPlannerConfig(const ConfigNode& node) {
     f.Read("fine_traversability", &c.frontier.fine_traversability);
     f.Read("view_min_range_m", &c.frontier.view_min_range_m, Range::NonNegative());
     f.Read("view_max_range_m", &c.frontier.view_max_range_m, Range::Positive());
+    f.Read("goal_max_range_m", &c.frontier.goal_max_range_m, Range::Positive());
     f.Read("horizontal_fov_deg", &c.frontier.horizontal_fov_deg, Range::Positive());
     f.Read("min_frontier_cells", &c.frontier.min_frontier_cells);
   }

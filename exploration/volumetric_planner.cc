@@ -499,17 +499,19 @@ PlanResult FineFrontierPlanner::Plan(const PlannerInput& input) {
   const double alpha = grid.resolution_m;
   const double free = FineTraversabilityConfig(config_).free_threshold;
   const FrontierConfig& fc = config_.frontier;
+  // What a reached goal covers (to the camera's range), and what a goal must see (nearer).
   const FrontierView view{fc.view_min_range_m, fc.view_max_range_m,
                           fc.horizontal_fov_deg * M_PI / 180.0};
+  const FrontierView goal_view{fc.view_min_range_m, fc.goal_max_range_m, view.horizontal_fov_rad};
   std::vector<bool> frontier = FrontierCells(tr, free);
   const long found = std::count(frontier.begin(), frontier.end(), true);
   const int cleared = config_.candidates.skip_reached_goals
-                          ? ClearCoveredFrontiers(grid, input.reached_views, view, free, &frontier)
+                          ? ClearCoveredFrontiers(grid, input.reached_views, view, &frontier)
                           : 0;
   // Cells within the view's range of some frontier cell, nearest first (the current goal's cell
   // first while it still sees enough); the first that sees enough at some heading is the goal.
   const std::vector<double> d2 = SquaredDistanceTransform(grid.width, grid.height, frontier);
-  const double reach_cells = view.max_range_m / alpha + 0.5;
+  const double reach_cells = goal_view.max_range_m / alpha + 0.5;
   std::vector<int> order;
   for (int i = 0; i < grid.size(); ++i) {
     if (!tr.traversable[static_cast<size_t>(i)] || !result.field.Reachable(i)) continue;
@@ -532,7 +534,8 @@ PlanResult FineFrontierPlanner::Plan(const PlannerInput& input) {
   for (const int i : order) {
     int seen = 0;
     const Eigen::Vector2d xy = grid.CenterOf(grid.CellAt(i));
-    const double yaw = BestFrontierHeading(grid, frontier, xy, view, free, kHeadingBins, &seen);
+    const double yaw =
+        BestFrontierHeading(grid, frontier, xy, goal_view, free, kHeadingBins, &seen);
     Candidate c;
     c.cell = i;
     c.position_m = xy;
@@ -553,7 +556,7 @@ PlanResult FineFrontierPlanner::Plan(const PlannerInput& input) {
     result.reason = "no reachable frontier (" + std::to_string(found) + " frontier cells, " +
                     std::to_string(cleared) + " of them seen from reached goals; " +
                     std::to_string(order.size()) + " reachable cells within " +
-                    std::to_string(view.max_range_m) + " m of the rest, none sees " +
+                    std::to_string(goal_view.max_range_m) + " m of the rest, none sees " +
                     std::to_string(fc.min_frontier_cells) + ")";
     result.timings.total_s = SecondsSince(t0);
     return result;
