@@ -83,6 +83,7 @@ ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
     e.Read("replan_min_remaining_s", &c.replan_min_remaining_s, Range::NonNegative());
     e.Read("end_stall_window_s", &c.end_stall_window_s, Range::NonNegative());
     e.Read("end_stall_min_growth", &c.end_stall_min_growth, Range{0.0, 1.0, true, false});
+    e.Read("end_stall_in_volumetric", &c.end_stall_in_volumetric);
     e.Read("safety_check_period_s", &c.safety_check_period_s, Range::Positive());
     e.Read("retry_period_s", &c.retry_period_s, Range::Positive());
     e.Read("nonstop", &c.nonstop);
@@ -278,11 +279,17 @@ double ThreadCpuSeconds() {
 }
 }  // namespace
 
+bool StallRuleApplies(ExplorationMode mode, const ExplorerConfig& config) {
+  if (config.end_stall_window_s <= 0.0) return false;
+  return mode != ExplorationMode::kVolumetric || config.end_stall_in_volumetric;
+}
+
 void ExplorerNode::Plan(const std::string& reason) {
   const auto t0 = std::chrono::steady_clock::now();
   const double cpu0 = ThreadCpuSeconds();
   PlanResult result = planner_->Plan(PlanningInput());
-  if (result.status == PlanStatus::kGoal && ProgressStalled()) {
+  if (result.status == PlanStatus::kGoal && StallRuleApplies(planner_->mode(), config_) &&
+      ProgressStalled()) {
     result.status = PlanStatus::kExplorationDone;
     result.end_rule = "progress stall";
     result.reason = "progress stalled: known cells grew by less than " +

@@ -111,5 +111,22 @@ TEST_F(ExplorerNodeTest, TwoNodesHaveDifferentEpochs) {
   EXPECT_NE(a.epoch(), b.epoch());
 }
 
+// The progress-stall rule ends the paper's modes and the baseline; the volumetric mode only when
+// asked (its own end rule terminates); a zero window disables it everywhere.
+TEST(ExplorerConfig, StallRuleAppliesToModesThatNeedIt) {
+  ExplorerConfig c;
+  EXPECT_TRUE(StallRuleApplies(ExplorationMode::kCombined, c));
+  EXPECT_TRUE(StallRuleApplies(ExplorationMode::kTwoMap, c));
+  EXPECT_TRUE(StallRuleApplies(ExplorationMode::kFrontier, c));
+  EXPECT_FALSE(StallRuleApplies(ExplorationMode::kVolumetric, c));
+  c.end_stall_in_volumetric = true;
+  EXPECT_TRUE(StallRuleApplies(ExplorationMode::kVolumetric, c));
+  c.end_stall_window_s = 0.0;
+  for (const ExplorationMode m : {ExplorationMode::kCombined, ExplorationMode::kTwoMap,
+                                  ExplorationMode::kFrontier, ExplorationMode::kVolumetric}) {
+    EXPECT_FALSE(StallRuleApplies(m, c));
+  }
+}
+
 }  // namespace
 }  // namespace kestrel
