@@ -47,10 +47,13 @@ bool MapReplica::Apply(const map3d_chunk_t& chunk, std::string* error) {
     staging_id_ = chunk.snapshot_id;
     staging_epoch_ = chunk.epoch;
     staging_next_chunk_ = 0;
+    staging_tail_seq_ = chunk.map_seq;
+    staged_deltas_.clear();
   }
   if (chunk.snapshot_id != staging_id_ || chunk.epoch != staging_epoch_ ||
       chunk.chunk_index != staging_next_chunk_) {
     staging_id_ = -1;  // a chunk was lost: wait for the next snapshot
+    staged_deltas_.clear();
     *error = "snapshot " + std::to_string(chunk.snapshot_id) + " chunk " +
              std::to_string(chunk.chunk_index) + " out of sequence";
     return false;
@@ -78,21 +81,36 @@ bool MapReplica::Apply(const map3d_chunk_t& chunk, std::string* error) {
     has_snapshot_ = true;
     stale_ = false;
     staging_id_ = -1;
+    // The deltas sent while the snapshot's chunks were paced follow it (docs/design.md §3.3).
+    std::deque<map3d_delta_t> kept;
+    kept.swap(staged_deltas_);
+    for (const map3d_delta_t& delta : kept) {
+      if (!Apply(delta, error)) return false;
+    }
   }
   return true;
 }
 
 bool MapReplica::Apply(const map3d_delta_t& delta, std::string* error) {
-  if (!has_snapshot_) {
-    *error = "delta before any snapshot";
-    return false;
-  }
   if (const std::string why = CheckMapDelta(delta); !why.empty()) {
     *error = "delta: " + why;
     return false;
   }
   if (!SameLattice(delta.origin_m, delta.resolution_m, error)) return false;
+  // A delta sent while the staged snapshot's chunks are still arriving: kept for it.
+  const bool kept = staging_id_ >= 0 && delta.epoch == staging_epoch_ &&
+                    delta.prev_seq == staging_tail_seq_ && delta.seq > staging_tail_seq_;
+  if (kept) {
+    staged_deltas_.push_back(delta);
+    staging_tail_seq_ = delta.seq;
+  }
+  if (!has_snapshot_) {
+    if (kept) return true;
+    *error = "delta before any snapshot";
+    return false;
+  }
   if (delta.epoch != epoch_) {  // a restarted mapper: its seq says nothing about this copy
+    if (kept) return true;
     stale_ = true;
     *error = "delta of mapper epoch " + std::to_string(delta.epoch) + " on a copy of epoch " +
              std::to_string(epoch_) + ": stale until that mapper's next snapshot";
@@ -100,6 +118,7 @@ bool MapReplica::Apply(const map3d_delta_t& delta, std::string* error) {
   }
   if (delta.seq <= seq_) return true;  // already reflected by a newer snapshot
   if (delta.prev_seq != seq_) {
+    if (kept) return true;  // it follows the snapshot on its way, not this copy
     stale_ = true;
     *error = "delta " + std::to_string(delta.prev_seq) + " -> " + std::to_string(delta.seq) +
              " does not follow " + std::to_string(seq_) + ": stale until the next snapshot";

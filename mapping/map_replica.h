@@ -4,13 +4,18 @@
 /// MAP3D_DELTA messages over a fixed dense lattice (the explorer, viewers, the replay check).
 ///
 /// A snapshot is staged until all of its chunks have arrived, then replaces the copy (cells in
-/// no block hold p_init). A delta applies when it comes from the same mapper (publisher epoch,
-/// docs/design.md §3.4) as the copy and its prev_seq equals the copy's sequence; a delta that does
-/// not follow (a lost message) or comes from another epoch (a restarted mapper, which counts from
-/// 0 again) marks the copy stale until the next full snapshot.
-/// Cells outside the lattice are ignored (a growing map may extend past it).
+/// no block hold p_init). The mapper paces a snapshot's chunks and keeps sending deltas meanwhile
+/// (docs/design.md §3.3): a delta of the staged snapshot's mapper that follows it (its prev_seq is
+/// the snapshot's map_seq, or the seq of the delta kept before it) is kept and applied once the
+/// snapshot is whole; it is also applied to the copy at once if it follows the copy. A delta
+/// applies when it comes from the same mapper (publisher epoch, docs/design.md §3.4) as the copy
+/// and its prev_seq equals the copy's sequence; a delta that does not follow (a lost message) or
+/// comes from another epoch (a restarted mapper, which counts from 0 again) marks the copy stale
+/// until the next full snapshot. Cells outside the lattice are ignored (a growing map may extend
+/// past it).
 
 #include <cstdint>
+#include <deque>
 #include <string>
 #include <vector>
 
@@ -77,6 +82,8 @@ class MapReplica {
   int64_t staging_id_{-1};
   int64_t staging_epoch_{0};
   int staging_next_chunk_{0};
+  int64_t staging_tail_seq_{-1};             // the staged snapshot's map_seq, then kept deltas'
+  std::deque<map3d_delta_t> staged_deltas_;  // deltas following the staged snapshot
 };
 
 }  // namespace kestrel

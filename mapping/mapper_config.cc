@@ -46,6 +46,11 @@ void MapperConfig::Validate() const {
   KESTREL_THROW_UNLESS(
       snapshot_blocks_per_chunk >= 1 && snapshot_blocks_per_chunk <= 4096,
       "snapshot_blocks_per_chunk = " << snapshot_blocks_per_chunk << " must be in [1, 4096]");
+  KESTREL_THROW_UNLESS(
+      map_message_max_bytes >= 8192 && map_message_max_bytes <= (64 << 20),
+      "map_message_max_bytes = " << map_message_max_bytes << " must be in [8192, 67108864]");
+  KESTREL_THROW_UNLESS(snapshot_bytes_per_s >= 0,
+                       "snapshot_bytes_per_s = " << snapshot_bytes_per_s << " must be >= 0");
   KESTREL_THROW_UNLESS(checkpoint_period_s > 0,
                        "checkpoint_period_s = " << checkpoint_period_s << " must be > 0");
   KESTREL_THROW_UNLESS(run_id.empty() || CheckRunId(run_id).empty(),
@@ -114,6 +119,8 @@ MapperConfig LoadMapperConfig(const ConfigNode& node) {
   node.Read("delta_period_s", &c.delta_period_s, Range::NonNegative());
   node.Read("status_period_s", &c.status_period_s, Range::Positive());
   node.Read("snapshot_blocks_per_chunk", &c.snapshot_blocks_per_chunk, Range::Closed(1, 4096));
+  node.Read("map_message_max_bytes", &c.map_message_max_bytes, Range::Closed(8192, 64 << 20));
+  node.Read("snapshot_bytes_per_s", &c.snapshot_bytes_per_s, Range::NonNegative());
   node.Read("checkpoint_path", &c.checkpoint_path);
   node.Read("checkpoint_period_s", &c.checkpoint_period_s, Range::Positive());
   node.Read("run_id", &c.run_id);

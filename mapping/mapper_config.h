@@ -38,10 +38,20 @@ struct MapperConfig {
   std::string delta_channel{"MAP3D_DELTA"};  ///< changed cells between snapshots
   std::string status_channel{"MAP_STATUS"};  ///< map_status_t
   std::string heartbeat_channel{"HEARTBEAT_MAPPER"};
-  double snapshot_period_s{5.0};       ///< full snapshot period, s (0: never)
-  double delta_period_s{0.5};          ///< delta period, s (0: never)
-  double status_period_s{1.0};         ///< status and heartbeat period, s
-  int snapshot_blocks_per_chunk{128};  ///< 8^3-cell blocks per map3d_chunk_t (128: 256 KiB raw)
+  double snapshot_period_s{5.0};  ///< full snapshot period, s (0: never)
+  double delta_period_s{0.5};     ///< delta period, s (0: never)
+  double status_period_s{1.0};    ///< status and heartbeat period, s
+  int snapshot_blocks_per_chunk{
+      64};  ///< 8^3-cell blocks per map3d_chunk_t at most (64: 128 KiB raw)
+  /// Largest encoded map message, bytes (docs/design.md §7.6): a snapshot chunk whose encoding
+  /// is larger is split (its blocks halved); a delta is sent as soon as its changed cells fill
+  /// this (after the scan that filled it, so one scan can take it past; beyond three times this it
+  /// becomes a snapshot). The default keeps chunks and nearly every delta in one LCM datagram
+  /// (65 499 bytes with its header and channel).
+  int map_message_max_bytes{60000};
+  /// Pace of a snapshot's chunks, bytes per second of the node's clock (0: all at once). Deltas
+  /// keep going out meanwhile, and chain on from the snapshot (docs/design.md §3.3).
+  double snapshot_bytes_per_s{1.0e6};
 
   std::string checkpoint_path;      ///< map file to resume from and save to ("" = none)
   double checkpoint_period_s{5.0};  ///< checkpoint period, s (and at exit)

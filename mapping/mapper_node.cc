@@ -22,8 +22,13 @@ namespace {
 constexpr int kBlockEdge = GrowingGrid::kBlockEdge;
 constexpr int kBlockCells = GrowingGrid::kBlockCells;
 constexpr int kMaxRayStride = 16;
-// Deltas larger than this many cells are sent as a snapshot instead (fewer, larger messages).
-constexpr size_t kMaxDeltaCells = 20000;
+// A delta's encoding: 84 bytes of fields (fingerprint included), then 3 x int32 + a float per cell.
+constexpr size_t kDeltaHeaderBytes = 84;
+constexpr size_t kDeltaCellBytes = 16;
+// One scan can change more cells than a message holds (a few per cent of depth images in the
+// simulated lasr flight, up to 22 000 cells): a delta up to this many messages' worth still goes
+// out as one (it fits in an empty 212 992-byte buffer); a larger one becomes a snapshot.
+constexpr size_t kMaxDeltaMessages = 3;
 
 bool FileExists(const std::string& path) {
   struct stat st {};
@@ -325,6 +330,8 @@ int MapperNode::ProcessPending(int max_scans) {
       }
       if (ray_stride_ > 1) decimated_ever_ = true;
       Apply(front, X_WB);
+      // A delta goes out as soon as it fills the largest map message (docs/design.md §7.6).
+      if (config_.delta_period_s > 0 && ChangedCellCount() >= MaxDeltaCells()) PublishDelta();
     }
     queue_.pop_front();
     ++done;
@@ -446,6 +453,11 @@ void MapperNode::ForEachBlock(F&& f) const {
 }
 
 void MapperNode::PublishSnapshot() {
+  // A snapshot still on its way goes out whole first: its receivers are assembling it.
+  while (!outgoing_chunks_.empty()) {
+    lcm_.publish(config_.map_channel, &outgoing_chunks_.front());
+    outgoing_chunks_.pop_front();
+  }
   const GridGeometry& g = geometry();
   const double p_init = std::visit(
       [](const auto& m) { return m->updater().ProbabilityOf(m->grid().initial_value()); }, map_);
@@ -454,18 +466,13 @@ void MapperNode::PublishSnapshot() {
     blocks.emplace_back(origin, p);
   });
   std::visit([](auto& m) { m->ClearChanges(); }, map_);  // the next delta starts here
-  const int per_chunk = config_.snapshot_blocks_per_chunk;
-  const int num_chunks =
-      std::max<int>(1, (static_cast<int>(blocks.size()) + per_chunk - 1) / per_chunk);
   ++snapshot_id_;
-  for (int c = 0; c < num_chunks; ++c) {
+  auto make_chunk = [&](size_t begin, size_t end) {
     map3d_chunk_t msg{};
     msg.utime = newest_applied_utime_;
     msg.snapshot_id = snapshot_id_;
     msg.map_seq = map_seq_;
     msg.epoch = epoch_;
-    msg.chunk_index = c;
-    msg.num_chunks = num_chunks;
     for (int a = 0; a < 3; ++a) {
       msg.origin_m[a] = g.origin_m()[a];
       msg.dims[a] = g.bounded() ? g.upper()[a] : 0;
@@ -474,8 +481,6 @@ void MapperNode::PublishSnapshot() {
     msg.p_init = p_init;
     msg.block_edge = kBlockEdge;
     std::vector<float> cells;
-    const size_t begin = static_cast<size_t>(c) * per_chunk;
-    const size_t end = std::min(blocks.size(), begin + per_chunk);
     for (size_t b = begin; b < end; ++b) {
       const CellIndex& o = blocks[b].first;
       msg.block_index.push_back(
@@ -485,9 +490,57 @@ void MapperNode::PublishSnapshot() {
     msg.num_blocks = static_cast<int32_t>(msg.block_index.size());
     EncodeMapChunkCells(cells, map3d_chunk_t::ENCODING_ZLIB_FLOAT32, 1,
                         &msg);  // zlib level 1: fast
-    lcm_.publish(config_.map_channel, &msg);
+    return msg;
+  };
+  // Chunks of at most snapshot_blocks_per_chunk blocks, halved while the encoding is larger than
+  // map_message_max_bytes (docs/design.md §7.6); the chunks depend only on the map.
+  size_t per_chunk = static_cast<size_t>(config_.snapshot_blocks_per_chunk);
+  size_t begin = 0;
+  do {
+    size_t n = std::min(per_chunk, blocks.size() - begin);
+    map3d_chunk_t msg = make_chunk(begin, begin + n);
+    while (msg.getEncodedSize() > config_.map_message_max_bytes && n > 1) {
+      n = (n + 1) / 2;
+      per_chunk = n;
+      msg = make_chunk(begin, begin + n);
+    }
+    outgoing_chunks_.push_back(std::move(msg));
+    begin += n;
+  } while (begin < blocks.size());
+  const int num_chunks = static_cast<int>(outgoing_chunks_.size());
+  for (int c = 0; c < num_chunks; ++c) {
+    outgoing_chunks_[static_cast<size_t>(c)].chunk_index = c;
+    outgoing_chunks_[static_cast<size_t>(c)].num_chunks = num_chunks;
   }
   last_delta_map_seq_ = map_seq_;
+  next_chunk_utime_ = -1;  // the first chunk now
+  SendDueChunk(clock_.NowUtime());
+}
+
+void MapperNode::SendDueChunk(int64_t now) {
+  if (config_.snapshot_bytes_per_s <= 0) {
+    while (!outgoing_chunks_.empty()) {
+      lcm_.publish(config_.map_channel, &outgoing_chunks_.front());
+      outgoing_chunks_.pop_front();
+    }
+    return;
+  }
+  if (outgoing_chunks_.empty() || (next_chunk_utime_ >= 0 && now < next_chunk_utime_)) return;
+  const map3d_chunk_t& chunk = outgoing_chunks_.front();
+  const double bytes = static_cast<double>(chunk.getEncodedSize());
+  lcm_.publish(config_.map_channel, &chunk);
+  outgoing_chunks_.pop_front();
+  // The next chunk when this one's bytes have gone at the configured rate (from now, so that a
+  // jump of the clock never lets chunks out in a burst).
+  next_chunk_utime_ = now + SecondsToUtime(bytes / config_.snapshot_bytes_per_s);
+}
+
+size_t MapperNode::MaxDeltaCells() const {
+  return (static_cast<size_t>(config_.map_message_max_bytes) - kDeltaHeaderBytes) / kDeltaCellBytes;
+}
+
+size_t MapperNode::ChangedCellCount() const {
+  return std::visit([](const auto& m) { return static_cast<size_t>(m->ChangedCellCount()); }, map_);
 }
 
 void MapperNode::PublishDelta() {
@@ -496,7 +549,7 @@ void MapperNode::PublishDelta() {
   map3d_delta_t msg{};
   const bool too_large = std::visit(
       [&](const auto& m) {
-        if (m->ChangedCellCount() > kMaxDeltaCells) return true;
+        if (m->ChangedCellCount() > kMaxDeltaMessages * MaxDeltaCells()) return true;
         const OccupancyUpdater& updater = m->updater();
         m->ForEachChangedCell([&](const CellIndex& c, float stored) {
           msg.cells.push_back({c.x, c.y, c.z});
@@ -506,7 +559,9 @@ void MapperNode::PublishDelta() {
       },
       map_);
   if (too_large) {
-    PublishSnapshot();  // cheaper to resend everything
+    // More than three messages' worth (one scan changed that much): a snapshot instead; while one
+    // is being sent, the changes wait for its end and then go out as the next snapshot.
+    if (!snapshot_in_flight()) PublishSnapshot();
     return;
   }
   msg.utime = newest_applied_utime_;
@@ -594,7 +649,9 @@ void MapperNode::PublishDue() {
     *last = now;
     return true;
   };
-  if (due(&last_snapshot_utime_, config_.snapshot_period_s)) {
+  SendDueChunk(now);
+  // A new snapshot only once the last one is out (docs/design.md §7.6).
+  if (!snapshot_in_flight() && due(&last_snapshot_utime_, config_.snapshot_period_s)) {
     PublishSnapshot();
     last_delta_utime_ = now;
   } else if (due(&last_delta_utime_, config_.delta_period_s)) {

@@ -13,7 +13,11 @@
 /// reason and skipped; a restarted publisher (a new epoch) is applied at once. Outputs: full
 /// snapshots in chunks (MAP3D) at a low rate, deltas of the changed cells in between (MAP3D_DELTA:
 /// the cells the map tracked as changed since the last delta or snapshot,
-/// OccupancyMap::ForEachChangedCell), MAP_STATUS and a heartbeat.
+/// OccupancyMap::ForEachChangedCell), MAP_STATUS and a heartbeat. Map messages are sized and
+/// paced for small receive buffers (docs/design.md §7.6): no chunk or delta is larger than
+/// map_message_max_bytes, a snapshot's chunks go out at snapshot_bytes_per_s, and a delta goes
+/// out as soon as it fills that limit (after the scan that filled it; one that a single scan took
+/// past three times the limit becomes a snapshot). Publishing never changes the map.
 ///
 /// Overload policy (documented in config/mapper.yaml): when the oldest queued scan is more than
 /// max_backlog_s behind the newest input, the next scans apply only every k-th ray (k doubles
@@ -34,6 +38,7 @@
 #include "common/lcm_decode.h"
 #include "common/log.h"
 #include "kestrel/depth_image_t.hpp"
+#include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/planar_scan_t.hpp"
 #include "kestrel/pose_t.hpp"
 #include "mapping/map_file.h"
@@ -61,10 +66,15 @@ class MapperNode {
   /// Publishes whatever is due at the clock's time: status/heartbeat, delta, snapshot, and saves
   /// the checkpoint when due.
   void PublishDue();
-  /// Publishes a full snapshot now (chunks on map_channel).
+  /// Takes a full snapshot now and sends its first chunk (map_channel); the others follow at
+  /// config.snapshot_bytes_per_s from PublishDue (all at once when it is 0). A snapshot still
+  /// being sent is first sent out whole. docs/design.md §3.3, §7.6.
   void PublishSnapshot();
-  /// Publishes the cells changed since the last delta or snapshot.
+  /// Publishes the cells changed since the last delta or snapshot (a snapshot instead when they
+  /// are more than three times config.map_message_max_bytes and none is being sent).
   void PublishDelta();
+  /// True while a snapshot's chunks are still being sent.
+  [[nodiscard]] bool snapshot_in_flight() const { return !outgoing_chunks_.empty(); }
   void PublishStatus();
   /// Saves the checkpoint (if configured). Returns false (logged) on failure.
   bool SaveCheckpoint();
@@ -131,6 +141,11 @@ class MapperNode {
   /// Calls f(block_origin_cell, probabilities[512]) for every block holding any observed cell.
   template <class F>
   void ForEachBlock(F&& f) const;
+  // Sends the next paced chunk if it is due at `now` (one per call).
+  void SendDueChunk(int64_t now);
+  // Changed cells a delta may hold (map_message_max_bytes).
+  [[nodiscard]] size_t MaxDeltaCells() const;
+  [[nodiscard]] size_t ChangedCellCount() const;
 
   lcm::LCM& lcm_;
   MapperConfig config_;
@@ -169,6 +184,8 @@ class MapperNode {
   int64_t last_delta_utime_{-1};
   int64_t last_snapshot_utime_{-1};
   int64_t last_checkpoint_utime_{-1};
+  std::deque<map3d_chunk_t> outgoing_chunks_;  // the snapshot being sent, encoded when taken
+  int64_t next_chunk_utime_{-1};               // when the next one may go (pacing)
 };
 
 }  // namespace kestrel

@@ -38,6 +38,7 @@ MapperConfig SmallConfig() {
   c.sensors = DefaultMapperSensors();
   c.snapshot_period_s = 0;
   c.delta_period_s = 0;
+  c.snapshot_bytes_per_s = 0;  // PublishSnapshot sends every chunk at once
   return c;
 }
 
@@ -279,6 +280,103 @@ TEST_F(MapperNodeTest, SnapshotThenDeltasRebuildTheMapExactly) {
     }
   }
   EXPECT_GT(compared, 100000);
+}
+
+// docs/design.md §3.3, §7.6: small messages, a snapshot's chunks paced on the node's clock with
+// deltas going on meanwhile, and a replica that keeps the deltas for the snapshot it assembles
+// ends equal to the map; pacing changes nothing in the map.
+TEST_F(MapperNodeTest, PacedSnapshotsWithDeltasBetweenTheirChunksRebuildTheMapExactly) {
+  MapperConfig config = config_;
+  config.map_message_max_bytes = 16384;
+  config.snapshot_bytes_per_s = 200000;  // a 16 KB chunk every 80 ms or so
+  config.snapshot_period_s = 1.0;
+  config.delta_period_s = 0.05;
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  MapperNode node(lcm, config, clock);
+  const GridGeometry& g = node.geometry();
+  MapReplica replica(g.origin_m(), g.resolution_m(),
+                     Eigen::Vector3i(g.upper().x, g.upper().y, g.upper().z),
+                     config.occupancy.p_init);
+  std::string error;
+  int refused = 0, chunks = 0, deltas_between_chunks = 0;
+  int64_t largest_chunk = 0, largest_delta = 0, last_chunk_utime = -1, last_chunk_bytes = 0;
+  bool between = false;  // a snapshot's chunks are on their way
+  GuardedSubscriptions subs(lcm);
+  subs.Add<map3d_chunk_t>(
+      "MAP3D",
+      [&](const std::string&, const map3d_chunk_t& m) {
+        refused += !replica.Apply(m, &error);
+        ++chunks;
+        largest_chunk = std::max<int64_t>(largest_chunk, m.getEncodedSize());
+        const int64_t now = clock.NowUtime();
+        if (m.chunk_index > 0) {  // paced: this chunk no sooner than the last one's bytes allow
+          EXPECT_GE(now - last_chunk_utime,
+                    SecondsToUtime(static_cast<double>(last_chunk_bytes) / 200000.0) - 1);
+        }
+        last_chunk_utime = now;
+        last_chunk_bytes = m.getEncodedSize();
+        between = m.chunk_index + 1 < m.num_chunks;
+      },
+      nullptr);
+  subs.Add<map3d_delta_t>(
+      "MAP3D_DELTA",
+      [&](const std::string&, const map3d_delta_t& m) {
+        refused += !replica.Apply(m, &error);
+        largest_delta = std::max<int64_t>(largest_delta, m.getEncodedSize());
+        deltas_between_chunks += between;
+      },
+      nullptr);
+  for (const StreamEvent& e : events_) {
+    if (e.utime > clock.NowUtime()) clock.SetUtime(e.utime);
+    switch (e.kind) {
+      case StreamEvent::Kind::kPose:
+        lcm.publish("POSE_VICON", &e.pose);
+        break;
+      case StreamEvent::Kind::kDepth:
+        lcm.publish("DEPTH_XTION", &e.depth);
+        break;
+      case StreamEvent::Kind::kScan:
+        lcm.publish("SCAN_HOKUYO", &e.scan);
+        break;
+    }
+    while (lcm.handleTimeout(0) > 0) {
+    }
+    node.ProcessPending();
+    node.PublishDue();
+    while (lcm.handleTimeout(0) > 0) {
+    }
+  }
+  // 3 s more of the clock: the last snapshot's tail, and the changes left go out.
+  for (int i = 0; i < 300; ++i) {
+    clock.AdvanceUtime(10000);
+    node.PublishDue();
+    while (lcm.handleTimeout(0) > 0) {
+    }
+  }
+  EXPECT_FALSE(node.snapshot_in_flight());
+  EXPECT_EQ(refused, 0) << error;
+  EXPECT_LE(largest_chunk, config.map_message_max_bytes);
+  EXPECT_LE(largest_delta, 3 * config.map_message_max_bytes);
+  EXPECT_GT(chunks, 20);
+  EXPECT_GT(deltas_between_chunks, 0) << "no delta went out while a snapshot was paced";
+  ASSERT_TRUE(replica.current());
+  EXPECT_EQ(replica.seq(), node.map_seq());
+  const CellIndex dims = node.geometry().upper();
+  for (int z = 0; z < dims.z; ++z) {
+    for (int y = 0; y < dims.y; ++y) {
+      for (int x = 0; x < dims.x; ++x) {
+        ASSERT_EQ(replica.At(x, y, z), static_cast<float>(node.ProbabilityAt(CellIndex{x, y, z})))
+            << x << " " << y << " " << z;
+      }
+    }
+  }
+  // Pacing and message sizes change when messages go, never the map.
+  lcm::LCM lcm2("memq://");
+  SimClock clock2;
+  MapperNode unpaced(lcm2, config_, clock2);
+  Feed(lcm2, unpaced, clock2, events_);
+  EXPECT_EQ(unpaced.map_hash(), node.map_hash());
 }
 
 TEST_F(MapperNodeTest, ALostDeltaMakesTheReplicaStaleUntilTheNextSnapshot) {

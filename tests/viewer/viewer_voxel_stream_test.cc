@@ -338,6 +338,51 @@ TEST(VoxelStream, ALostDeltaIsStaleUntilTheNextSnapshot) {
   EXPECT_EQ(page.cells, OccupiedOf(replica));
 }
 
+// docs/design.md §3.3: the mapper paces a snapshot's chunks and sends deltas between them; the
+// replica and the viewer's stream keep those deltas for the snapshot and end equal to the map.
+TEST(VoxelStream, DeltasBetweenASnapshotsChunksFollowIt) {
+  FakeMapper mapper(Eigen::Vector3i(16, 16, 8), 13);
+  MapReplica replica = mapper.MakeReplica();
+  ViewerScene scene(SceneConfig());
+  std::string error;
+  mapper.Change(200);
+  for (const auto& chunk : mapper.Snapshot(4, map3d_chunk_t::ENCODING_ZLIB_FLOAT32)) {
+    ASSERT_TRUE(replica.Apply(chunk, &error)) << error;
+    ASSERT_TRUE(scene.OnMapChunk(chunk, &error)) << error;
+  }
+  mapper.Change(40);
+  const std::vector<map3d_chunk_t> chunks =
+      mapper.Snapshot(1, map3d_chunk_t::ENCODING_ZLIB_FLOAT32);
+  ASSERT_GE(chunks.size(), 3u);
+  for (size_t c = 0; c < chunks.size(); ++c) {
+    ASSERT_TRUE(replica.Apply(chunks[c], &error)) << error;
+    ASSERT_TRUE(scene.OnMapChunk(chunks[c], &error)) << error;
+    if (c + 1 < chunks.size()) {  // a delta while the snapshot is on its way
+      mapper.Change(25);
+      const map3d_delta_t delta = mapper.Delta();
+      EXPECT_TRUE(replica.Apply(delta, &error)) << error;
+      EXPECT_TRUE(scene.OnMapDelta(delta, &error)) << error;
+    }
+  }
+  mapper.Change(25);
+  const map3d_delta_t last = mapper.Delta();
+  EXPECT_TRUE(replica.Apply(last, &error)) << error;
+  EXPECT_TRUE(scene.OnMapDelta(last, &error)) << error;
+  EXPECT_TRUE(replica.current());
+  EXPECT_TRUE(scene.voxels().current());
+  EXPECT_EQ(replica.seq(), last.seq);
+  EXPECT_EQ(scene.voxels().map_seq(), last.seq);
+  Page page;
+  page.Apply(scene.SnapshotFrames());
+  EXPECT_EQ(page.cells, OccupiedOf(replica));
+  // The replica equals the mapper's cells: a fresh snapshot of them rebuilds the same copy.
+  MapReplica fresh = mapper.MakeReplica();
+  for (const auto& chunk : mapper.Snapshot(64, map3d_chunk_t::ENCODING_ZLIB_FLOAT32)) {
+    ASSERT_TRUE(fresh.Apply(chunk, &error)) << error;
+  }
+  EXPECT_EQ(fresh.probabilities(), replica.probabilities());
+}
+
 // A growing map (dims 0, negative block indices) reaches the page with negative cell indices.
 TEST(VoxelStream, AGrowingMapWithNegativeIndicesRoundTrips) {
   map3d_chunk_t chunk{};

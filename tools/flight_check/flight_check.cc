@@ -1,9 +1,13 @@
 // kestrel-flight-check: listens to a running system for SECONDS and checks that it is flying and
 // mapping: every process's heartbeat, message counts, map entropy falling, the vehicle moving,
-// no collision. Prints what it saw; exits 0 when every check passes.
+// no collision. Prints what it saw, with the messages it lost (tools/flight_check/message_loss.h);
+// exits 0 when every check passes.
 //   kestrel-flight-check URL SECONDS [--until-landed] [--csv FILE] [--hover HEIGHT_M]
+//   [--no-map-loss]
 // --until-landed: stop listening as soon as the explorer is done and the controller is idle
 // again (the whole exploration), and require that it happened. --csv: MAP_STATUS over time.
+// --no-map-loss: fail if any map snapshot chunk or delta was lost on the way to this listener
+// (and require two whole snapshots and a delta), docs/design.md §3.3.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -20,19 +24,22 @@
 #include "kestrel/heartbeat_t.hpp"
 #include "kestrel/map_status_t.hpp"
 #include "kestrel/sim_truth_t.hpp"
+#include "tools/flight_check/message_loss.h"
 
 int main(int argc, char** argv) {
   if (argc < 3) {
     std::fprintf(stderr,
                  "usage: kestrel-flight-check URL SECONDS [--until-landed] [--csv FILE]\n"
-                 "                            [--hover HEIGHT_M]\n");
+                 "                            [--hover HEIGHT_M] [--no-map-loss]\n");
     return 2;
   }
   bool until_landed = false;
+  bool no_map_loss = false;
   double hover_height_m = -1.0;  // --hover H: only the simulator and the controller, hovering at H
   FILE* csv = nullptr;
   for (int i = 3; i < argc; ++i) {
     if (std::string(argv[i]) == "--until-landed") until_landed = true;
+    if (std::string(argv[i]) == "--no-map-loss") no_map_loss = true;
     if (std::string(argv[i]) == "--hover" && i + 1 < argc) hover_height_m = std::atof(argv[++i]);
     if (std::string(argv[i]) == "--csv" && i + 1 < argc) {
       csv = std::fopen(argv[++i], "w");
@@ -55,10 +62,15 @@ int main(int argc, char** argv) {
   double start[3] = {0, 0, 0}, max_distance = 0, max_height = 0;
   int collisions = 0;
   std::set<int> modes;
+  kestrel::MessageLoss loss;
   struct Counter {
     std::map<std::string, int>* counts;
-    void Handle(const lcm::ReceiveBuffer*, const std::string& channel) { ++(*counts)[channel]; }
-  } counter{&counts};
+    kestrel::MessageLoss* loss;
+    void Handle(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+      ++(*counts)[channel];
+      loss->Add(channel, rbuf->data, static_cast<int>(rbuf->data_size));
+    }
+  } counter{&counts, &loss};
   lcm.subscribe(".*", &Counter::Handle, &counter);
   kestrel::GuardedSubscriptions subs(lcm);
   subs.Add<kestrel::heartbeat_t>(
@@ -118,6 +130,7 @@ int main(int argc, char** argv) {
   const double listened_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   if (csv != nullptr) std::fclose(csv);
+  loss.Finish();
 
   for (const auto& [channel, n] : counts) std::printf("%-22s %7d messages\n", channel.c_str(), n);
   std::printf("processes:");
@@ -125,6 +138,25 @@ int main(int argc, char** argv) {
   std::printf(
       "\nentropy %.0f -> %.0f nats; moved %.2f m, highest %.2f m; collisions %d; listened %.1f s\n",
       first_entropy, last_entropy, max_distance, max_height, collisions, listened_s);
+  const kestrel::MessageLoss::Map& map = loss.map();
+  std::printf(
+      "map loss: %lld lost (snapshot chunks %lld received, %lld lost; snapshots %lld complete, "
+      "%lld incomplete, %lld missed; deltas %lld received, %lld gaps)\n",
+      static_cast<long long>(loss.map_lost()), static_cast<long long>(map.chunks_received),
+      static_cast<long long>(map.chunks_lost), static_cast<long long>(map.snapshots_complete),
+      static_cast<long long>(map.snapshots_incomplete),
+      static_cast<long long>(map.snapshots_missed), static_cast<long long>(map.deltas_received),
+      static_cast<long long>(map.delta_gaps));
+  std::printf("largest map messages: chunk %lld bytes, delta %lld bytes\n",
+              static_cast<long long>(map.largest_chunk_bytes),
+              static_cast<long long>(map.largest_delta_bytes));
+  std::printf("sequence gaps: %lld lost", static_cast<long long>(loss.streams_lost()));
+  for (const auto& [channel, s] : loss.streams()) {
+    if (s.lost > 0)
+      std::printf(", %s %lld of %lld", channel.c_str(), static_cast<long long>(s.lost),
+                  static_cast<long long>(s.lost + s.received));
+  }
+  std::printf("\n");
   int failures = 0;
   auto check = [&](bool ok, const char* what) {
     if (!ok) {
@@ -162,6 +194,11 @@ int main(int argc, char** argv) {
       check(explorer_done, "the explorer did not finish");
       check(controller_mode == kestrel::controller_status_t::MODE_IDLE, "the vehicle did not land");
     }
+  }
+  if (no_map_loss) {
+    check(loss.map_lost() == 0, "map messages lost");
+    check(map.snapshots_complete >= 2 && map.deltas_received >= 1,
+          "fewer than two whole map snapshots or no delta received");
   }
   std::printf("%s\n", failures == 0 ? "PASS" : "FAIL");
   return failures == 0 ? 0 : 1;

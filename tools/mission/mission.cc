@@ -78,6 +78,12 @@ MissionResult RunMission(const MissionConfig& mc) {
   mapper_config.limits.min_m = world.map_min_m;
   mapper_config.limits.max_m = world.map_max_m;
   mapper_config.checkpoint_path.clear();
+  // memq:// has no receive buffer to protect (docs/design.md §7.6): snapshots go out whole at
+  // their instant, as before pacing, unless snapshot_bytes_per_s is set on the command line.
+  if (std::none_of(mc.mapper_overrides.begin(), mc.mapper_overrides.end(),
+                   [](const std::string& o) { return o.rfind("snapshot_bytes_per_s=", 0) == 0; })) {
+    mapper_config.snapshot_bytes_per_s = 0;
+  }
   mapper_config.sensors[0].X_BS = sim_config.vehicle.X_BS_xtion;
   if (mapper_config.sensors.size() > 1)
     mapper_config.sensors[1].X_BS = sim_config.vehicle.X_BS_hokuyo;

@@ -77,6 +77,8 @@ bool VoxelStream::Apply(const map3d_chunk_t& chunk, std::string* error) {
     staging_id_ = chunk.snapshot_id;
     staging_epoch_ = chunk.epoch;
     staging_next_chunk_ = 0;
+    staging_tail_seq_ = chunk.map_seq;
+    staged_deltas_.clear();
   }
   if (chunk.snapshot_id != staging_id_ || chunk.epoch != staging_epoch_ ||
       chunk.chunk_index != staging_next_chunk_) {
@@ -121,7 +123,8 @@ bool VoxelStream::Apply(const map3d_chunk_t& chunk, std::string* error) {
   staging_id_ = -1;
   if (current() && chunk.epoch == epoch_ && chunk.map_seq < seq_ &&
       SameLattice(chunk.origin_m, chunk.resolution_m)) {
-    return true;  // deltas already took the copy past this snapshot (of the same mapper)
+    staging_.clear();
+    return ApplyStagedDeltas(error);  // deltas already took the copy past this snapshot
   }
   if (!has_snapshot_ || !SameLattice(chunk.origin_m, chunk.resolution_m)) {
     // A new lattice: the receivers start over from the whole set.
@@ -144,23 +147,42 @@ bool VoxelStream::Apply(const map3d_chunk_t& chunk, std::string* error) {
   utime_ = chunk.utime;
   has_snapshot_ = true;
   stale_ = false;
+  return ApplyStagedDeltas(error);
+}
+
+bool VoxelStream::ApplyStagedDeltas(std::string* error) {
+  std::vector<map3d_delta_t> kept;
+  kept.swap(staged_deltas_);
+  for (const map3d_delta_t& delta : kept) {
+    if (!Apply(delta, error)) return false;
+  }
   return true;
 }
 
 bool VoxelStream::Apply(const map3d_delta_t& delta, std::string* error) {
-  if (!has_snapshot_) {
-    *error = "delta before any snapshot";
-    return false;
-  }
   if (const std::string why = CheckMapDelta(delta); !why.empty()) {
     *error = "delta: " + why;
     return false;
   }
+  // A delta sent while the staged snapshot's chunks are still arriving: kept for it.
+  const bool kept = staging_id_ >= 0 && delta.epoch == staging_epoch_ &&
+                    delta.prev_seq == staging_tail_seq_ && delta.seq > staging_tail_seq_;
+  if (kept) {
+    staged_deltas_.push_back(delta);
+    staging_tail_seq_ = delta.seq;
+  }
+  if (!has_snapshot_) {
+    if (kept) return true;
+    *error = "delta before any snapshot";
+    return false;
+  }
   if (!SameLattice(delta.origin_m, delta.resolution_m)) {
+    if (kept) return true;  // the staged snapshot brings its lattice
     *error = "delta lattice differs from the snapshot's";
     return false;
   }
   if (delta.epoch != epoch_) {  // a restarted mapper (docs/design.md §3.4): wait for its snapshot
+    if (kept) return true;
     stale_ = true;
     *error = "delta of mapper epoch " + std::to_string(delta.epoch) + " on a copy of epoch " +
              std::to_string(epoch_) + ": stale until that mapper's next snapshot";
@@ -168,6 +190,7 @@ bool VoxelStream::Apply(const map3d_delta_t& delta, std::string* error) {
   }
   if (delta.seq <= seq_) return true;  // already reflected by a newer snapshot
   if (stale_ || delta.prev_seq != seq_) {
+    if (kept) return true;  // it follows the snapshot on its way, not this copy
     stale_ = true;
     *error = "delta " + std::to_string(delta.prev_seq) + " -> " + std::to_string(delta.seq) +
              " does not follow " + std::to_string(seq_) + ": stale until the next snapshot";

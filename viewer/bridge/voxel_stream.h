@@ -60,6 +60,8 @@ class VoxelStream {
   bool Apply(const map3d_chunk_t& chunk, std::string* error);
   /// Applies a delta. Returns false with *error when there is no snapshot yet, the lattice
   /// differs, or it does not follow the copy (the copy is then stale until the next snapshot).
+  /// A delta following the snapshot being staged (the mapper paces a snapshot's chunks and keeps
+  /// sending deltas: docs/design.md §3.3) is kept and applied once that snapshot is whole.
   bool Apply(const map3d_delta_t& delta, std::string* error);
 
   /// The changes since the previous call (or since construction); see the file comment.
@@ -95,6 +97,8 @@ class VoxelStream {
   [[nodiscard]] bool SameLattice(const double origin[3], double resolution) const;
   /// Sets cell `key` to q (0 removes it), remembering its value at the last TakeChanges().
   void Set(Key key, uint8_t q);
+  /// Applies the deltas kept for the snapshot just completed.
+  bool ApplyStagedDeltas(std::string* error);
 
   double threshold_;
   CellSet occupied_;
@@ -113,6 +117,8 @@ class VoxelStream {
   int64_t staging_id_{-1};
   int64_t staging_epoch_{0};
   int staging_next_chunk_{0};
+  int64_t staging_tail_seq_{-1};              // the staged snapshot's map_seq, then kept deltas'
+  std::vector<map3d_delta_t> staged_deltas_;  // deltas following the staged snapshot
 };
 
 }  // namespace kestrel
