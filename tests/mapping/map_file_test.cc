@@ -227,6 +227,57 @@ TEST(MapFile, ReadsVersion1AndRefusesUnknownVersions) {
   std::remove(path.c_str());
 }
 
+// The bytes with their checksum recomputed (what a file corrupted consistently looks like).
+std::string WithCrc(std::string bytes) {
+  bytes.resize(bytes.size() - 4);
+  const auto crc = static_cast<uint32_t>(
+      crc32(0L, reinterpret_cast<const Bytef*>(bytes.data()), static_cast<uInt>(bytes.size())));
+  bytes.append(reinterpret_cast<const char*>(&crc), 4);
+  return bytes;
+}
+
+// A dense file whose limits claim far more cells than it holds (8e5 cells a side, accepted by
+// MapLimits, 5e17 in all) is refused by its cell count before the grid is allocated: a
+// MapFileError, not a bad_alloc or an attempt to allocate 2 EB. The pure core and the file
+// loader agree.
+TEST(MapFile, LimitsBeyondTheStoredCellsAreRefusedBeforeAllocating) {
+  MapLimits small;
+  small.max_m = Eigen::Vector3d(-3.0, -5.0, 0.5);
+  auto map = MakeExactDenseMap(small, OccupancyLimits{}, 4.0);
+  std::string bytes = EncodeMap(*map, {}, "run-a");
+  const size_t max_at = 8 + 4 + 4 + 4 + 8 + 3 * 8;  // magic ... resolution, origin
+  for (int a = 0; a < 3; ++a) {
+    const double max_m = small.min_m[a] + 8e5 * small.resolution_m - 0.5 * small.resolution_m;
+    std::memcpy(bytes.data() + max_at + 8 * a, &max_m, 8);
+  }
+  bytes = WithCrc(bytes);
+  const std::string error = ErrorOf([&] { (void)DecodeDenseMap(bytes, "huge.kmap"); });
+  EXPECT_NE(error.find("the limits give 512000000000000000"), std::string::npos) << error;
+  const std::string path = TempPath("huge.kmap");
+  WriteAll(path, bytes);
+  EXPECT_EQ(ErrorOf([&] { (void)LoadDenseMap(path); }),
+            "map file " + path + error.substr(error.find(':')));
+  std::remove(path.c_str());
+}
+
+// The bytes SaveMap writes are EncodeMap's, and the pure loaders read them as the file loaders.
+TEST(MapFile, EncodeAndDecodeAreTheFileFormat) {
+  MapLimits small;
+  small.max_m = Eigen::Vector3d(-3.0, -5.0, 0.5);
+  auto map = MakeExactGrowingMap(small, OccupancyLimits{}, 4.0);
+  FillRandom(map.get(), 9, 200);
+  const StreamSequences seqs{{"SCAN_HOKUYO", {{4, 3}}}};
+  const std::string path = TempPath("encode.kmap");
+  SaveMap(path, *map, seqs, "run-c");
+  const std::string bytes = EncodeMap(*map, seqs, "run-c");
+  EXPECT_EQ(ReadAll(path), bytes);
+  const LoadedMap<GrowingOccupancyMap> loaded = DecodeGrowingMap(bytes, "x.kmap");
+  EXPECT_EQ(loaded.map->Hash(), map->Hash());
+  EXPECT_EQ(loaded.run_id, "run-c");
+  EXPECT_EQ(DecodeMapFileInfo(bytes, "x.kmap").sequences, seqs);
+  std::remove(path.c_str());
+}
+
 // OctoMap export through the real library: reading the .bt and .ot back with OctoMap, every
 // Kestrel cell with P > 0.5 is an occupied voxel at its centre and every observed cell with
 // P < 0.5 a free one.
