@@ -402,8 +402,12 @@ LoadedMap<DenseOccupancyMap> DecodeDenseMap(const std::string& bytes, const std:
   auto grid = std::make_unique<DenseGrid>(limits, updater->initial_value());
   r.GetBytes(grid->mutable_values().data(), count * sizeof(float), "cells");
   LoadedMap<DenseOccupancyMap> out;
-  out.map =
-      std::make_unique<DenseOccupancyMap>(std::move(*grid), std::move(updater), h.max_range_m);
+  try {
+    out.map =
+        std::make_unique<DenseOccupancyMap>(std::move(*grid), std::move(updater), h.max_range_m);
+  } catch (const std::invalid_argument& e) {
+    throw MapFileError("map file " + path + ": invalid map: " + e.what());
+  }
   out.run_id = h.run_id;
   out.sequences = h.sequences;
   return out;
@@ -441,8 +445,12 @@ LoadedMap<GrowingOccupancyMap> DecodeGrowingMap(const std::string& bytes, const 
     r.GetBytes(block->values, sizeof(block->values), "block");
   }
   LoadedMap<GrowingOccupancyMap> out;
-  out.map =
-      std::make_unique<GrowingOccupancyMap>(std::move(*grid), std::move(updater), h.max_range_m);
+  try {
+    out.map =
+        std::make_unique<GrowingOccupancyMap>(std::move(*grid), std::move(updater), h.max_range_m);
+  } catch (const std::invalid_argument& e) {
+    throw MapFileError("map file " + path + ": invalid map: " + e.what());
+  }
   out.run_id = h.run_id;
   out.sequences = h.sequences;
   return out;

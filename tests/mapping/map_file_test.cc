@@ -260,6 +260,27 @@ TEST(MapFile, LimitsBeyondTheStoredCellsAreRefusedBeforeAllocating) {
   std::remove(path.c_str());
 }
 
+// A maximum range the map itself refuses (a growing map's cast window holds 507 cells; a
+// log-odds file's range is checked by nothing before the map) is a MapFileError, as the loaders
+// promise, not the map constructor's std::invalid_argument.
+TEST(MapFile, RangesTheMapRefusesAreMapFileErrors) {
+  MapLimits small;
+  small.max_m = Eigen::Vector3d(-3.0, -5.0, 0.5);
+  const size_t range_at = 8 + 4 + 4 + 4 + 8 + 3 * 8 + 3 * 8;  // ... origin, limits
+  auto set_range = [&](std::string bytes, double range_m) {
+    std::memcpy(bytes.data() + range_at, &range_m, 8);
+    return WithCrc(bytes);
+  };
+  auto growing = MakeExactGrowingMap(small, OccupancyLimits{}, 4.0);
+  const std::string g = set_range(EncodeMap(*growing, {}), 100.0);  // 1334 cells
+  EXPECT_NE(ErrorOf([&] { (void)DecodeGrowingMap(g, "g.kmap"); }).find("invalid map"),
+            std::string::npos);
+  auto log_odds = MakeLogOddsDenseMap(small, LogOddsConfig{}, 4.0);
+  const std::string d = set_range(EncodeMap(*log_odds, {}), std::nan(""));
+  EXPECT_NE(ErrorOf([&] { (void)DecodeDenseMap(d, "d.kmap"); }).find("invalid map"),
+            std::string::npos);
+}
+
 // The bytes SaveMap writes are EncodeMap's, and the pure loaders read them as the file loaders.
 TEST(MapFile, EncodeAndDecodeAreTheFileFormat) {
   MapLimits small;
