@@ -96,6 +96,24 @@ TEST(Config, UnknownKeysInsideListElementsAreReported) {
   ExpectConfigError([&] { root.CheckNoUnknownKeys(); }, {"objects[1].colour"});
 }
 
+// YAML allows a sequence or a mapping as a key; the unknown-key check refuses one with the
+// file and line as a ConfigError (it let yaml-cpp's own conversion error escape before, found by
+// tests/fuzz/world_fuzz.cc), at the top level and inside list elements.
+TEST(Config, NonScalarKeysAreConfigErrors) {
+  const ConfigNode top = ConfigNode::FromString("a: 1\n? [x, y]\n: 2\n", "k.yaml");
+  double a = 0;
+  top.Read("a", &a);
+  ExpectConfigError([&] { top.CheckNoUnknownKeys(); }, {"k.yaml", "line 2", "sequence"});
+  ExpectConfigError([&] { (void)top.Keys(); }, {"k.yaml", "sequence"});
+  const ConfigNode nested =
+      ConfigNode::FromString("objects:\n  - size_m: 1\n    ? {p: q}\n    : 3\n", "n.yaml");
+  for (const ConfigNode& obj : nested.Elements("objects")) {
+    double size = 0;
+    obj.ReadRequired("size_m", &size, Range::Positive());
+  }
+  ExpectConfigError([&] { nested.CheckNoUnknownKeys(); }, {"n.yaml", "line 3", "mapping"});
+}
+
 TEST(Config, MissingRequiredKeyAndChild) {
   const ConfigNode root = ConfigNode::FromString("a: 1\n", "m.yaml");
   double v = 0;
