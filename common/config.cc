@@ -192,6 +192,9 @@ std::vector<ConfigNode> ConfigNode::Elements(const std::string& key, bool requir
   if (!n.IsSequence()) ThrowBad(key, n, "a list");
   for (size_t i = 0; i < n.size(); ++i) {
     const std::string element_path = KeyPath(key) + "[" + std::to_string(i) + "]";
+    // Every element is read by key, which yaml-cpp cannot do on a scalar or a list.
+    if (!n[i].IsMap())
+      ThrowBad(key + "[" + std::to_string(i) + "]", n[i], "a mapping of keys to values");
     doc_->used.insert(element_path);
     out.push_back(ConfigNode(doc_, n[i], element_path));
   }

@@ -72,7 +72,8 @@ class ConfigNode {
   [[nodiscard]] bool Has(const std::string& key) const;
   /// A required mapping child; throws ConfigError if missing or not a mapping.
   [[nodiscard]] ConfigNode Child(const std::string& key) const;
-  /// The elements of a required (or, if `required` is false, optional: empty) sequence.
+  /// The elements of a required (or, if `required` is false, optional: empty) sequence of
+  /// mappings; throws ConfigError if an element is not a mapping.
   [[nodiscard]] std::vector<ConfigNode> Elements(const std::string& key,
                                                  bool required = true) const;
   /// The keys of this mapping, in file order. @throws ConfigError on a key that is a sequence or

@@ -114,6 +114,19 @@ TEST(Config, NonScalarKeysAreConfigErrors) {
   ExpectConfigError([&] { nested.CheckNoUnknownKeys(); }, {"n.yaml", "line 3", "mapping"});
 }
 
+// Elements are read by key: a list element that is a scalar or a list is a ConfigError naming
+// it (yaml-cpp's BadSubscript escaped before, found by tests/fuzz/world_fuzz.cc).
+TEST(Config, ListElementsMustBeMappings) {
+  for (const char* text : {"objects:\n  - 1\n", "objects:\n  - [a, b]\n"}) {
+    const ConfigNode root = ConfigNode::FromString(text, "e.yaml");
+    ExpectConfigError(
+        [&] {
+          for (const ConfigNode& obj : root.Elements("objects")) (void)obj.Has("size_m");
+        },
+        {"e.yaml", "objects[0]", "a mapping"});
+  }
+}
+
 TEST(Config, MissingRequiredKeyAndChild) {
   const ConfigNode root = ConfigNode::FromString("a: 1\n", "m.yaml");
   double v = 0;
