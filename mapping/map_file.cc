@@ -242,7 +242,18 @@ Header ReadHeader(const std::string& path, Reader* r) {
   return h;
 }
 
+// The most cells a ray of the maximum range may cross per axis that a file may claim: the map
+// sizes its ray scratch from max_range_m / resolution_m (up to 1e7 cells, about a gigabyte, for
+// a file of a few hundred bytes), and no sensor needs more than this (4.9 km at 7.5 cm cells).
+constexpr double kMaxRangeCells = 65536;
+
 std::unique_ptr<OccupancyUpdater> MakeUpdater(const std::string& path, const Header& h) {
+  if (!(h.max_range_m / h.resolution_m <= kMaxRangeCells)) {
+    throw MapFileError("map file " + path + ": max range " + std::to_string(h.max_range_m) +
+                       " m at resolution " + std::to_string(h.resolution_m) +
+                       " m, accepted at most " + std::to_string(static_cast<int>(kMaxRangeCells)) +
+                       " cells");
+  }
   try {
     if (h.updater_kind == kExact) {
       OccupancyLimits limits;

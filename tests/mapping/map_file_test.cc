@@ -276,9 +276,26 @@ TEST(MapFile, RangesTheMapRefusesAreMapFileErrors) {
   EXPECT_NE(ErrorOf([&] { (void)DecodeGrowingMap(g, "g.kmap"); }).find("invalid map"),
             std::string::npos);
   auto log_odds = MakeLogOddsDenseMap(small, LogOddsConfig{}, 4.0);
-  const std::string d = set_range(EncodeMap(*log_odds, {}), std::nan(""));
+  const std::string d = set_range(EncodeMap(*log_odds, {}), -1.0);
   EXPECT_NE(ErrorOf([&] { (void)DecodeDenseMap(d, "d.kmap"); }).find("invalid map"),
             std::string::npos);
+}
+
+// A range of a million cells (75 km at 7.5 cm) would size the map's ray scratch at hundreds of
+// megabytes for a file of a few kilobytes; the loaders refuse more than 65536 cells (and a
+// non-finite range) before building anything.
+TEST(MapFile, RangesOfMoreThan65536CellsAreRefused) {
+  MapLimits small;
+  small.max_m = Eigen::Vector3d(-3.0, -5.0, 0.5);
+  const size_t range_at = 8 + 4 + 4 + 4 + 8 + 3 * 8 + 3 * 8;
+  auto dense = MakeExactDenseMap(small, OccupancyLimits{}, 4.0);
+  for (const double range_m : {1e6 * small.resolution_m, std::nan(""), 1e300}) {
+    std::string bytes = EncodeMap(*dense, {});
+    std::memcpy(bytes.data() + range_at, &range_m, 8);
+    bytes = WithCrc(bytes);
+    const std::string error = ErrorOf([&] { (void)DecodeDenseMap(bytes, "r.kmap"); });
+    EXPECT_NE(error.find("accepted at most 65536 cells"), std::string::npos) << error;
+  }
 }
 
 // The bytes SaveMap writes are EncodeMap's, and the pure loaders read them as the file loaders.
