@@ -28,6 +28,19 @@ std::string LineOf(const YAML::Node& node) {
   if (mark.line < 0) return "";
   return " (line " + std::to_string(mark.line + 1) + ")";
 }
+// A mapping's key as text. YAML allows a sequence or a mapping as a key ("? [a, b]: 1"); no
+// Kestrel file has one, and yaml-cpp would throw its own conversion error, so it is refused here
+// with the file and line.
+std::string KeyText(const YAML::Node& key, const std::string& file) {
+  if (!key.IsScalar()) {
+    throw ConfigError(file + ": a key" + LineOf(key) + " is a " +
+                      (key.IsSequence() ? "sequence"
+                       : key.IsMap()    ? "mapping"
+                                        : "null") +
+                      "; keys must be plain values");
+  }
+  return key.Scalar();
+}
 }  // namespace
 
 bool Range::Contains(double v) const {
@@ -179,6 +192,9 @@ std::vector<ConfigNode> ConfigNode::Elements(const std::string& key, bool requir
   if (!n.IsSequence()) ThrowBad(key, n, "a list");
   for (size_t i = 0; i < n.size(); ++i) {
     const std::string element_path = KeyPath(key) + "[" + std::to_string(i) + "]";
+    // Every element is read by key, which yaml-cpp cannot do on a scalar or a list.
+    if (!n[i].IsMap())
+      ThrowBad(key + "[" + std::to_string(i) + "]", n[i], "a mapping of keys to values");
     doc_->used.insert(element_path);
     out.push_back(ConfigNode(doc_, n[i], element_path));
   }
@@ -188,7 +204,7 @@ std::vector<ConfigNode> ConfigNode::Elements(const std::string& key, bool requir
 std::vector<std::string> ConfigNode::Keys() const {
   std::vector<std::string> keys;
   if (!node_.IsMap()) return keys;
-  for (const auto& kv : node_) keys.push_back(kv.first.as<std::string>());
+  for (const auto& kv : node_) keys.push_back(KeyText(kv.first, file()));
   return keys;
 }
 
@@ -323,7 +339,7 @@ void ConfigNode::CollectUnknown(const YAML::Node& node, const std::string& path,
                                 std::vector<std::string>* unknown) const {
   if (!node.IsMap()) return;
   for (const auto& kv : node) {
-    const std::string key = kv.first.as<std::string>();
+    const std::string key = KeyText(kv.first, file());
     const std::string key_path = path.empty() ? key : path + "." + key;
     if (doc_->used.count(key_path) == 0) {
       unknown->push_back(key_path + LineOf(kv.first));

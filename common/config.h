@@ -72,10 +72,12 @@ class ConfigNode {
   [[nodiscard]] bool Has(const std::string& key) const;
   /// A required mapping child; throws ConfigError if missing or not a mapping.
   [[nodiscard]] ConfigNode Child(const std::string& key) const;
-  /// The elements of a required (or, if `required` is false, optional: empty) sequence.
+  /// The elements of a required (or, if `required` is false, optional: empty) sequence of
+  /// mappings; throws ConfigError if an element is not a mapping.
   [[nodiscard]] std::vector<ConfigNode> Elements(const std::string& key,
                                                  bool required = true) const;
-  /// The keys of this mapping, in file order.
+  /// The keys of this mapping, in file order. @throws ConfigError on a key that is a sequence or
+  /// a mapping (YAML allows them; no Kestrel file has one).
   [[nodiscard]] std::vector<std::string> Keys() const;
 
   /// Optional scalar reads: an absent key leaves *value (the default) untouched. A present key
@@ -108,7 +110,8 @@ class ConfigNode {
   /// Throws a ConfigError about `key` with `reason` (for cross-field checks in Validate()).
   [[noreturn]] void Fail(const std::string& key, const std::string& reason) const;
 
-  /// Throws ConfigError listing every key under this node that no Read/Child/Elements touched.
+  /// Throws ConfigError listing every key under this node that no Read/Child/Elements touched, or
+  /// naming the line of a key that is a sequence or a mapping.
   void CheckNoUnknownKeys() const;
 
   [[nodiscard]] const std::string& file() const;

@@ -12,6 +12,8 @@ namespace {
 
 constexpr int kMaxImageSide = 8192;
 constexpr int kMaxBlockEdge = 64;
+// Cell indices of a map lie in (-2^23, 2^23) per axis (GridGeometry::kUnboundedCells, mapping/).
+constexpr int64_t kMaxCellIndex = int64_t{1} << 23;
 
 std::vector<uint8_t> Deflate(const std::vector<uint8_t>& raw, int level) {
   uLongf size = compressBound(static_cast<uLong>(raw.size()));
@@ -20,6 +22,15 @@ std::vector<uint8_t> Deflate(const std::vector<uint8_t>& raw, int level) {
   if (rc != Z_OK) throw std::runtime_error("zlib compress2 failed: " + std::to_string(rc));
   out.resize(size);
   return out;
+}
+
+// Deflate's best ratio: 258 bytes from a match of two bits at most, 1032:1 (zlib's FAQ).
+constexpr size_t kMaxInflateRatio = 1032;
+
+// True if `packed` could inflate to `size` bytes at all: the bound is checked before the output
+// is allocated, so a tiny message cannot make a decoder allocate what its header claims.
+bool CanInflateTo(const std::vector<uint8_t>& packed, size_t size) {
+  return size / kMaxInflateRatio <= packed.size();
 }
 
 // True if `packed` inflates to exactly raw->size() bytes.
@@ -86,6 +97,10 @@ std::string DecodeDepthPixels(const depth_image_t& msg, std::vector<uint16_t>* c
   std::vector<uint8_t> inflated;
   const std::vector<uint8_t>* raw = &msg.data;
   if (msg.encoding == depth_image_t::ENCODING_ZLIB_U16) {
+    if (!CanInflateTo(msg.data, pixels * 2)) {
+      return "zlib data of " + std::to_string(msg.data.size()) + " bytes cannot inflate to " +
+             std::to_string(msg.width) + "x" + std::to_string(msg.height) + " pixels";
+    }
     inflated.resize(pixels * 2);
     if (!InflateExactly(msg.data, &inflated)) return "zlib data does not inflate to the image size";
     raw = &inflated;
@@ -131,12 +146,28 @@ std::string DecodeMapChunkCells(const map3d_chunk_t& chunk, std::vector<float>* 
     return "num_blocks " + std::to_string(chunk.num_blocks) + " does not match its index";
   }
   const size_t edge = static_cast<size_t>(chunk.block_edge);
+  for (const std::vector<int32_t>& b : chunk.block_index) {
+    if (b.size() != 3) return "a block index of " + std::to_string(b.size()) + " values, not 3";
+    for (const int32_t index : b) {
+      // Cells of the block: [index * edge, (index + 1) * edge), inside (-2^23, 2^23).
+      const int64_t first = int64_t{index} * chunk.block_edge;
+      if (first <= -kMaxCellIndex || first + chunk.block_edge > kMaxCellIndex) {
+        return "block index (" + std::to_string(b[0]) + ", " + std::to_string(b[1]) + ", " +
+               std::to_string(b[2]) + ") outside the cell range +-2^23";
+      }
+    }
+  }
   const size_t cells = static_cast<size_t>(chunk.num_blocks) * edge * edge * edge;
   const size_t width = chunk.encoding == map3d_chunk_t::ENCODING_U16_ZLIB ? 2 : 4;
   std::vector<uint8_t> inflated;
   const std::vector<uint8_t>* raw = &chunk.data;
   if (chunk.encoding == map3d_chunk_t::ENCODING_ZLIB_FLOAT32 ||
       chunk.encoding == map3d_chunk_t::ENCODING_U16_ZLIB) {
+    if (!CanInflateTo(chunk.data, cells * width)) {
+      return "data of " + std::to_string(chunk.data.size()) + " bytes (encoding " +
+             std::to_string(chunk.encoding) + ") cannot inflate to its " +
+             std::to_string(chunk.num_blocks) + " blocks";
+    }
     inflated.resize(cells * width);
     if (!InflateExactly(chunk.data, &inflated)) {
       return "data (encoding " + std::to_string(chunk.encoding) + ") does not inflate to its " +

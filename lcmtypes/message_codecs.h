@@ -38,8 +38,9 @@ void EncodeMapChunkCells(const std::vector<float>& probabilities, int8_t encodin
                          map3d_chunk_t* chunk);
 
 /// The cells of a snapshot chunk (num_blocks x block_edge^3 probabilities). Checks the block
-/// edge (1-64), the counts, the encoding and the payload's size. Returns "" and fills
-/// *probabilities, or says what is wrong.
+/// edge (1-64), the counts, that every block's cells lie in a map's index range (-2^23, 2^23)
+/// per axis (so a consumer may compute them in int), the encoding and the payload's size. Returns
+/// "" and fills *probabilities, or says what is wrong.
 [[nodiscard]] std::string DecodeMapChunkCells(const map3d_chunk_t& chunk,
                                               std::vector<float>* probabilities);
 

@@ -137,10 +137,13 @@ void WriteHeader(Writer* w, const OccupancyMap<Grid>& map, uint8_t grid_kind,
   }
 }
 
-void WriteFile(const std::string& path, std::string* bytes) {
+void AppendCrc(std::string* bytes) {
   const uint32_t crc = static_cast<uint32_t>(
       crc32(0L, reinterpret_cast<const Bytef*>(bytes->data()), static_cast<uInt>(bytes->size())));
   bytes->append(reinterpret_cast<const char*>(&crc), sizeof(crc));
+}
+
+void WriteFile(const std::string& path, const std::string* bytes) {
   const std::string tmp = path + ".tmp";
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
@@ -154,11 +157,14 @@ void WriteFile(const std::string& path, std::string* bytes) {
   }
 }
 
-// Reads the file, checks length and CRC, parses the header. The reader is left at the payload.
-std::string ReadVerified(const std::string& path) {
+std::string ReadFileBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw MapFileError("map file " + path + ": cannot open");
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// Checks length, magic and CRC of a whole file's bytes; returns the size without the CRC.
+size_t VerifiedSize(const std::string& bytes, const std::string& path) {
   const size_t kMinSize = sizeof(kMagic) + 4 + 4 + 4 + size_t{8} * 12 + 4 + 8 + 4;
   if (bytes.size() < kMinSize) {
     throw MapFileError("map file " + path + ": truncated (" + std::to_string(bytes.size()) +
@@ -174,8 +180,7 @@ std::string ReadVerified(const std::string& path) {
   if (crc != stored_crc) {
     throw MapFileError("map file " + path + ": checksum mismatch (file corrupt or truncated)");
   }
-  bytes.resize(bytes.size() - 4);
-  return bytes;
+  return bytes.size() - 4;
 }
 
 Header ReadHeader(const std::string& path, Reader* r) {
@@ -237,7 +242,18 @@ Header ReadHeader(const std::string& path, Reader* r) {
   return h;
 }
 
+// The most cells a ray of the maximum range may cross per axis that a file may claim: the map
+// sizes its ray scratch from max_range_m / resolution_m (up to 1e7 cells, about a gigabyte, for
+// a file of a few hundred bytes), and no sensor needs more than this (4.9 km at 7.5 cm cells).
+constexpr double kMaxRangeCells = 65536;
+
 std::unique_ptr<OccupancyUpdater> MakeUpdater(const std::string& path, const Header& h) {
+  if (!(h.max_range_m / h.resolution_m <= kMaxRangeCells)) {
+    throw MapFileError("map file " + path + ": max range " + std::to_string(h.max_range_m) +
+                       " m at resolution " + std::to_string(h.resolution_m) +
+                       " m, accepted at most " + std::to_string(static_cast<int>(kMaxRangeCells)) +
+                       " cells");
+  }
   try {
     if (h.updater_kind == kExact) {
       OccupancyLimits limits;
@@ -326,8 +342,8 @@ size_t ExportPlyImpl(const std::string& path, const OccupancyMap<Grid>& map) {
 
 }  // namespace
 
-void SaveMap(const std::string& path, const DenseOccupancyMap& map,
-             const StreamSequences& sequences, const std::string& run_id) {
+std::string EncodeMap(const DenseOccupancyMap& map, const StreamSequences& sequences,
+                      const std::string& run_id) {
   Writer w;
   const GridGeometry& g = map.grid().geometry();
   Eigen::Vector3d max_m;
@@ -337,11 +353,12 @@ void SaveMap(const std::string& path, const DenseOccupancyMap& map,
   WriteHeader(&w, map, kDense, max_m, sequences, run_id);
   w.Put(static_cast<uint64_t>(map.grid().size()));
   w.PutBytes(map.grid().values().data(), map.grid().size() * sizeof(float));
-  WriteFile(path, &w.bytes());
+  AppendCrc(&w.bytes());
+  return std::move(w.bytes());
 }
 
-void SaveMap(const std::string& path, const GrowingOccupancyMap& map,
-             const StreamSequences& sequences, const std::string& run_id) {
+std::string EncodeMap(const GrowingOccupancyMap& map, const StreamSequences& sequences,
+                      const std::string& run_id) {
   Writer w;
   WriteHeader(&w, map, kGrowing, map.grid().geometry().origin_m(), sequences, run_id);
   w.Put(static_cast<uint64_t>(map.grid().block_count()));
@@ -351,43 +368,64 @@ void SaveMap(const std::string& path, const GrowingOccupancyMap& map,
     w.Put(origin.z);
     w.PutBytes(block.values, sizeof(block.values));
   });
-  WriteFile(path, &w.bytes());
+  AppendCrc(&w.bytes());
+  return std::move(w.bytes());
 }
 
-LoadedMap<DenseOccupancyMap> LoadDenseMap(const std::string& path) {
-  const std::string bytes = ReadVerified(path);
-  Reader r(path, bytes.data(), bytes.size());
+void SaveMap(const std::string& path, const DenseOccupancyMap& map,
+             const StreamSequences& sequences, const std::string& run_id) {
+  const std::string bytes = EncodeMap(map, sequences, run_id);
+  WriteFile(path, &bytes);
+}
+
+void SaveMap(const std::string& path, const GrowingOccupancyMap& map,
+             const StreamSequences& sequences, const std::string& run_id) {
+  const std::string bytes = EncodeMap(map, sequences, run_id);
+  WriteFile(path, &bytes);
+}
+
+LoadedMap<DenseOccupancyMap> DecodeDenseMap(const std::string& bytes, const std::string& path) {
+  Reader r(path, bytes.data(), VerifiedSize(bytes, path));
   const Header h = ReadHeader(path, &r);
   if (h.grid_kind != kDense) throw MapFileError("map file " + path + ": not a dense map");
   MapLimits limits;
   limits.min_m = h.origin_m;
   limits.max_m = h.max_m;
   limits.resolution_m = h.resolution_m;
-  std::unique_ptr<OccupancyUpdater> updater = MakeUpdater(path, h);
-  std::unique_ptr<DenseGrid> grid;
+  // The cell count the limits give, checked against the cells the file holds before the grid
+  // (up to 2^60 cells by its own limits) is allocated.
+  uint64_t cells_from_limits = 0;
   try {
-    grid = std::make_unique<DenseGrid>(limits, updater->initial_value());
+    const CellIndex dims = GridGeometry::Fixed(limits).upper();
+    cells_from_limits = static_cast<uint64_t>(dims.x) * static_cast<uint64_t>(dims.y) *
+                        static_cast<uint64_t>(dims.z);
   } catch (const std::invalid_argument& e) {
     throw MapFileError("map file " + path + ": invalid limits: " + e.what());
   }
   const auto count = r.Get<uint64_t>("cell count");
-  if (count != grid->size() || count * sizeof(float) != r.remaining()) {
+  if (count != cells_from_limits || count > r.remaining() / sizeof(float) ||
+      count * sizeof(float) != r.remaining()) {
     throw MapFileError("map file " + path + ": " + std::to_string(count) + " cells with " +
                        std::to_string(r.remaining()) + " bytes left, the limits give " +
-                       std::to_string(grid->size()));
+                       std::to_string(cells_from_limits));
   }
+  std::unique_ptr<OccupancyUpdater> updater = MakeUpdater(path, h);
+  auto grid = std::make_unique<DenseGrid>(limits, updater->initial_value());
   r.GetBytes(grid->mutable_values().data(), count * sizeof(float), "cells");
   LoadedMap<DenseOccupancyMap> out;
-  out.map =
-      std::make_unique<DenseOccupancyMap>(std::move(*grid), std::move(updater), h.max_range_m);
+  try {
+    out.map =
+        std::make_unique<DenseOccupancyMap>(std::move(*grid), std::move(updater), h.max_range_m);
+  } catch (const std::invalid_argument& e) {
+    throw MapFileError("map file " + path + ": invalid map: " + e.what());
+  }
   out.run_id = h.run_id;
   out.sequences = h.sequences;
   return out;
 }
 
-LoadedMap<GrowingOccupancyMap> LoadGrowingMap(const std::string& path) {
-  const std::string bytes = ReadVerified(path);
-  Reader r(path, bytes.data(), bytes.size());
+LoadedMap<GrowingOccupancyMap> DecodeGrowingMap(const std::string& bytes, const std::string& path) {
+  Reader r(path, bytes.data(), VerifiedSize(bytes, path));
   const Header h = ReadHeader(path, &r);
   if (h.grid_kind != kGrowing) throw MapFileError("map file " + path + ": not a growing map");
   std::unique_ptr<OccupancyUpdater> updater = MakeUpdater(path, h);
@@ -399,7 +437,7 @@ LoadedMap<GrowingOccupancyMap> LoadGrowingMap(const std::string& path) {
   }
   const auto blocks = r.Get<uint64_t>("block count");
   const size_t block_bytes = 3 * sizeof(int32_t) + sizeof(GrowingGrid::Block);
-  if (blocks * block_bytes != r.remaining()) {
+  if (blocks > r.remaining() / block_bytes || blocks * block_bytes != r.remaining()) {
     throw MapFileError("map file " + path + ": " + std::to_string(blocks) + " blocks with " +
                        std::to_string(r.remaining()) + " bytes left");
   }
@@ -418,16 +456,19 @@ LoadedMap<GrowingOccupancyMap> LoadGrowingMap(const std::string& path) {
     r.GetBytes(block->values, sizeof(block->values), "block");
   }
   LoadedMap<GrowingOccupancyMap> out;
-  out.map =
-      std::make_unique<GrowingOccupancyMap>(std::move(*grid), std::move(updater), h.max_range_m);
+  try {
+    out.map =
+        std::make_unique<GrowingOccupancyMap>(std::move(*grid), std::move(updater), h.max_range_m);
+  } catch (const std::invalid_argument& e) {
+    throw MapFileError("map file " + path + ": invalid map: " + e.what());
+  }
   out.run_id = h.run_id;
   out.sequences = h.sequences;
   return out;
 }
 
-MapFileInfo ReadMapFileInfo(const std::string& path) {
-  const std::string bytes = ReadVerified(path);
-  Reader r(path, bytes.data(), bytes.size());
+MapFileInfo DecodeMapFileInfo(const std::string& bytes, const std::string& path) {
+  Reader r(path, bytes.data(), VerifiedSize(bytes, path));
   const Header h = ReadHeader(path, &r);
   if (h.grid_kind != kDense && h.grid_kind != kGrowing) {
     throw MapFileError("map file " + path + ": unknown grid kind " + std::to_string(h.grid_kind));
@@ -438,6 +479,18 @@ MapFileInfo ReadMapFileInfo(const std::string& path) {
   info.run_id = h.run_id;
   info.sequences = h.sequences;
   return info;
+}
+
+LoadedMap<DenseOccupancyMap> LoadDenseMap(const std::string& path) {
+  return DecodeDenseMap(ReadFileBytes(path), path);
+}
+
+LoadedMap<GrowingOccupancyMap> LoadGrowingMap(const std::string& path) {
+  return DecodeGrowingMap(ReadFileBytes(path), path);
+}
+
+MapFileInfo ReadMapFileInfo(const std::string& path) {
+  return DecodeMapFileInfo(ReadFileBytes(path), path);
 }
 
 void ExportOctoMap(const std::string& path, const DenseOccupancyMap& map) {

@@ -87,6 +87,25 @@ void SaveMap(const std::string& path, const DenseOccupancyMap& map,
 void SaveMap(const std::string& path, const GrowingOccupancyMap& map,
              const StreamSequences& sequences, const std::string& run_id = "");
 
+/// The bytes SaveMap writes (checksum included): the pure core of SaveMap.
+/// @throws MapFileError if a name does not fit the format.
+[[nodiscard]] std::string EncodeMap(const DenseOccupancyMap& map, const StreamSequences& sequences,
+                                    const std::string& run_id = "");
+/// Same for a growing map.
+[[nodiscard]] std::string EncodeMap(const GrowingOccupancyMap& map,
+                                    const StreamSequences& sequences,
+                                    const std::string& run_id = "");
+
+/// The pure cores of the loaders below: the same checks on a whole file's bytes, with `name`
+/// standing in for the path in errors. Every load goes through them (the file versions only read
+/// the bytes), so they are what the fuzzer exercises (docs/design.md §7.6).
+/// @throws MapFileError as the loaders.
+[[nodiscard]] MapFileInfo DecodeMapFileInfo(const std::string& bytes, const std::string& name);
+[[nodiscard]] LoadedMap<DenseOccupancyMap> DecodeDenseMap(const std::string& bytes,
+                                                          const std::string& name);
+[[nodiscard]] LoadedMap<GrowingOccupancyMap> DecodeGrowingMap(const std::string& bytes,
+                                                              const std::string& name);
+
 /// Reads and checks a map file (size, checksum, magic, version, header) and returns what it
 /// says about itself, without building the map.
 /// @throws MapFileError (missing, truncated, corrupt, unknown version).

@@ -66,7 +66,7 @@ WorldCylinder ParseCylinder(const ConfigNode& n) {
   return c;
 }
 
-WorldMesh ParseMesh(const ConfigNode& n) {
+WorldMesh ParseMesh(const ConfigNode& n, const ObjReader& read_obj) {
   std::string file;
   n.ReadRequired("file", &file);
   std::string dir;
@@ -76,7 +76,7 @@ WorldMesh ParseMesh(const ConfigNode& n) {
   }
   WorldMesh mesh;
   try {
-    mesh = ReadObjFile(dir + file);
+    mesh = read_obj(dir + file);
   } catch (const ConfigError& e) {
     n.Fail("file", e.what());
   }
@@ -146,7 +146,9 @@ void World::Validate() const {
                                  << " m outside the z limits");
 }
 
-World ParseWorld(const ConfigNode& root) {
+World ParseWorld(const ConfigNode& root) { return ParseWorld(root, ReadObjFile); }
+
+World ParseWorld(const ConfigNode& root, const ObjReader& read_obj) {
   World world;
   world.source = root.file();
   root.Read("name", &world.name);
@@ -176,7 +178,7 @@ World ParseWorld(const ConfigNode& root) {
     if (type == "box") {
       world.boxes.push_back(ParseBox(item));
     } else if (type == "mesh") {
-      world.meshes.push_back(ParseMesh(item));
+      world.meshes.push_back(ParseMesh(item, read_obj));
     } else if (type == "cylinder") {
       world.cylinders.push_back(ParseCylinder(item));
     } else {
@@ -219,6 +221,13 @@ bool IsInsideObstacle(const World& world, const Eigen::Vector3d& p_W) {
 WorldMesh ReadObjFile(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw ConfigError(path + ": cannot open the OBJ file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return ParseObj(text.str(), path);
+}
+
+WorldMesh ParseObj(const std::string& text, const std::string& path) {
+  std::istringstream in(text);
   WorldMesh mesh;
   mesh.file = path;
   std::string line;

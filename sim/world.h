@@ -25,6 +25,7 @@
 /// rays stop on their triangles and voxelisation marks the cells the triangles cross, but their
 /// inside is neither occupied nor "inside" for IsInsideObstacle.
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -103,6 +104,12 @@ struct World {
 /// @throws ConfigError naming the file, key path, YAML line and reason.
 [[nodiscard]] World ParseWorld(const ConfigNode& root);
 
+/// Reads the OBJ file at a path (ReadObjFile; tests and the fuzzer give their own).
+using ObjReader = std::function<WorldMesh(const std::string& path)>;
+/// ParseWorld with the mesh files read by `read_obj` (the path is relative to the folder of
+/// root.file(), as in the file comment). @throws ConfigError as ParseWorld.
+[[nodiscard]] World ParseWorld(const ConfigNode& root, const ObjReader& read_obj);
+
 /// Loads and validates a world file. @throws ConfigError (file, key, line, reason).
 [[nodiscard]] World LoadWorld(const std::string& path);
 
@@ -116,6 +123,9 @@ struct World {
 /// @throws ConfigError naming the file, the line and the reason (bad number, index out of range,
 /// a face with fewer than 3 vertices, no faces at all).
 [[nodiscard]] WorldMesh ReadObjFile(const std::string& path);
+/// The pure core of ReadObjFile: parses OBJ text, `path` standing in for the file in errors and
+/// in WorldMesh::file. @throws ConfigError as ReadObjFile.
+[[nodiscard]] WorldMesh ParseObj(const std::string& text, const std::string& path);
 
 /// Axis-aligned bounding box in W of a box primitive.
 [[nodiscard]] Eigen::AlignedBox3d BoundsOf(const WorldBox& box);

@@ -128,7 +128,11 @@ class Parser {
     }
   }
 
-  void ParseElements(Sheet* sheet, const std::string& group, bool top_level) {
+  // Groups nest by recursion; a sheet nesting deeper than this is refused rather than left to
+  // exhaust the stack.
+  static constexpr int kMaxGroupDepth = 32;
+
+  void ParseElements(Sheet* sheet, const std::string& group, bool top_level, int depth = 0) {
     while (true) {
       const Token& t = Peek();
       if (t.kind == Token::Kind::kEnd) {
@@ -146,8 +150,11 @@ class Parser {
         const Token name = Expect(Token::Kind::kString, "a quoted group name");
         if (name.text.find('/') != std::string::npos)
           Fail(name, "'/' is not allowed in group names");
+        if (depth >= kMaxGroupDepth) {
+          Fail(name, "groups nested deeper than " + std::to_string(kMaxGroupDepth));
+        }
         ExpectSymbol("{");
-        ParseElements(sheet, group.empty() ? name.text : group + "/" + name.text, false);
+        ParseElements(sheet, group.empty() ? name.text : group + "/" + name.text, false, depth + 1);
         ExpectSymbol("}");
       } else if (word.text == "script") {
         if (!top_level) Fail(word, "scripts must be at the top level");

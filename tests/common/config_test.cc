@@ -96,6 +96,37 @@ TEST(Config, UnknownKeysInsideListElementsAreReported) {
   ExpectConfigError([&] { root.CheckNoUnknownKeys(); }, {"objects[1].colour"});
 }
 
+// YAML allows a sequence or a mapping as a key; the unknown-key check refuses one with the
+// file and line as a ConfigError (it let yaml-cpp's own conversion error escape before, found by
+// tests/fuzz/world_fuzz.cc), at the top level and inside list elements.
+TEST(Config, NonScalarKeysAreConfigErrors) {
+  const ConfigNode top = ConfigNode::FromString("a: 1\n? [x, y]\n: 2\n", "k.yaml");
+  double a = 0;
+  top.Read("a", &a);
+  ExpectConfigError([&] { top.CheckNoUnknownKeys(); }, {"k.yaml", "line 2", "sequence"});
+  ExpectConfigError([&] { (void)top.Keys(); }, {"k.yaml", "sequence"});
+  const ConfigNode nested =
+      ConfigNode::FromString("objects:\n  - size_m: 1\n    ? {p: q}\n    : 3\n", "n.yaml");
+  for (const ConfigNode& obj : nested.Elements("objects")) {
+    double size = 0;
+    obj.ReadRequired("size_m", &size, Range::Positive());
+  }
+  ExpectConfigError([&] { nested.CheckNoUnknownKeys(); }, {"n.yaml", "line 3", "mapping"});
+}
+
+// Elements are read by key: a list element that is a scalar or a list is a ConfigError naming
+// it (yaml-cpp's BadSubscript escaped before, found by tests/fuzz/world_fuzz.cc).
+TEST(Config, ListElementsMustBeMappings) {
+  for (const char* text : {"objects:\n  - 1\n", "objects:\n  - [a, b]\n"}) {
+    const ConfigNode root = ConfigNode::FromString(text, "e.yaml");
+    ExpectConfigError(
+        [&] {
+          for (const ConfigNode& obj : root.Elements("objects")) (void)obj.Has("size_m");
+        },
+        {"e.yaml", "objects[0]", "a mapping"});
+  }
+}
+
 TEST(Config, MissingRequiredKeyAndChild) {
   const ConfigNode root = ConfigNode::FromString("a: 1\n", "m.yaml");
   double v = 0;

@@ -107,5 +107,19 @@ TEST(ProcmanSheet, MalformedSheetsAreRefusedWithLineNumbers) {
   ExpectRefused("command \"a\" { }\n", 1, "expected cmd, group or script");
 }
 
+// Groups nest by recursion: a sheet of 100000 nested groups (a megabyte) is refused with its
+// line, not a stack overflow; 32 levels still parse.
+TEST(ProcmanSheet, DeeplyNestedGroupsAreRefused) {
+  std::string deep;
+  for (int i = 0; i < 100000; ++i) deep += "group \"g\" {\n";
+  ExpectRefused(deep, 33, "groups nested deeper than 32");
+  std::string ok;
+  for (int i = 0; i < 32; ++i) ok += "group \"g\" {\n";
+  ok += "cmd \"a\" { exec = \"x\"; host = \"h\"; }\n" + std::string(32, '}');
+  const Sheet sheet = ParseSheet(ok, "ok.procman");
+  ASSERT_EQ(sheet.commands.size(), 1u);
+  EXPECT_EQ(sheet.commands[0].group.size(), 32u * 2 - 1);
+}
+
 }  // namespace
 }  // namespace kestrel::procman

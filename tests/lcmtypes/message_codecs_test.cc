@@ -6,11 +6,46 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <climits>
 #include <cmath>
+#include <cstdlib>
+#include <new>
 #include <random>
+
+// The replacement operator new below pairs malloc with free on purpose.
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+
+// ---- Allocation watch: the largest single allocation made while `g_watch` is set. ----
+namespace {
+std::atomic<bool> g_watch{false};
+std::atomic<size_t> g_largest{0};
+}  // namespace
+
+void* operator new(size_t size) {
+  if (g_watch.load(std::memory_order_relaxed)) {
+    size_t prev = g_largest.load();
+    while (size > prev && !g_largest.compare_exchange_weak(prev, size)) {
+    }
+  }
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, size_t /*size*/) noexcept { std::free(p); }
 
 namespace kestrel {
 namespace {
+
+// The largest single allocation `f` makes.
+template <class F>
+size_t LargestAllocation(F&& f) {
+  g_largest = 0;
+  g_watch = true;
+  f();
+  g_watch = false;
+  return g_largest.load();
+}
 
 depth_image_t Image(int width, int height) {
   depth_image_t m{};
@@ -173,6 +208,66 @@ TEST(MapDelta, ChecksCountsResolutionAndProbabilities) {
   map3d_delta_t resolution = d;
   resolution.resolution_m = 0.0;
   EXPECT_NE(CheckMapDelta(resolution).find("resolution"), std::string::npos);
+}
+
+// A compressed payload's header claims the size; a few bytes of zlib cannot hold more than 1032
+// times their size (deflate's best ratio), so a decoder refuses a bigger claim before it
+// allocates it: a 16-byte message may not make a consumer allocate 128 MiB (depth) or 64 MiB
+// (snapshot cells).
+TEST(CompressedPayloads, ClaimsBeyondDeflatesRatioAreRefusedBeforeAllocating) {
+  depth_image_t depth = Image(8192, 8192);
+  depth.encoding = depth_image_t::ENCODING_ZLIB_U16;
+  depth.data.assign(16, 0x78);
+  depth.data_size = 16;
+  std::vector<uint16_t> counts;
+  std::string error;
+  EXPECT_LT(LargestAllocation([&] { error = DecodeDepthPixels(depth, &counts); }), size_t{1} << 20);
+  EXPECT_NE(error.find("cannot inflate"), std::string::npos) << error;
+  EXPECT_TRUE(counts.empty());
+
+  map3d_chunk_t chunk{};
+  chunk.block_edge = 64;
+  chunk.num_blocks = 64;
+  chunk.block_index.assign(64, std::vector<int32_t>(3, 0));
+  chunk.data.assign(16, 0x78);
+  chunk.data_size = 16;
+  std::vector<float> cells;
+  for (int8_t e : {map3d_chunk_t::ENCODING_ZLIB_FLOAT32, map3d_chunk_t::ENCODING_U16_ZLIB}) {
+    chunk.encoding = e;
+    EXPECT_LT(LargestAllocation([&] { error = DecodeMapChunkCells(chunk, &cells); }),
+              size_t{1} << 20);
+    EXPECT_NE(error.find("cannot inflate"), std::string::npos) << error;
+  }
+}
+
+// A block whose cells lie outside a map's index range (-2^23, 2^23) is refused, so that a
+// consumer computing block index x edge + offset in int cannot overflow (it did in MapReplica and
+// VoxelStream for an index of 2^28 at edge 8); the range's last blocks are accepted.
+TEST(MapChunkCells, BlockIndicesOutsideTheCellRangeAreRefused) {
+  map3d_chunk_t c = Chunk(1, 8);
+  EncodeMapChunkCells(std::vector<float>(512, 0.5f), map3d_chunk_t::ENCODING_FLOAT32, 0, &c);
+  std::vector<float> cells;
+  for (const std::vector<int32_t>& index : std::vector<std::vector<int32_t>>{
+           {1 << 28, 0, 0}, {0, -(1 << 20), 0}, {0, 0, 1 << 20}, {INT32_MIN, 0, 0}}) {
+    c.block_index = {index};
+    const std::string error = DecodeMapChunkCells(c, &cells);
+    EXPECT_NE(error.find("outside the cell range"), std::string::npos) << error;
+    EXPECT_TRUE(cells.empty());
+  }
+  c.block_index = {{(1 << 20) - 1, -(1 << 20) + 1, 0}};
+  EXPECT_EQ(DecodeMapChunkCells(c, &cells), "");
+  c.block_index = {{0, 0}};
+  EXPECT_NE(DecodeMapChunkCells(c, &cells).find("not 3"), std::string::npos);
+}
+
+// The bound never refuses real data: the most compressible image (all zeros) still decodes.
+TEST(CompressedPayloads, MostCompressibleImageStillDecodes) {
+  const std::vector<uint16_t> zeros(size_t{4096} * 4096, 0);
+  depth_image_t m = Image(4096, 4096);
+  EncodeDepthPixels(zeros, depth_image_t::ENCODING_ZLIB_U16, 9, &m);
+  std::vector<uint16_t> back;
+  EXPECT_EQ(DecodeDepthPixels(m, &back), "");
+  EXPECT_EQ(back, zeros);
 }
 
 }  // namespace

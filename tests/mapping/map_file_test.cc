@@ -227,6 +227,95 @@ TEST(MapFile, ReadsVersion1AndRefusesUnknownVersions) {
   std::remove(path.c_str());
 }
 
+// The bytes with their checksum recomputed (what a file corrupted consistently looks like).
+std::string WithCrc(std::string bytes) {
+  bytes.resize(bytes.size() - 4);
+  const auto crc = static_cast<uint32_t>(
+      crc32(0L, reinterpret_cast<const Bytef*>(bytes.data()), static_cast<uInt>(bytes.size())));
+  bytes.append(reinterpret_cast<const char*>(&crc), 4);
+  return bytes;
+}
+
+// A dense file whose limits claim far more cells than it holds (8e5 cells a side, accepted by
+// MapLimits, 5e17 in all) is refused by its cell count before the grid is allocated: a
+// MapFileError, not a bad_alloc or an attempt to allocate 2 EB. The pure core and the file
+// loader agree.
+TEST(MapFile, LimitsBeyondTheStoredCellsAreRefusedBeforeAllocating) {
+  MapLimits small;
+  small.max_m = Eigen::Vector3d(-3.0, -5.0, 0.5);
+  auto map = MakeExactDenseMap(small, OccupancyLimits{}, 4.0);
+  std::string bytes = EncodeMap(*map, {}, "run-a");
+  const size_t max_at = 8 + 4 + 4 + 4 + 8 + 3 * 8;  // magic ... resolution, origin
+  for (int a = 0; a < 3; ++a) {
+    const double max_m = small.min_m[a] + 8e5 * small.resolution_m - 0.5 * small.resolution_m;
+    std::memcpy(bytes.data() + max_at + 8 * a, &max_m, 8);
+  }
+  bytes = WithCrc(bytes);
+  const std::string error = ErrorOf([&] { (void)DecodeDenseMap(bytes, "huge.kmap"); });
+  EXPECT_NE(error.find("the limits give 512000000000000000"), std::string::npos) << error;
+  const std::string path = TempPath("huge.kmap");
+  WriteAll(path, bytes);
+  EXPECT_EQ(ErrorOf([&] { (void)LoadDenseMap(path); }),
+            "map file " + path + error.substr(error.find(':')));
+  std::remove(path.c_str());
+}
+
+// A maximum range the map itself refuses (a growing map's cast window holds 507 cells; a
+// log-odds file's range is checked by nothing before the map) is a MapFileError, as the loaders
+// promise, not the map constructor's std::invalid_argument.
+TEST(MapFile, RangesTheMapRefusesAreMapFileErrors) {
+  MapLimits small;
+  small.max_m = Eigen::Vector3d(-3.0, -5.0, 0.5);
+  const size_t range_at = 8 + 4 + 4 + 4 + 8 + 3 * 8 + 3 * 8;  // ... origin, limits
+  auto set_range = [&](std::string bytes, double range_m) {
+    std::memcpy(bytes.data() + range_at, &range_m, 8);
+    return WithCrc(bytes);
+  };
+  auto growing = MakeExactGrowingMap(small, OccupancyLimits{}, 4.0);
+  const std::string g = set_range(EncodeMap(*growing, {}), 100.0);  // 1334 cells
+  EXPECT_NE(ErrorOf([&] { (void)DecodeGrowingMap(g, "g.kmap"); }).find("invalid map"),
+            std::string::npos);
+  auto log_odds = MakeLogOddsDenseMap(small, LogOddsConfig{}, 4.0);
+  const std::string d = set_range(EncodeMap(*log_odds, {}), -1.0);
+  EXPECT_NE(ErrorOf([&] { (void)DecodeDenseMap(d, "d.kmap"); }).find("invalid map"),
+            std::string::npos);
+}
+
+// A range of a million cells (75 km at 7.5 cm) would size the map's ray scratch at hundreds of
+// megabytes for a file of a few kilobytes; the loaders refuse more than 65536 cells (and a
+// non-finite range) before building anything.
+TEST(MapFile, RangesOfMoreThan65536CellsAreRefused) {
+  MapLimits small;
+  small.max_m = Eigen::Vector3d(-3.0, -5.0, 0.5);
+  const size_t range_at = 8 + 4 + 4 + 4 + 8 + 3 * 8 + 3 * 8;
+  auto dense = MakeExactDenseMap(small, OccupancyLimits{}, 4.0);
+  for (const double range_m : {1e6 * small.resolution_m, std::nan(""), 1e300}) {
+    std::string bytes = EncodeMap(*dense, {});
+    std::memcpy(bytes.data() + range_at, &range_m, 8);
+    bytes = WithCrc(bytes);
+    const std::string error = ErrorOf([&] { (void)DecodeDenseMap(bytes, "r.kmap"); });
+    EXPECT_NE(error.find("accepted at most 65536 cells"), std::string::npos) << error;
+  }
+}
+
+// The bytes SaveMap writes are EncodeMap's, and the pure loaders read them as the file loaders.
+TEST(MapFile, EncodeAndDecodeAreTheFileFormat) {
+  MapLimits small;
+  small.max_m = Eigen::Vector3d(-3.0, -5.0, 0.5);
+  auto map = MakeExactGrowingMap(small, OccupancyLimits{}, 4.0);
+  FillRandom(map.get(), 9, 200);
+  const StreamSequences seqs{{"SCAN_HOKUYO", {{4, 3}}}};
+  const std::string path = TempPath("encode.kmap");
+  SaveMap(path, *map, seqs, "run-c");
+  const std::string bytes = EncodeMap(*map, seqs, "run-c");
+  EXPECT_EQ(ReadAll(path), bytes);
+  const LoadedMap<GrowingOccupancyMap> loaded = DecodeGrowingMap(bytes, "x.kmap");
+  EXPECT_EQ(loaded.map->Hash(), map->Hash());
+  EXPECT_EQ(loaded.run_id, "run-c");
+  EXPECT_EQ(DecodeMapFileInfo(bytes, "x.kmap").sequences, seqs);
+  std::remove(path.c_str());
+}
+
 // OctoMap export through the real library: reading the .bt and .ot back with OctoMap, every
 // Kestrel cell with P > 0.5 is an occupied voxel at its centre and every observed cell with
 // P < 0.5 a free one.

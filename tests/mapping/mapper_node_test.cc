@@ -734,5 +734,25 @@ TEST_F(MapperNodeTest, StatusReportsSkipsAndEntropy) {
   EXPECT_EQ(statuses[0].ray_decimation, 1.0);
 }
 
+// A chunk whose block index times its edge overflows int (2^28 x 8) is refused, not applied:
+// the replica computed its cells in int before (undefined behaviour, caught by UBSan in
+// tests/fuzz/lcm_fuzz.cc); the codec now checks the index range first.
+TEST(MapReplica, BlockIndexOutsideTheCellRangeIsRefused) {
+  MapReplica replica(Eigen::Vector3d::Zero(), 0.1, Eigen::Vector3i(16, 16, 16), 0.5);
+  map3d_chunk_t chunk{};
+  chunk.num_chunks = 1;
+  chunk.resolution_m = 0.1;
+  chunk.block_edge = 8;
+  chunk.num_blocks = 1;
+  chunk.block_index.push_back({1 << 28, 0, 0});
+  chunk.encoding = map3d_chunk_t::ENCODING_FLOAT32;
+  chunk.data.assign(512 * 4, 0);
+  chunk.data_size = 512 * 4;
+  std::string error;
+  EXPECT_FALSE(replica.Apply(chunk, &error));
+  EXPECT_NE(error.find("outside the cell range"), std::string::npos) << error;
+  EXPECT_FALSE(replica.current());
+}
+
 }  // namespace
 }  // namespace kestrel

@@ -450,6 +450,24 @@ TEST(VoxelStream, MalformedChunksAreRefused) {
   EXPECT_EQ(stream.occupied_count(), 0u);
 }
 
+// A chunk whose block index times its edge overflows int (2^28 x 8) is refused by the codec's
+// range check before any cell index is computed (it was undefined behaviour, caught by UBSan in
+// tests/fuzz/lcm_fuzz.cc).
+TEST(VoxelStream, BlockIndexOutsideTheCellRangeIsRefused) {
+  VoxelStream stream(kThreshold);
+  map3d_chunk_t chunk{};
+  chunk.num_chunks = 1;
+  chunk.resolution_m = 0.1;
+  chunk.block_edge = 8;
+  chunk.num_blocks = 1;
+  chunk.block_index.push_back({1 << 28, 0, 0});
+  EncodeMapChunkCells(std::vector<float>(512, 0.9f), map3d_chunk_t::ENCODING_FLOAT32, 0, &chunk);
+  std::string error;
+  EXPECT_FALSE(stream.Apply(chunk, &error));
+  EXPECT_NE(error.find("outside the cell range"), std::string::npos) << error;
+  EXPECT_FALSE(stream.has_snapshot());
+}
+
 // The byte of a probability, at the edges.
 TEST(VoxelStream, QuantizationFollowsTheProtocol) {
   EXPECT_EQ(QuantizeProbability(0.5, 0.5), 0);

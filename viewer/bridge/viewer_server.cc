@@ -153,7 +153,7 @@ ViewerServer::ViewerServer(const Options& options) : impl_(std::make_unique<Impl
   s.server.init_asio(ec);
   if (ec) throw std::runtime_error("viewer server: " + ec.message());
   s.server.set_reuse_addr(true);
-  s.server.set_max_message_size(size_t{64} * 1024);  // pages send nothing of interest
+  s.server.set_max_message_size(kViewerMaxMessageBytes);
   s.server.set_http_handler([this](const Handle& h) { impl_->OnHttp(h); });
   s.server.set_validate_handler([this](const Handle& h) { return impl_->OnValidate(h); });
   s.server.set_open_handler([this](const Handle& h) { impl_->OnOpen(h); });

@@ -9,6 +9,7 @@
 /// bytes are below the limit. So a slow page sees coalesced state, never an unbounded queue. A
 /// page that disconnects, even in the middle of a send, is forgotten; no error escapes.
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -18,6 +19,10 @@
 #include "viewer/bridge/viewer_scene.h"
 
 namespace kestrel {
+
+/// The largest WebSocket message a page may send (pages send nothing of interest); a longer one
+/// closes the connection (websocketpp's message_too_big).
+inline constexpr size_t kViewerMaxMessageBytes = size_t{64} * 1024;
 
 /// What a page that may still be sent to should get now, from its state (pure, see file comment).
 enum class ClientAction { kSendUpdate, kSendSnapshot, kSkip };
