@@ -98,7 +98,7 @@ void SaveMap(const std::string& path, const GrowingOccupancyMap& map,
 
 /// The pure cores of the loaders below: the same checks on a whole file's bytes, with `name`
 /// standing in for the path in errors. Every load goes through them (the file versions only read
-/// the bytes), so they are what the fuzzer exercises (docs/design.md §7.6).
+/// the bytes), so they are what the fuzzer exercises (docs/design.md §7.7).
 /// @throws MapFileError as the loaders.
 [[nodiscard]] MapFileInfo DecodeMapFileInfo(const std::string& bytes, const std::string& name);
 [[nodiscard]] LoadedMap<DenseOccupancyMap> DecodeDenseMap(const std::string& bytes,
