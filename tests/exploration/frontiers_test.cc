@@ -185,22 +185,14 @@ struct BlockRoom {
   double alpha{0.075};
   std::vector<float> values;
   BlockRoom() {
-    values.assign(static_cast<size_t>(dims.prod()), kFree);
-    for (int k = 0; k < dims.z(); ++k) {
-      for (int j = 0; j < dims.y(); ++j) {
-        for (int i = 0; i < dims.x(); ++i) {
-          const double x = (i + 0.5) * alpha, y = (j + 0.5) * alpha;
-          const double z = origin.z() + (k + 0.5) * alpha;
-          float& v = values[static_cast<size_t>(i + dims.x() * (j + dims.y() * k))];
-          const bool outer = x < 0.15 || y < 0.15 || y > 3.9 || z < 0.0;
-          const bool block = x > 0.3 && x < 1.5 && y > 1.0 && y < 3.0;
-          const bool inside = x > 0.45 && x < 1.35 && y > 1.15 && y < 2.85;
-          if (x > 4.5 && !outer) v = kUnknown;
-          if (outer || block) v = kOccupied;
-          if (inside) v = kUnknown;
-        }
-      }
-    }
+    values = test::FillGrid(dims, origin, alpha, kFree, [](double x, double y, double z, float* v) {
+      const bool outer = x < 0.15 || y < 0.15 || y > 3.9 || z < 0.0;
+      const bool block = x > 0.3 && x < 1.5 && y > 1.0 && y < 3.0;
+      const bool inside = x > 0.45 && x < 1.35 && y > 1.15 && y < 2.85;
+      if (x > 4.5 && !outer) *v = kUnknown;
+      if (outer || block) *v = kOccupied;
+      if (inside) *v = kUnknown;
+    });
   }
   PlannerInput Input(double x, double y) const {
     return test::InputOn(test::GridView(dims, origin, alpha, values), x, y);
@@ -237,18 +229,11 @@ struct StripRoom {
   double alpha{0.075};
   std::vector<float> values;
   explicit StripRoom(double open_from_x_m = 10.0) {
-    values.assign(static_cast<size_t>(dims.prod()), kFree);
-    for (int k = 0; k < dims.z(); ++k) {
-      for (int j = 0; j < dims.y(); ++j) {
-        for (int i = 0; i < dims.x(); ++i) {
-          const double x = (i + 0.5) * alpha, y = (j + 0.5) * alpha;
-          const double z = origin.z() + (k + 0.5) * alpha;
-          float& v = values[static_cast<size_t>(i + dims.x() * (j + dims.y() * k))];
-          if (y < 0.3 || x > open_from_x_m) v = kUnknown;
-          if (x < 0.15 || x > 9.9 || y < 0.15 || y > 3.9 || z < 0.0) v = kOccupied;
-        }
-      }
-    }
+    values =
+        test::FillGrid(dims, origin, alpha, kFree, [&](double x, double y, double z, float* v) {
+          if (y < 0.3 || x > open_from_x_m) *v = kUnknown;
+          if (x < 0.15 || x > 9.9 || y < 0.15 || y > 3.9 || z < 0.0) *v = kOccupied;
+        });
   }
   PlannerInput Input(double x, double y) const {
     return test::InputOn(test::GridView(dims, origin, alpha, values), x, y);

@@ -262,20 +262,13 @@ struct CorridorMap {
   double alpha{0.075};
   std::vector<float> values;
   explicit CorridorMap(const std::vector<std::pair<double, double>>& alcoves) {
-    values.assign(static_cast<size_t>(dims.prod()), 1e-4f);
-    for (int k = 0; k < dims.z(); ++k) {
-      for (int j = 0; j < dims.y(); ++j) {
-        for (int i = 0; i < dims.x(); ++i) {
-          const double x = (i + 0.5) * alpha, y = (j + 0.5) * alpha;
-          const double z = origin.z() + (k + 0.5) * alpha;
-          float& v = values[static_cast<size_t>(i + dims.x() * (j + dims.y() * k))];
-          if (z < 0.0 || y < 0.3 || y > 2.7) v = 0.9999f;
+    values =
+        test::FillGrid(dims, origin, alpha, 1e-4f, [&](double x, double y, double z, float* v) {
+          if (z < 0.0 || y < 0.3 || y > 2.7) *v = 0.9999f;
           for (const auto& [x0, x1] : alcoves) {
-            if (x >= x0 && x < x1 && y > 2.7 && y < 3.3 && z >= 0.0) v = 0.1f;
+            if (x >= x0 && x < x1 && y > 2.7 && y < 3.3 && z >= 0.0) *v = 0.1f;
           }
-        }
-      }
-    }
+        });
   }
   PlannerInput Input(double x, double y) const {
     return test::InputOn(test::GridView(dims, origin, alpha, values), x, y);

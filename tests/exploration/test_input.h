@@ -28,4 +28,22 @@ inline PlannerInput InputOn(const OccupancyGridView& map, double x_m, double y_m
   return in;
 }
 
+/// Cell values of a dims grid from origin_m at alpha_m, x fastest: `fill`, then
+/// set(x, y, z, &value) at every cell centre (m) may change the cell's value.
+template <typename F>
+std::vector<float> FillGrid(const Eigen::Vector3i& dims, const Eigen::Vector3d& origin_m,
+                            double alpha_m, float fill, F set) {
+  std::vector<float> values(static_cast<size_t>(dims.prod()), fill);
+  for (int k = 0; k < dims.z(); ++k) {
+    for (int j = 0; j < dims.y(); ++j) {
+      for (int i = 0; i < dims.x(); ++i) {
+        set(origin_m.x() + (i + 0.5) * alpha_m, origin_m.y() + (j + 0.5) * alpha_m,
+            origin_m.z() + (k + 0.5) * alpha_m,
+            &values[static_cast<size_t>(i + dims.x() * (j + dims.y() * k))]);
+      }
+    }
+  }
+  return values;
+}
+
 }  // namespace kestrel::test
