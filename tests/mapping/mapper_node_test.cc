@@ -43,8 +43,9 @@ MapperConfig SmallConfig() {
 }
 
 /// Publishes the events on the node's channels (memq delivers on handle), processing after each.
+/// With publish_due, the node's due map messages go out after each event too (as its loop does).
 void Feed(lcm::LCM& lcm, MapperNode& node, SimClock& clock, const std::vector<StreamEvent>& events,
-          size_t begin = 0, size_t end = SIZE_MAX) {
+          size_t begin = 0, size_t end = SIZE_MAX, bool publish_due = false) {
   for (size_t i = begin; i < std::min(end, events.size()); ++i) {
     const StreamEvent& e = events[i];
     if (e.utime > clock.NowUtime()) clock.SetUtime(e.utime);
@@ -62,6 +63,11 @@ void Feed(lcm::LCM& lcm, MapperNode& node, SimClock& clock, const std::vector<St
     while (lcm.handleTimeout(0) > 0) {
     }
     node.ProcessPending();
+    if (publish_due) {
+      node.PublishDue();
+      while (lcm.handleTimeout(0) > 0) {
+      }
+    }
   }
 }
 
@@ -327,26 +333,7 @@ TEST_F(MapperNodeTest, PacedSnapshotsWithDeltasBetweenTheirChunksRebuildTheMapEx
         deltas_between_chunks += between;
       },
       nullptr);
-  for (const StreamEvent& e : events_) {
-    if (e.utime > clock.NowUtime()) clock.SetUtime(e.utime);
-    switch (e.kind) {
-      case StreamEvent::Kind::kPose:
-        lcm.publish("POSE_VICON", &e.pose);
-        break;
-      case StreamEvent::Kind::kDepth:
-        lcm.publish("DEPTH_XTION", &e.depth);
-        break;
-      case StreamEvent::Kind::kScan:
-        lcm.publish("SCAN_HOKUYO", &e.scan);
-        break;
-    }
-    while (lcm.handleTimeout(0) > 0) {
-    }
-    node.ProcessPending();
-    node.PublishDue();
-    while (lcm.handleTimeout(0) > 0) {
-    }
-  }
+  Feed(lcm, node, clock, events_, 0, SIZE_MAX, /*publish_due=*/true);
   // 3 s more of the clock: the last snapshot's tail, and the changes left go out.
   for (int i = 0; i < 300; ++i) {
     clock.AdvanceUtime(10000);
