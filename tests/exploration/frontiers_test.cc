@@ -179,28 +179,23 @@ TEST(Frontiers, BestHeadingFacesTheLargerFrontier) {
 
 // The baseline on a 3D map: a free room 6 x 4 m with a solid block whose inside was never seen
 // (west) and an open unknown region (east, beyond x = 4.5).
-struct BlockRoom {
-  Eigen::Vector3i dims{80, 54, 20};
-  Eigen::Vector3d origin{0.0, 0.0, -0.15};
-  double alpha{0.075};
-  std::vector<float> values;
-  BlockRoom() {
-    values = test::FillGrid(dims, origin, alpha, kFree, [](double x, double y, double z, float* v) {
-      const bool outer = x < 0.15 || y < 0.15 || y > 3.9 || z < 0.0;
-      const bool block = x > 0.3 && x < 1.5 && y > 1.0 && y < 3.0;
-      const bool inside = x > 0.45 && x < 1.35 && y > 1.15 && y < 2.85;
-      if (x > 4.5 && !outer) *v = kUnknown;
-      if (outer || block) *v = kOccupied;
-      if (inside) *v = kUnknown;
-    });
-  }
-  PlannerInput Input(double x, double y) const {
-    return test::InputOn(test::GridView(dims, origin, alpha, values), x, y);
-  }
-};
+test::TestMap BlockRoom() {
+  const Eigen::Vector3i dims{80, 54, 20};
+  const Eigen::Vector3d origin{0.0, 0.0, -0.15};
+  const double alpha = 0.075;
+  return {dims, origin, alpha,
+          test::FillGrid(dims, origin, alpha, kFree, [](double x, double y, double z, float* v) {
+            const bool outer = x < 0.15 || y < 0.15 || y > 3.9 || z < 0.0;
+            const bool block = x > 0.3 && x < 1.5 && y > 1.0 && y < 3.0;
+            const bool inside = x > 0.45 && x < 1.35 && y > 1.15 && y < 2.85;
+            if (x > 4.5 && !outer) *v = kUnknown;
+            if (outer || block) *v = kOccupied;
+            if (inside) *v = kUnknown;
+          })};
+}
 
 TEST(Frontiers, BaselineFacesOpenUnknownSpaceNotTheInsideOfABlock) {
-  BlockRoom room;
+  const test::TestMap room = BlockRoom();
   PlannerConfig config;
   config.mode = ExplorationMode::kFrontier;
   FineFrontierPlanner planner(config);
@@ -223,25 +218,19 @@ TEST(Frontiers, BaselineFacesOpenUnknownSpaceNotTheInsideOfABlock) {
 // A 10 m x 4 m room, known free but for a strip of unknown cells along its south wall (y 0.15 to
 // 0.3 m: what the sensors never resolve, e.g. a skirting the camera sees only at grazing angles)
 // and, if open_from_x_m < 10, for the whole room east of it (open unknown space).
-struct StripRoom {
-  Eigen::Vector3i dims{134, 54, 20};
-  Eigen::Vector3d origin{0.0, 0.0, -0.15};
-  double alpha{0.075};
-  std::vector<float> values;
-  explicit StripRoom(double open_from_x_m = 10.0) {
-    values =
-        test::FillGrid(dims, origin, alpha, kFree, [&](double x, double y, double z, float* v) {
-          if (y < 0.3 || x > open_from_x_m) *v = kUnknown;
-          if (x < 0.15 || x > 9.9 || y < 0.15 || y > 3.9 || z < 0.0) *v = kOccupied;
-        });
-  }
-  PlannerInput Input(double x, double y) const {
-    return test::InputOn(test::GridView(dims, origin, alpha, values), x, y);
-  }
-};
+test::TestMap StripRoom(double open_from_x_m = 10.0) {
+  const Eigen::Vector3i dims{134, 54, 20};
+  const Eigen::Vector3d origin{0.0, 0.0, -0.15};
+  const double alpha = 0.075;
+  return {dims, origin, alpha,
+          test::FillGrid(dims, origin, alpha, kFree, [&](double x, double y, double z, float* v) {
+            if (y < 0.3 || x > open_from_x_m) *v = kUnknown;
+            if (x < 0.15 || x > 9.9 || y < 0.15 || y > 3.9 || z < 0.0) *v = kOccupied;
+          })};
+}
 
 TEST(Frontiers, BaselineMovesOnAlongAFrontierItCannotResolve) {
-  StripRoom room;
+  const test::TestMap room = StripRoom();
   PlannerConfig config;
   config.mode = ExplorationMode::kFrontier;
   PlannerInput input = room.Input(2.5, 1.0);
@@ -262,7 +251,7 @@ TEST(Frontiers, BaselineMovesOnAlongAFrontierItCannotResolve) {
 }
 
 TEST(Frontiers, BaselineGoalsSeeTheFrontierFromGoalRange) {
-  StripRoom room(5.0);  // open unknown space east of x = 5 m
+  const test::TestMap room = StripRoom(5.0);  // open unknown space east of x = 5 m
   PlannerConfig config;
   config.mode = ExplorationMode::kFrontier;
   PlannerInput input = room.Input(1.0, 2.0);

@@ -256,24 +256,18 @@ TEST(Planner, PlanToPointReachesHome) {
 
 // A corridor 40 m long (x 0..40, free y 0.3..2.7, walls beyond, floor below z = 0), everything
 // observed except alcoves in its north wall (unknown cells at y 2.7..3.3) of the given x ranges.
-struct CorridorMap {
-  Eigen::Vector3i dims{534, 44, 22};
-  Eigen::Vector3d origin{0.0, 0.0, -0.15};
-  double alpha{0.075};
-  std::vector<float> values;
-  explicit CorridorMap(const std::vector<std::pair<double, double>>& alcoves) {
-    values =
-        test::FillGrid(dims, origin, alpha, 1e-4f, [&](double x, double y, double z, float* v) {
-          if (z < 0.0 || y < 0.3 || y > 2.7) *v = 0.9999f;
-          for (const auto& [x0, x1] : alcoves) {
-            if (x >= x0 && x < x1 && y > 2.7 && y < 3.3 && z >= 0.0) *v = 0.1f;
-          }
-        });
-  }
-  PlannerInput Input(double x, double y) const {
-    return test::InputOn(test::GridView(dims, origin, alpha, values), x, y);
-  }
-};
+test::TestMap CorridorMap(const std::vector<std::pair<double, double>>& alcoves) {
+  const Eigen::Vector3i dims{534, 44, 22};
+  const Eigen::Vector3d origin{0.0, 0.0, -0.15};
+  const double alpha = 0.075;
+  return {dims, origin, alpha,
+          test::FillGrid(dims, origin, alpha, 1e-4f, [&](double x, double y, double z, float* v) {
+            if (z < 0.0 || y < 0.3 || y > 2.7) *v = 0.9999f;
+            for (const auto& [x0, x1] : alcoves) {
+              if (x >= x0 && x < x1 && y > 2.7 && y < 3.3 && z >= 0.0) *v = 0.1f;
+            }
+          })};
+}
 
 // Local first (volumetric.local_horizon_m): a small alcove 3 m ahead against a large one 10 m
 // ahead in a 40 m corridor (the paper's d_max, 1.05 x the farthest cell, is about 41 m, so its
@@ -283,8 +277,8 @@ struct CorridorMap {
 TEST(Planner, VolumetricLocalFirst) {
   PlannerConfig config;
   config.mode = ExplorationMode::kVolumetric;
-  const CorridorMap two({{4.0, 4.6}, {10.0, 14.0}});
-  auto goal_x = [&](const CorridorMap& map, double horizon_m) {
+  const test::TestMap two = CorridorMap({{4.0, 4.6}, {10.0, 14.0}});
+  auto goal_x = [&](const test::TestMap& map, double horizon_m) {
     config.volumetric.local_horizon_m = horizon_m;
     const PlanResult r = VolumetricPlanner(config).Plan(map.Input(1.0, 1.5));
     EXPECT_EQ(r.status, PlanStatus::kGoal) << r.reason;
@@ -299,7 +293,7 @@ TEST(Planner, VolumetricLocalFirst) {
   EXPECT_GT(global, 7.0) << "the large alcove, where the flat bump leads";
   // A 0.15 m alcove (below the end threshold from any pose) near, a large one 8 m ahead: local
   // first never takes the near one.
-  const CorridorMap faint({{2.5, 2.65}, {8.0, 12.0}});
+  const test::TestMap faint = CorridorMap({{2.5, 2.65}, {8.0, 12.0}});
   EXPECT_GT(goal_x(faint, 12.0), 5.0);
 }
 

@@ -9,6 +9,7 @@
 
 #include "mapping/grid.h"
 #include "mapping/occupancy_updater.h"
+#include "tests/exploration/test_input.h"
 
 namespace kestrel {
 namespace {
@@ -24,14 +25,7 @@ struct HandGrid {
   float& at(int i, int j, int k) {
     return values[static_cast<size_t>(i + dims.x() * (j + dims.y() * k))];
   }
-  OccupancyGridView view() const {
-    OccupancyGridView v;
-    v.dims = dims;
-    v.origin_m = origin;
-    v.resolution_m = alpha;
-    v.probability = values.data();
-    return v;
-  }
+  OccupancyGridView view() const { return test::GridView(dims, origin, alpha, values); }
 };
 
 ProjectionConfig SmallConfig() {

@@ -28,6 +28,18 @@ inline PlannerInput InputOn(const OccupancyGridView& map, double x_m, double y_m
   return in;
 }
 
+/// A test's 3D map: dims cells of edge alpha from origin, values x fastest.
+struct TestMap {
+  Eigen::Vector3i dims;
+  Eigen::Vector3d origin;
+  double alpha;
+  std::vector<float> values;
+  /// A planner input on this map with the vehicle at (x, y) (InputOn).
+  [[nodiscard]] PlannerInput Input(double x, double y) const {
+    return InputOn(GridView(dims, origin, alpha, values), x, y);
+  }
+};
+
 /// Cell values of a dims grid from origin_m at alpha_m, x fastest: `fill`, then
 /// set(x, y, z, &value) at every cell centre (m) may change the cell's value.
 template <typename F>
