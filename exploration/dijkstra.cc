@@ -41,7 +41,8 @@ std::vector<bool> TraversableCells(const GridMap2D& collision, double collision_
 }
 
 DistanceField ComputeDistanceField(int width, int height, const std::vector<bool>& traversable,
-                                   const Cell2& start, double cell_size_m) {
+                                   const Cell2& start, double cell_size_m,
+                                   const std::vector<double>& step_weight) {
   KESTREL_THROW_UNLESS(
       width > 0 && height > 0 && traversable.size() == static_cast<size_t>(width) * height,
       "ComputeDistanceField: " << width << " x " << height << " grid with " << traversable.size()
@@ -50,6 +51,14 @@ DistanceField ComputeDistanceField(int width, int height, const std::vector<bool
       start.x >= 0 && start.y >= 0 && start.x < width && start.y < height,
       "ComputeDistanceField: start (" << start.x << ", " << start.y << ") outside the grid");
   KESTREL_THROW_UNLESS(cell_size_m > 0.0, "ComputeDistanceField: cell_size_m = " << cell_size_m);
+  KESTREL_THROW_UNLESS(step_weight.empty() || step_weight.size() == traversable.size(),
+                       "ComputeDistanceField: " << step_weight.size() << " step weights for "
+                                                << traversable.size() << " cells");
+  for (double w : step_weight) {
+    KESTREL_THROW_UNLESS(std::isfinite(w) && w >= 1.0,
+                         "ComputeDistanceField: step weight " << w << ", accepted [1, inf)");
+  }
+  const bool weighted = !step_weight.empty();
   DistanceField f;
   f.width = width;
   f.height = height;
@@ -82,7 +91,11 @@ DistanceField ComputeDistanceField(int width, int height, const std::vector<bool
         const bool diag = dx != 0 && dy != 0;
         if (diag && !(usable(x + dx, y) && usable(x, y + dy))) continue;  // no corner cutting
         const int j = (x + dx) + width * (y + dy);
-        const double nd = d + (diag ? diagonal : cell_size_m);  // Euclidean step cost
+        double step = diag ? diagonal : cell_size_m;  // Euclidean step cost
+        if (weighted) {
+          step *= 0.5 * (step_weight[static_cast<size_t>(i)] + step_weight[static_cast<size_t>(j)]);
+        }
+        const double nd = d + step;
         double& dj = f.distance_m[static_cast<size_t>(j)];
         if (nd < dj) {
           dj = nd;

@@ -30,10 +30,16 @@ struct DistanceField {
 
 /// Dijkstra from `start` over cells with traversable[i] (size width * height, x fastest).
 /// Ties between equal distances are broken by cell index (deterministic).
-/// @throws std::invalid_argument on inconsistent sizes or a start outside the grid.
+/// @param step_weight  empty (the paper's Euclidean step cost), or one weight >= 1 per cell: a
+///     step between cells i and j then costs its length times (w_i + w_j) / 2, and d_cell is
+///     that weighted length (the fine modes' clearance preference, docs/exploration.md,
+///     "Traversability").
+/// @throws std::invalid_argument on inconsistent sizes, a start outside the grid or a weight
+///     below 1 or not finite.
 [[nodiscard]] DistanceField ComputeDistanceField(int width, int height,
                                                  const std::vector<bool>& traversable,
-                                                 const Cell2& start, double cell_size_m);
+                                                 const Cell2& start, double cell_size_m,
+                                                 const std::vector<double>& step_weight = {});
 
 /// traversable[i] = P(C_i) <= collision_threshold (eq. 13).
 [[nodiscard]] std::vector<bool> TraversableCells(const GridMap2D& collision,

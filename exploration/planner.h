@@ -63,8 +63,13 @@ struct VolumetricConfig {
   /// top of a thin or pointed object that the map resolves only below its tip (docs/exploration.md,
   /// "Traversability").
   double band_below_m{0.25};
-  double band_above_m{0.15};         ///< vehicle band above h, m (> 0)
-  double margin_m{0.10};             ///< clearance beyond the vehicle radius, m (>= 0)
+  double band_above_m{0.15};  ///< vehicle band above h, m (> 0)
+  double margin_m{0.10};      ///< clearance beyond the vehicle radius, m (>= 0)
+  /// Paths prefer this much clearance beyond radius + margin where the space allows, m (>= 0;
+  /// 0: off): Dijkstra's steps weigh 1 + clearance_weight s^2, s the shortfall's fraction of this
+  /// (docs/exploration.md, "Traversability"; exploration/traversability.h, step 4).
+  double preferred_clearance_m{0.30};
+  double clearance_weight{2.0};      ///< the step weight at the required clearance, minus 1 (>= 0)
   double candidate_spacing_m{0.75};  ///< candidate positions every this many m (>= one cell)
   /// The paper's end rule, working: exploration ends when the best UNWEIGHTED 3D gain of every
   /// reachable candidate pose is below this, nats (> 0).

@@ -5,6 +5,8 @@
 #include <Eigen/SparseLU>
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <optional>
 
 #include "common/check.h"
 
@@ -332,16 +334,57 @@ bool SegmentClear(const GridMap2D& grid, const std::vector<bool>& allowed, const
   return CapsuleClear(grid, allowed, a, b, radius_m);
 }
 
+namespace {
+// The clearance at p (0 outside the map).
+double ClearanceAt(const GridMap2D& clearance, const Eigen::Vector2d& p) {
+  const std::optional<Cell2> c = clearance.CellOf(p);
+  return c ? clearance.at(c->x, c->y) : 0.0;
+}
+
+// The least clearance along [a, b], sampled every quarter cell, its ends included.
+double SegmentClearance(const GridMap2D& clearance, const Eigen::Vector2d& a,
+                        const Eigen::Vector2d& b) {
+  const int steps =
+      std::max(1, static_cast<int>(std::ceil((b - a).norm() / (0.25 * clearance.resolution_m))));
+  double least = std::numeric_limits<double>::infinity();
+  for (int k = 0; k <= steps; ++k) {
+    least = std::min(least, ClearanceAt(clearance, a + (b - a) * (static_cast<double>(k) / steps)));
+  }
+  return least;
+}
+}  // namespace
+
 std::vector<Eigen::Vector2d> PruneWaypoints(const GridMap2D& grid, const std::vector<bool>& allowed,
                                             const std::vector<Eigen::Vector2d>& points,
-                                            double radius_m) {
+                                            double radius_m, const PathClearance& clearance) {
   std::vector<Eigen::Vector2d> out;
   if (points.empty()) return out;
+  const GridMap2D* room = clearance.clearance;
+  // Per point, its clearance (with `clearance` only).
+  std::vector<double> at;
+  if (room != nullptr) {
+    for (const Eigen::Vector2d& p : points) at.push_back(ClearanceAt(*room, p));
+  }
   out.push_back(points.front());
   size_t i = 0;
   while (i + 1 < points.size()) {
+    // least[j]: the least clearance of points i..j (with `clearance` only).
+    std::vector<double> least;
+    if (room != nullptr) {
+      least.assign(points.size(), 0.0);
+      least[i] = at[i];
+      for (size_t j = i + 1; j < points.size(); ++j) least[j] = std::min(least[j - 1], at[j]);
+    }
+    const auto keeps_room = [&](size_t j) {
+      if (room == nullptr) return true;
+      const double need = std::min(clearance.preferred_m, least[j]) - 0.5 * room->resolution_m;
+      return SegmentClearance(*room, points[i], points[j]) >= need;
+    };
     size_t j = points.size() - 1;
-    while (j > i + 1 && !SegmentClear(grid, allowed, points[i], points[j], radius_m)) --j;
+    while (j > i + 1 &&
+           !(SegmentClear(grid, allowed, points[i], points[j], radius_m) && keeps_room(j))) {
+      --j;
+    }
     out.push_back(points[j]);
     i = j;
   }
@@ -538,7 +581,7 @@ std::optional<std::vector<PolynomialSegment>> SolveMinimumDerivative(
 TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool>& traversable,
                               const DistanceField& field, int goal_cell,
                               const TrajectoryStart& start, double goal_yaw_rad, double height_m,
-                              const TrajectoryConfig& config) {
+                              const TrajectoryConfig& config, const PathClearance& clearance) {
   config.Validate();
   KESTREL_THROW_UNLESS(traversable.size() == collision.values.size() &&
                            field.distance_m.size() == collision.values.size(),
@@ -577,9 +620,11 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
   if (start_touches_occupied && points.size() > 2) {
     way2 = {points[0]};
     const std::vector<Eigen::Vector2d> rest(points.begin() + 1, points.end());
-    for (const Eigen::Vector2d& p : PruneWaypoints(collision, allowed, rest, r)) way2.push_back(p);
+    for (const Eigen::Vector2d& p : PruneWaypoints(collision, allowed, rest, r, clearance)) {
+      way2.push_back(p);
+    }
   } else {
-    way2 = PruneWaypoints(collision, allowed, points, r);
+    way2 = PruneWaypoints(collision, allowed, points, r, clearance);
   }
   // Pieces checked against allowed_leaving: those before the start cell's centre.
   std::vector<bool> leaving(way2.size() > 1 ? way2.size() - 1 : 0, false);

@@ -125,11 +125,22 @@ struct YawPiece {
                                 const Eigen::Vector2d& a, const Eigen::Vector2d& b,
                                 double radius_m);
 
+/// The fine modes' preferred clearance (docs/exploration.md, "Traversability"), for pruning: a
+/// shortcut must keep, at every point of it, a clearance of at least min(preferred_m, the least
+/// clearance at the points it replaces) - alpha/2, so that pruning does not take back the room
+/// the clearance-weighted search chose (cut a shelf's end at the margin).
+struct PathClearance {
+  const GridMap2D* clearance{nullptr};  ///< per cell, m (Traversability::clearance); null: off
+  double preferred_m{0.0};              ///< radius + margin + the preferred extra, m
+};
+
 /// Greedy line-of-sight pruning of `points` (step 2 of the file comment): keeps the first and
-/// last point. Precondition: consecutive points are SegmentClear.
+/// last point; with `clearance`, shortcuts also keep its preferred clearance (PathClearance).
+/// Precondition: consecutive points are SegmentClear.
 [[nodiscard]] std::vector<Eigen::Vector2d> PruneWaypoints(
     const GridMap2D& grid, const std::vector<bool>& allowed,
-    const std::vector<Eigen::Vector2d>& points, double radius_m);
+    const std::vector<Eigen::Vector2d>& points, double radius_m,
+    const PathClearance& clearance = {});
 
 /// The polynomial pieces through points[0..S] with durations[0..S-1] (step 4 of the file
 /// comment). start_velocity_mps at the start and derivatives 2..k-1 zero there (a start at
@@ -159,11 +170,13 @@ struct YawPiece {
 /// of goal_cell at height_m with heading goal_yaw_rad.
 /// @throws std::invalid_argument if config is invalid, sizes disagree or the start state, goal
 /// yaw or height is not finite.
+/// `clearance` (optional) is passed to PruneWaypoints.
 [[nodiscard]] TrajectoryPlan PlanTrajectory(const GridMap2D& collision,
                                             const std::vector<bool>& traversable,
                                             const DistanceField& field, int goal_cell,
                                             const TrajectoryStart& start, double goal_yaw_rad,
-                                            double height_m, const TrajectoryConfig& config);
+                                            double height_m, const TrajectoryConfig& config,
+                                            const PathClearance& clearance = {});
 
 /// The same from a start at position, velocity and yaw, with zero acceleration and yaw rate.
 [[nodiscard]] TrajectoryPlan PlanTrajectory(

@@ -73,6 +73,12 @@ void TraversabilityConfig::Validate() const {
                        "traversability free_threshold = " << free_threshold << ", accepted (0, 1)");
   KESTREL_THROW_UNLESS(p_init > 0.0 && p_init < 1.0,
                        "traversability p_init = " << p_init << ", accepted (0, 1)");
+  KESTREL_THROW_UNLESS(
+      std::isfinite(preferred_extra_m) && preferred_extra_m >= 0.0,
+      "traversability preferred_extra_m = " << preferred_extra_m << ", accepted [0, inf)");
+  KESTREL_THROW_UNLESS(
+      std::isfinite(clearance_weight) && clearance_weight >= 0.0,
+      "traversability clearance_weight = " << clearance_weight << ", accepted [0, inf)");
 }
 
 std::vector<double> SquaredDistanceTransform(int width, int height, const std::vector<bool>& site) {
@@ -257,6 +263,21 @@ Traversability ComputeTraversability(const OccupancyGridView& map,
     }
   }
   return t;
+}
+
+std::vector<double> ClearanceStepWeights(const Traversability& map,
+                                         const TraversabilityConfig& config) {
+  config.Validate();
+  std::vector<double> w;
+  if (config.preferred_extra_m <= 0.0 || config.clearance_weight <= 0.0) return w;
+  const double preferred = config.required_clearance_m() + config.preferred_extra_m;
+  w.resize(map.clearance.values.size());
+  for (size_t i = 0; i < w.size(); ++i) {
+    const double s =
+        std::clamp((preferred - map.clearance.values[i]) / config.preferred_extra_m, 0.0, 1.0);
+    w[i] = 1.0 + config.clearance_weight * s * s;
+  }
+  return w;
 }
 
 int AllowEscape(const Traversability& map, const TraversabilityConfig& config,

@@ -15,6 +15,11 @@
 ///     straight ahead, within alpha (sqrt(2) - 1)/2 = 0.016 m for the paper's cells otherwise).
 ///  3. Traversable: clearance >= vehicle radius + margin. A gap whose mapped free width is w is
 ///     passable where w/2 >= radius + margin, wherever it lies: no lattice.
+///  4. Preferred clearance (ClearanceStepWeights): paths are searched with steps weighted up
+///     where the clearance is below radius + margin + preferred_extra, so they keep that much
+///     more room where the space allows (round a shelf's end wide, not at the margin) and pass
+///     narrow places through their middle. The map's surfaces can be a cell off where grazing
+///     rays read a partly filled cell free; the margin alone leaves no room for that.
 ///
 /// Two exceptions, both for the explorer's view only (the 3D map is never changed):
 ///  - the start-up zone (docs/algorithms.md §8.1): band cells with no evidence of occupancy
@@ -48,6 +53,8 @@ struct TraversabilityConfig {
   double margin_m{0.10};          ///< clearance beyond the radius, m (>= 0)
   double free_threshold{0.05};    ///< a band cell blocks when P > this (C_thresh), in (0, 1)
   double p_init{0.1};             ///< P_init of the 3D map (the start-up zone's rule), in (0, 1)
+  double preferred_extra_m{0.0};  ///< clearance paths prefer beyond radius + margin, m (>= 0)
+  double clearance_weight{0.0};   ///< step weight at the required clearance, minus 1 (>= 0)
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
@@ -84,6 +91,14 @@ struct Traversability {
 /// @throws std::invalid_argument on inconsistent sizes.
 [[nodiscard]] std::vector<double> SquaredDistanceTransform(int width, int height,
                                                            const std::vector<bool>& site);
+
+/// The step weights of step 4 (file comment) for ComputeDistanceField: per cell
+/// 1 + clearance_weight s^2 with s = (c_pref - c) / preferred_extra_m clamped to [0, 1], c the
+/// cell's clearance, c_pref = radius + margin + preferred_extra_m (cells below the required
+/// clearance, which only the start, the escape and the flown corridor make usable, weigh the
+/// most). Empty (unweighted Euclidean steps) when preferred_extra_m or clearance_weight is 0.
+[[nodiscard]] std::vector<double> ClearanceStepWeights(const Traversability& map,
+                                                       const TraversabilityConfig& config);
 
 /// Escape from a place short of clearance (new map data can leave the vehicle there, e.g. a table
 /// top or sensor noise that blurs into the band): marks traversable the free cells within

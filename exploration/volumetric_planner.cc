@@ -79,7 +79,7 @@ bool FineSearch(const PlannerConfig& config, const PlannerInput& input, bool wit
   // tighter than where it is (Dijkstra always starts from its own cell).
   AllowEscape(tr, tc, input.position_m.head<2>(), kEscapeRadius, traversable);
   result->field = ComputeDistanceField(tr.band.width, tr.band.height, *traversable, *start,
-                                       tr.band.resolution_m);
+                                       tr.band.resolution_m, ClearanceStepWeights(tr, tc));
   result->timings.dijkstra_s = SecondsSince(t1);
   return true;
 }
@@ -90,9 +90,17 @@ void FineTrajectoryTo(const PlannerConfig& config, const PlannerInput& input,
   const Clock::time_point t0 = Clock::now();
   TrajectoryConfig tc = config.trajectory;
   tc.vehicle_radius_m = kPointRadius;
+  // Shortcuts keep the room the clearance-weighted search chose (Traversability, step 4).
+  PathClearance room;
+  if (result->traversability && config.volumetric.preferred_clearance_m > 0.0 &&
+      config.volumetric.clearance_weight > 0.0) {
+    room.clearance = &result->traversability->clearance;
+    room.preferred_m = FineTraversabilityConfig(config).required_clearance_m() +
+                       config.volumetric.preferred_clearance_m;
+  }
   result->trajectory =
       PlanTrajectory(result->collision.collision, traversable, result->field, goal_cell,
-                     input.Start(), goal_yaw, config.projection.height_m, tc);
+                     input.Start(), goal_yaw, config.projection.height_m, tc, room);
   result->timings.trajectory_s += SecondsSince(t0);
   if (result->trajectory.trajectory) {
     result->status = PlanStatus::kGoal;
@@ -172,6 +180,12 @@ void VolumetricConfig::Validate() const {
   KESTREL_THROW_UNLESS(
       std::isfinite(local_horizon_m) && local_horizon_m >= 0.0,
       "volumetric.local_horizon_m = " << local_horizon_m << ", accepted [0, inf) (0: off)");
+  KESTREL_THROW_UNLESS(std::isfinite(preferred_clearance_m) && preferred_clearance_m >= 0.0,
+                       "volumetric.preferred_clearance_m = " << preferred_clearance_m
+                                                             << ", accepted [0, inf) (0: off)");
+  KESTREL_THROW_UNLESS(
+      std::isfinite(clearance_weight) && clearance_weight >= 0.0,
+      "volumetric.clearance_weight = " << clearance_weight << ", accepted [0, inf) (0: off)");
   gain.Validate();
 }
 
@@ -184,6 +198,8 @@ TraversabilityConfig FineTraversabilityConfig(const PlannerConfig& config) {
   t.margin_m = config.volumetric.margin_m;
   t.free_threshold = config.projection.collision_threshold;
   t.p_init = config.projection.p_init;
+  t.preferred_extra_m = config.volumetric.preferred_clearance_m;
+  t.clearance_weight = config.volumetric.clearance_weight;
   return t;
 }
 

@@ -12,8 +12,10 @@ namespace {
 
 // Brute-force oracle: Bellman-Ford relaxation to a fixed point over moves written differently:
 // an orthogonal move needs its target usable; a diagonal move needs the whole 2x2 block it
-// crosses usable (no corner cutting). The start cell is usable.
-std::vector<double> BellmanFord(int w, int h, const std::vector<bool>& t, int start, double a) {
+// crosses usable (no corner cutting). The start cell is usable. With weights (one per cell), a
+// move costs its length times the mean of its two cells' weights.
+std::vector<double> BellmanFord(int w, int h, const std::vector<bool>& t, int start, double a,
+                                const std::vector<double>& weight = {}) {
   const double inf = std::numeric_limits<double>::infinity();
   std::vector<double> d(static_cast<size_t>(w * h), inf);
   d[static_cast<size_t>(start)] = 0.0;
@@ -37,6 +39,10 @@ std::vector<double> BellmanFord(int w, int h, const std::vector<bool>& t, int st
             if (!(ok(x, ny) && ok(nx, y))) continue;  // the 2x2 block
             cost = a * std::sqrt(2.0);
           }
+          if (!weight.empty()) {
+            cost *= 0.5 * (weight[static_cast<size_t>(x + w * y)] +
+                           weight[static_cast<size_t>(nx + w * ny)]);
+          }
           double& dn = d[static_cast<size_t>(nx + w * ny)];
           if (dx0 + cost < dn - 1e-12) {
             dn = dx0 + cost;
@@ -49,20 +55,27 @@ std::vector<double> BellmanFord(int w, int h, const std::vector<bool>& t, int st
   return d;
 }
 
-// Dijkstra equals Bellman-Ford on random grids, and its back-pointers give legal paths whose
-// length is d_cell.
+// Dijkstra equals Bellman-Ford on random grids, with and without step weights, and its
+// back-pointers give legal paths whose (weighted) length is d_cell.
 TEST(Dijkstra, MatchesBellmanFordOnRandomGrids) {
   std::mt19937 rng(17);
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  for (int trial = 0; trial < 400; ++trial) {
+  for (int trial = 0; trial < 800; ++trial) {
     const int w = 1 + static_cast<int>(u(rng) * 14), h = 1 + static_cast<int>(u(rng) * 14);
     const double density = 0.1 + 0.5 * u(rng);
     std::vector<bool> t(static_cast<size_t>(w * h));
     for (size_t i = 0; i < t.size(); ++i) t[i] = u(rng) > density;
+    std::vector<double> weight;  // every other trial: weights in [1, 4)
+    if (trial % 2 == 1) {
+      for (size_t i = 0; i < t.size(); ++i) weight.push_back(1.0 + 3.0 * u(rng));
+    }
+    const auto weight_at = [&](int i) {
+      return weight.empty() ? 1.0 : weight[static_cast<size_t>(i)];
+    };
     const Cell2 start{static_cast<int>(u(rng) * w), static_cast<int>(u(rng) * h)};
     const double a = 0.9;
-    const DistanceField f = ComputeDistanceField(w, h, t, start, a);
-    const std::vector<double> oracle = BellmanFord(w, h, t, start.x + w * start.y, a);
+    const DistanceField f = ComputeDistanceField(w, h, t, start, a, weight);
+    const std::vector<double> oracle = BellmanFord(w, h, t, start.x + w * start.y, a, weight);
     for (int i = 0; i < w * h; ++i) {
       const double di = f.distance_m[static_cast<size_t>(i)];
       if (std::isinf(oracle[static_cast<size_t>(i)])) {
@@ -84,7 +97,8 @@ TEST(Dijkstra, MatchesBellmanFordOnRandomGrids) {
           ASSERT_TRUE(t[static_cast<size_t>(x1 + w * y0)] || x1 + w * y0 == f.start);
           ASSERT_TRUE(t[static_cast<size_t>(x0 + w * y1)] || x0 + w * y1 == f.start);
         }
-        len += std::hypot(x1 - x0, y1 - y0) * a;
+        len +=
+            std::hypot(x1 - x0, y1 - y0) * a * 0.5 * (weight_at(path[s - 1]) + weight_at(path[s]));
       }
       ASSERT_NEAR(len, di, 1e-9);
     }
@@ -107,6 +121,13 @@ TEST(Dijkstra, RejectsStartOutsideGrid) {
   EXPECT_THROW(ComputeDistanceField(2, 2, std::vector<bool>(4, true), {2, 0}, 1.0),
                std::invalid_argument);
   EXPECT_THROW(ComputeDistanceField(2, 2, std::vector<bool>(3, true), {0, 0}, 1.0),
+               std::invalid_argument);
+  // Step weights: one per cell, each finite and at least 1.
+  const std::vector<bool> t(4, true);
+  EXPECT_THROW(ComputeDistanceField(2, 2, t, {0, 0}, 1.0, {1.0, 1.0, 1.0}), std::invalid_argument);
+  EXPECT_THROW(ComputeDistanceField(2, 2, t, {0, 0}, 1.0, {1.0, 0.5, 1.0, 1.0}),
+               std::invalid_argument);
+  EXPECT_THROW(ComputeDistanceField(2, 2, t, {0, 0}, 1.0, {1.0, 1.0, std::nan(""), 1.0}),
                std::invalid_argument);
 }
 

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <vector>
 
 #include "tests/exploration/test_input.h"
@@ -462,6 +463,36 @@ TEST(Planner, VolumetricEdgeCases) {
     EXPECT_EQ(r.status, PlanStatus::kExplorationDone);
     EXPECT_EQ(r.end_rule, "gain rule");
   }
+}
+
+// Paths keep the preferred clearance where the room allows (docs/exploration.md,
+// "Traversability"): round the inner wall's end 0.84 m off it, not at the bare 0.54 m that the
+// margin allows and that a shortest path (the preference off) takes.
+TEST(Planner, VolumetricPathsKeepThePreferredClearance) {
+  RoomMap map(100.0);
+  PlannerConfig config;
+  config.mode = ExplorationMode::kVolumetric;
+  const auto least_clearance = [&](const PlannerConfig& c) {
+    // From the west of the inner wall (x = 0.5..0.7, y < 0.9) to its east: round its end.
+    const PlanResult r = PlanToPoint(c, InputAt(map, {-1.5, -1.5}), {1.8, -1.5}, 0.0);
+    EXPECT_EQ(r.status, PlanStatus::kGoal) << r.reason;
+    double least = std::numeric_limits<double>::infinity();
+    if (!r.trajectory.trajectory || !r.traversability) return least;
+    const GridMap2D& clearance = r.traversability->clearance;
+    for (const TrajectorySample& smp : r.trajectory.trajectory->Sample(0.01)) {
+      const auto cell = clearance.CellOf(smp.flat.position_m.head<2>());
+      if (cell) least = std::min(least, clearance.at(cell->x, cell->y));
+    }
+    return least;
+  };
+  const double required = config.trajectory.vehicle_radius_m + config.volumetric.margin_m;
+  ASSERT_GT(config.volumetric.preferred_clearance_m, 0.2);
+  ASSERT_GT(config.volumetric.clearance_weight, 0.0);
+  EXPECT_GE(least_clearance(config),
+            required + config.volumetric.preferred_clearance_m - map.alpha);
+  PlannerConfig off = config;
+  off.volumetric.preferred_clearance_m = 0.0;
+  EXPECT_LT(least_clearance(off), required + 0.1);
 }
 
 // New map data can leave the vehicle short of clearance (0.25 m from a wall, 0.49 m needed): it

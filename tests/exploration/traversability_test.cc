@@ -56,7 +56,7 @@ TraversabilityConfig Config(double h) {
   c.band_below_m = 0.2;
   c.band_above_m = 0.2;
   c.vehicle_radius_m = 0.44;
-  c.margin_m = 0.08;  // the shipped value (config/exploration/explorer.yaml)
+  c.margin_m = 0.08;  // below the shipped 0.10 m: GapPassableWhereverItLies holds for both
   return c;
 }
 
@@ -113,6 +113,44 @@ TEST(Traversability, GapPassableWhereverItLies) {
       EXPECT_EQ(pass, gap > 1.0) << "gap " << gap << " at x " << x0;
     }
   }
+}
+
+// The preferred clearance's step weights (file comment, step 4): 1 where a cell has the preferred
+// clearance, 1 + weight at the required one and below, the square of the shortfall between; none
+// when either parameter is 0.
+TEST(Traversability, StepWeightsFollowTheClearanceShortfall) {
+  TestMap m(80, 80, 24, kFree);
+  m.Box({0, 0, 0}, {6.0, 0.9, 1.8}, kOccupied);  // a wall along the south side
+  TraversabilityConfig c = Config(1.0);
+  c.preferred_extra_m = 0.3;
+  c.clearance_weight = 2.0;
+  const Traversability t = ComputeTraversability(m.View(), c);
+  const std::vector<double> w = ClearanceStepWeights(t, c);
+  ASSERT_EQ(w.size(), t.clearance.values.size());
+  const double required = c.required_clearance_m(), preferred = required + 0.3;
+  int below = 0, between = 0, above = 0;
+  for (size_t i = 0; i < w.size(); ++i) {
+    const double clearance = t.clearance.values[i];
+    if (clearance <= required) {
+      EXPECT_DOUBLE_EQ(w[i], 3.0) << i;
+      ++below;
+    } else if (clearance >= preferred) {
+      EXPECT_DOUBLE_EQ(w[i], 1.0) << i;
+      ++above;
+    } else {
+      const double s = (preferred - clearance) / 0.3;
+      EXPECT_NEAR(w[i], 1.0 + 2.0 * s * s, 1e-12) << i;
+      ++between;
+    }
+  }
+  EXPECT_GT(below, 0);
+  EXPECT_GT(between, 0);
+  EXPECT_GT(above, 0);
+  c.clearance_weight = 0.0;
+  EXPECT_TRUE(ClearanceStepWeights(t, c).empty());
+  c.clearance_weight = 2.0;
+  c.preferred_extra_m = 0.0;
+  EXPECT_TRUE(ClearanceStepWeights(t, c).empty());
 }
 
 TEST(Traversability, UnknownBlocksAndClearanceIsToTheFace) {
