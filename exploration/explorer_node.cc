@@ -307,18 +307,28 @@ void ExplorerNode::Plan(const std::string& reason) {
   ++plan_seq_;
   if (result.status == PlanStatus::kGoal && result.trajectory.trajectory.has_value()) {
     failed_plans_ = 0;
-    if (!result.trajectory.start_matched && reason == kReplanPeriod && RemainingPathSafe()) {
-      // The replan could not start from the flown state (e.g. too close to its goal to stop
-      // there at the acceleration limit): its set point would step in velocity, a hard
-      // manoeuvre. The flown trajectory is still clear, so keep it; the next replan starts
-      // where it ends, at rest, if nothing better comes first.
-      drops_.Count("replan_kept", "the replan could not start from the flown state");
-    } else {
-      if (!result.trajectory.start_matched) {
-        drops_.Count("start_not_matched",
-                     "the new trajectory starts from a simplified state: a step in the set point");
-      }
-      PublishFrom(*result.trajectory.trajectory);
+    const bool matched = result.trajectory.start_matched;
+    const bool in_flight = Splicing(now_s());
+    // Evaluated only where it matters (a map check of the whole remaining path).
+    const bool clear = !matched && in_flight && reason == kReplanPeriod && RemainingPathSafe();
+    switch (ChooseReplanUse(matched, in_flight, reason == kReplanPeriod, clear)) {
+      case ReplanUse::kKeep:
+        // The replan could not start from the flown state (e.g. too close to its goal to stop
+        // there at the acceleration limit). The flown trajectory is still clear, so keep it;
+        // the next replan starts where it ends, at rest, if nothing better comes first.
+        drops_.Count("replan_kept", "the replan could not start from the flown state");
+        break;
+      case ReplanUse::kStop:
+        if (Stop()) break;
+        [[fallthrough]];
+      case ReplanUse::kPublish:
+        if (!matched) {
+          drops_.Count(
+              "start_not_matched",
+              "the new trajectory starts from a simplified state: a step in the set point");
+        }
+        PublishFrom(*result.trajectory.trajectory);
+        break;
     }
   } else if (result.status == PlanStatus::kExplorationDone) {
     end_rule_ = result.end_rule.empty() ? "gain rule" : result.end_rule;
@@ -343,6 +353,26 @@ void ExplorerNode::Plan(const std::string& reason) {
   const bool returning = state_ == exploration_status_t::STATE_RETURNING;
   last_plan_ = std::move(result);
   if (returning) PlanHome("exploration ended");
+}
+
+ReplanUse ChooseReplanUse(bool start_matched, bool in_flight, bool periodic_replan,
+                          bool remaining_path_clear) {
+  if (start_matched || !in_flight) return ReplanUse::kPublish;
+  return periodic_replan && remaining_path_clear ? ReplanUse::kKeep : ReplanUse::kStop;
+}
+
+bool ExplorerNode::Stop() {
+  // From the set point now, not after the splice's lookahead: the flown path ahead is no longer
+  // clear, and a replan that steps the velocity there would stop the vehicle harder, later.
+  TrajectoryStart now = StateAt(*trajectory_, now_s());
+  now.time_s = now_s();
+  std::optional<PiecewisePolynomialTrajectory> stop = PlanStop(now, config_.planner.trajectory);
+  if (!stop) return false;  // not expected: a finite state always has a stop
+  drops_.Count("stopped",
+               "a replan could not start from the flown state and the flown path is no longer "
+               "clear: stopping on the line of flight");
+  Publish(*stop);
+  return true;
 }
 
 bool ExplorerNode::ProgressStalled() {

@@ -125,6 +125,23 @@ struct ExplorerConfig {
 /// end_stall_window_s, end_stall_in_volumetric).
 [[nodiscard]] bool StallRuleApplies(ExplorationMode mode, const ExplorerConfig& config);
 
+/// What the explorer does with a replan that has a trajectory (docs/exploration.md, "Non-stop
+/// flight", section 1).
+enum class ReplanUse {
+  kPublish,  ///< fly it (spliced onto the flown trajectory where that is being flown)
+  kKeep,     ///< keep flying the flown trajectory: the replan would step the set point, and the
+             ///< flown path is still clear
+  kStop,     ///< stop now (PlanStop): the replan would step the set point after the splice, and
+             ///< the flown path is no longer clear (or the replan was asked for another reason)
+};
+
+/// The choice: a replan that starts from the flown state is flown; one that does not (its start
+/// velocity simplified, a step at the splice) is flown only when nothing is being flown (the
+/// vehicle is at rest, so nothing steps); in flight the flown trajectory is kept when this was
+/// the periodic replan and its remaining path is still clear, and otherwise the vehicle stops.
+[[nodiscard]] ReplanUse ChooseReplanUse(bool start_matched, bool in_flight, bool periodic_replan,
+                                        bool remaining_path_clear);
+
 class ExplorerNode {
  public:
   /// @throws std::invalid_argument if the configuration is invalid.
@@ -168,6 +185,8 @@ class ExplorerNode {
   // Publishes the start-up trajectory from the current state; false (counted) if none is found.
   bool StartTurn();
   bool RemainingPathSafe();
+  /// Publishes PlanStop from the flown trajectory's state now (ReplanUse::kStop); false if none.
+  bool Stop();
   void Publish(const PiecewisePolynomialTrajectory& trajectory);
   void PublishStatus(const PlanResult& result, const std::string& reason);
   void PublishMaps(const PlanResult& result);

@@ -391,6 +391,40 @@ std::vector<Eigen::Vector2d> PruneWaypoints(const GridMap2D& grid, const std::ve
   return out;
 }
 
+std::optional<PiecewisePolynomialTrajectory> PlanStop(const TrajectoryStart& start,
+                                                      const TrajectoryConfig& config) {
+  config.Validate();
+  if (!start.position_m.allFinite() || !start.velocity_mps.allFinite() ||
+      !start.acceleration_mps2.allFinite() || !std::isfinite(start.yaw_rad) ||
+      !std::isfinite(start.yaw_rate_radps) || !std::isfinite(start.time_s)) {
+    return std::nullopt;
+  }
+  const Eigen::Vector3d& v0 = start.velocity_mps;
+  const double limit = std::max(config.max_acceleration_mps2, start.acceleration_mps2.norm());
+  // A constant deceleration at the limit takes |v0| / a and v0 T / 2 of way; the polynomial's
+  // peak is higher, so T grows from there by 10% at a time.
+  double duration = std::max(config.min_segment_duration_s, v0.norm() / limit);
+  for (int attempt = 0; attempt < 60; ++attempt, duration *= 1.1) {
+    const std::vector<Eigen::Vector3d> points{start.position_m,
+                                              start.position_m + 0.5 * duration * v0};
+    std::optional<std::vector<PolynomialSegment>> segs = SolveMinimumDerivative(
+        points, {duration}, config.derivative_order, v0, start.acceleration_mps2);
+    if (!segs) return std::nullopt;
+    // Yaw: psi0 + omega0 tau - omega0 tau^2 / (2 T), the rate falling linearly to 0.
+    segs->front().coefficients[3] = {start.yaw_rad, start.yaw_rate_radps,
+                                     -start.yaw_rate_radps / (2.0 * duration)};
+    std::optional<PiecewisePolynomialTrajectory> stop =
+        PiecewisePolynomialTrajectory::Create(start.time_s, *segs, nullptr);
+    if (!stop) return std::nullopt;
+    double peak = 0.0;
+    for (const TrajectorySample& s : stop->Sample(config.sample_period_s)) {
+      peak = std::max(peak, s.flat.acceleration_mps2.norm());
+    }
+    if (peak <= limit * (1.0 + 1e-9)) return stop;
+  }
+  return std::nullopt;
+}
+
 bool RemainingPathClear(const PiecewisePolynomialTrajectory& trajectory, double from_time_s,
                         const GridMap2D& collision, const std::vector<bool>& allowed,
                         double radius_m, double sample_period_s) {

@@ -185,6 +185,16 @@ struct PathClearance {
     const Eigen::Vector3d& start_velocity_mps, double start_yaw_rad, double goal_yaw_rad,
     double height_m, double start_time_s, const TrajectoryConfig& config);
 
+/// A stop (docs/exploration.md, "Non-stop flight", section 1): from `start` (position, velocity,
+/// acceleration, yaw and yaw rate, matched exactly) to rest on the line of the start velocity, one
+/// minimum-derivative piece whose duration grows until its sampled acceleration is within
+/// max_acceleration (or within the start's own, if that is larger); the yaw rate falls linearly to
+/// 0. What the explorer flies when a replan cannot start from the flown state: braking at once
+/// instead of a step in the set point's velocity. nullopt if the start is not finite or no
+/// duration meets the limit.
+[[nodiscard]] std::optional<PiecewisePolynomialTrajectory> PlanStop(const TrajectoryStart& start,
+                                                                    const TrajectoryConfig& config);
+
 /// Whether the rest of `trajectory` from from_time_s on (sampled every sample_period_s, its end
 /// included) keeps the disc of radius_m inside `allowed` cells of a (new) collision map: the
 /// explorer's "the map made the remaining path unsafe" test (replan when false).

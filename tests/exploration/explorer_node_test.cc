@@ -128,5 +128,22 @@ TEST(ExplorerConfig, StallRuleAppliesToModesThatNeedIt) {
   }
 }
 
+// What a replan that has a trajectory becomes (docs/exploration.md, "Non-stop flight"): flown
+// when it starts from the flown state or nothing is flown; otherwise the flown trajectory is kept
+// when this is the periodic replan and its path is clear, and the vehicle stops when not.
+TEST(ExplorerReplan, NeverStepsTheSetPointInFlight) {
+  for (const bool periodic : {false, true}) {
+    for (const bool clear : {false, true}) {
+      EXPECT_EQ(ChooseReplanUse(true, true, periodic, clear), ReplanUse::kPublish);
+      EXPECT_EQ(ChooseReplanUse(true, false, periodic, clear), ReplanUse::kPublish);
+      EXPECT_EQ(ChooseReplanUse(false, false, periodic, clear), ReplanUse::kPublish);
+    }
+  }
+  EXPECT_EQ(ChooseReplanUse(false, true, true, true), ReplanUse::kKeep);
+  EXPECT_EQ(ChooseReplanUse(false, true, true, false), ReplanUse::kStop);
+  EXPECT_EQ(ChooseReplanUse(false, true, false, true), ReplanUse::kStop);
+  EXPECT_EQ(ChooseReplanUse(false, true, false, false), ReplanUse::kStop);
+}
+
 }  // namespace
 }  // namespace kestrel

@@ -744,5 +744,50 @@ TEST(TrajectoryPlanner, ChainedReplansInFlightStayContinuous) {
   EXPECT_GE(matched, replans * 3 / 4);
 }
 
+// The stop (docs/exploration.md, "Non-stop flight"): continuous with the flown state in
+// position, velocity, acceleration, yaw and yaw rate; at rest at its end on the line of the start
+// velocity; its acceleration within the limit (or the start's own) and its yaw rate falling to 0.
+TEST(TrajectoryPlanner, StopIsContinuousAndWithinLimits) {
+  TrajectoryConfig config;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 50; ++trial) {
+    TrajectoryStart s;
+    s.position_m = Eigen::Vector3d(3.0 * u(rng), 3.0 * u(rng), 1.0);
+    s.velocity_mps = Eigen::Vector3d(u(rng), u(rng), 0.0);
+    if (s.velocity_mps.norm() > 1.0) s.velocity_mps.normalize();
+    s.acceleration_mps2 = Eigen::Vector3d(0.7 * u(rng), 0.7 * u(rng), 0.0);
+    s.yaw_rad = 3.0 * u(rng);
+    s.yaw_rate_radps = u(rng);
+    s.time_s = 100.0 + trial;
+    const std::optional<PiecewisePolynomialTrajectory> stop = PlanStop(s, config);
+    ASSERT_TRUE(stop.has_value()) << trial;
+    EXPECT_DOUBLE_EQ(stop->start_time_s(), s.time_s);
+    const FlatOutput a = stop->Evaluate(s.time_s);
+    EXPECT_LT((a.position_m - s.position_m).norm(), 1e-9) << trial;
+    EXPECT_LT((a.velocity_mps - s.velocity_mps).norm(), 1e-9) << trial;
+    EXPECT_LT((a.acceleration_mps2 - s.acceleration_mps2).norm(), 1e-9) << trial;
+    EXPECT_NEAR(a.yaw_rad, s.yaw_rad, 1e-12);
+    EXPECT_NEAR(a.yaw_rate_radps, s.yaw_rate_radps, 1e-12);
+    const double limit = std::max(config.max_acceleration_mps2, s.acceleration_mps2.norm());
+    for (const TrajectorySample& smp : stop->Sample(0.005)) {
+      EXPECT_LE(smp.flat.acceleration_mps2.norm(), limit * (1.0 + 1e-6)) << trial;
+      EXPECT_LE(std::abs(smp.flat.yaw_rate_radps), std::abs(s.yaw_rate_radps) + 1e-12) << trial;
+    }
+    const FlatOutput b = stop->Evaluate(stop->end_time_s());
+    EXPECT_LT(b.velocity_mps.norm(), 1e-9) << trial;
+    EXPECT_LT(b.acceleration_mps2.norm(), 1e-9) << trial;
+    EXPECT_NEAR(b.yaw_rate_radps, 0.0, 1e-12);
+    // At rest on the line of the start velocity, ahead of the start.
+    const Eigen::Vector3d way = b.position_m - s.position_m;
+    const Eigen::Vector3d along = s.velocity_mps.normalized();
+    EXPECT_LT((way - way.dot(along) * along).norm(), 1e-9) << trial;
+    EXPECT_GT(way.dot(along), 0.0) << trial;
+  }
+  TrajectoryStart bad;
+  bad.velocity_mps.x() = std::nan("");
+  EXPECT_FALSE(PlanStop(bad, config).has_value());
+}
+
 }  // namespace
 }  // namespace kestrel
