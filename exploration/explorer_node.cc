@@ -181,6 +181,14 @@ void ExplorerNode::OnPose(const pose_t& msg) {
        (flown_path_.back() - X_WB.p.head<2>()).norm() >= config_.flown_path_spacing_m)) {
     flown_path_.push_back(X_WB.p.head<2>());
   }
+  const double yaw = YawOf(X_WB.q);
+  if (state_ != exploration_status_t::STATE_WAITING && state_ != exploration_status_t::STATE_DONE &&
+      (flown_views_.empty() ||
+       (flown_views_.back().head<2>() - X_WB.p.head<2>()).norm() >= config_.flown_path_spacing_m ||
+       std::abs(std::remainder(yaw - flown_views_.back().z(), 2.0 * M_PI)) >=
+           kFlownViewYawStepRad)) {
+    flown_views_.emplace_back(X_WB.p.x(), X_WB.p.y(), yaw);
+  }
 }
 
 PlannerInput ExplorerNode::Input() const {
@@ -197,6 +205,7 @@ PlannerInput ExplorerNode::Input() const {
   in.reached_goals = reached_goals_;
   in.reached_views = reached_views_;
   in.flown_path = flown_path_;
+  in.flown_views = flown_views_;
   // The goal being flown to (its trajectory has not ended): hysteresis for period replans.
   if (state_ == exploration_status_t::STATE_EXPLORING && trajectory_.has_value() &&
       now_s() < trajectory_->end_time_s() && last_plan_ &&

@@ -240,6 +240,8 @@ class ExplorerNode {
   std::vector<std::pair<double, int64_t>> known_history_;
   // The flown corridor (PlannerInput::flown_path), a point every flown_path_spacing_m.
   std::vector<Eigen::Vector2d> flown_path_;
+  // Where the vehicle looked from (PlannerInput::flown_views).
+  std::vector<Eigen::Vector3d> flown_views_;
   std::vector<double> plan_times_s_;
   std::vector<double> plan_cpu_times_s_;
   std::vector<PlanTimings> plan_timings_;

@@ -87,6 +87,10 @@ struct VolumetricConfig {
   /// in the end rule: a gain the model still predicts after the flight looked from there is one
   /// the sensor does not collect (docs/exploration.md, "Ending and the flight home").
   bool skip_viewed_poses{true};
+  /// Likewise for every pose the vehicle has flown through (PlannerInput::flown_views: position
+  /// within candidate_spacing_m / 2, its heading in the candidate heading's half-step window):
+  /// the camera looked from there on the way, not only at goals.
+  bool skip_flown_poses{true};
   VolumetricGainConfig gain;  ///< sensors' 3D rays (gain.sensors' vertical keys), azimuth bins
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
@@ -108,6 +112,9 @@ struct PlannerConfig {
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
 };
+
+/// A flown view is recorded each time the vehicle has turned this far (PlannerInput::flown_views).
+inline constexpr double kFlownViewYawStepRad = 0.2;
 
 /// The vehicle and map at replanning time.
 struct PlannerInput {
@@ -136,6 +143,10 @@ struct PlannerInput {
   /// Points (x, y; W) the vehicle has flown through: the flight home (PlanToPoint, volumetric
   /// traversability) may use them even where the map has since grown uncertain.
   std::vector<Eigen::Vector2d> flown_path;
+  /// The vehicle's poses (x m, y m, yaw rad; W) along its flight, one each time it has moved
+  /// flown_path_spacing_m or turned kFlownViewYawStepRad since the last: where it has looked from
+  /// (the volumetric mode's skip_flown_poses).
+  std::vector<Eigen::Vector3d> flown_views;
 
   /// The start state this input describes (position, velocity, acceleration, yaw, yaw rate, time).
   [[nodiscard]] TrajectoryStart Start() const;

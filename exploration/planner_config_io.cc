@@ -147,6 +147,7 @@ PlannerConfig LoadPlannerConfig(const ConfigNode& node) {
     v.Read("end_gain_nats", &q.end_gain_nats, Range::Positive());
     v.Read("local_horizon_m", &q.local_horizon_m, Range::NonNegative());
     v.Read("skip_viewed_poses", &q.skip_viewed_poses);
+    v.Read("skip_flown_poses", &q.skip_flown_poses);
     v.Read("azimuth_bins", &q.gain.azimuth_bins, Range::Closed(4, 36000));
   }
   node.CheckNoUnknownKeys();

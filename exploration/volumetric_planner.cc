@@ -8,6 +8,8 @@
 #include <numeric>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
+#include <utility>
 
 #include "common/check.h"
 #include "exploration/frontiers.h"
@@ -38,7 +40,42 @@ struct Position {
   double max_bound{0.0};
   bool evaluated{false};
   std::vector<double> gains;
-  std::vector<bool> viewed;  // per heading: a goal the vehicle reached (skip_viewed_poses)
+  std::vector<bool> viewed;  // per heading: looked from (skip_viewed_poses, skip_flown_poses)
+};
+
+// The flown views (x, y, yaw) by square bins of `edge_m`, for the poses near a position.
+class FlownViewBins {
+ public:
+  FlownViewBins(const std::vector<Eigen::Vector3d>& views, double edge_m) : edge_m_(edge_m) {
+    for (const Eigen::Vector3d& v : views) bins_[Key(v.x(), v.y())].push_back(v);
+  }
+  // Calls f(view) for every view within radius_m (<= edge_m) of xy.
+  template <typename F>
+  void ForNear(const Eigen::Vector2d& xy, double radius_m, F f) const {
+    const auto [bx, by] = Bin(xy.x(), xy.y());
+    for (int64_t dy = -1; dy <= 1; ++dy) {
+      for (int64_t dx = -1; dx <= 1; ++dx) {
+        const auto it = bins_.find(Pack(bx + dx, by + dy));
+        if (it == bins_.end()) continue;
+        for (const Eigen::Vector3d& v : it->second) {
+          if ((v.head<2>() - xy).norm() < radius_m) f(v);
+        }
+      }
+    }
+  }
+
+ private:
+  std::pair<int64_t, int64_t> Bin(double x, double y) const {
+    return {static_cast<int64_t>(std::floor(x / edge_m_)),
+            static_cast<int64_t>(std::floor(y / edge_m_))};
+  }
+  static int64_t Pack(int64_t bx, int64_t by) { return bx * 1'000'003 + by; }
+  int64_t Key(double x, double y) const {
+    const auto [bx, by] = Bin(x, y);
+    return Pack(bx, by);
+  }
+  double edge_m_;
+  std::unordered_map<int64_t, std::vector<Eigen::Vector3d>> bins_;
 };
 
 // Fine traversability, the escape cells around the vehicle and Dijkstra from its cell. False with
@@ -293,6 +330,13 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
   // A pose (position, heading) the vehicle has reached as a goal (skip_viewed_poses) keeps no
   // gain: what the model still predicts there, the flight did not collect.
   const double half_spacing = 0.5 * config_.volumetric.candidate_spacing_m;
+  const FlownViewBins flown(
+      config_.volumetric.skip_flown_poses ? input.flown_views : std::vector<Eigen::Vector3d>{},
+      std::max(half_spacing, 1e-3));
+  auto heading_bin = [n_yaw](double yaw_rad) {
+    const long m = std::lround(yaw_rad / (2.0 * M_PI / n_yaw));
+    return static_cast<size_t>(((m % n_yaw) + n_yaw) % n_yaw);
+  };
   auto mask_viewed = [](Position* p) {
     for (size_t m = 0; m < p->viewed.size() && m < p->gains.size(); ++m) {
       if (p->viewed[m]) p->gains[m] = 0.0;
@@ -324,8 +368,11 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
       c.gains.clear();
     }
     p.max_bound = *std::max_element(c.bounds.begin(), c.bounds.end());
+    p.viewed.assign(static_cast<size_t>(n_yaw), false);
+    flown.ForNear(p.xy, half_spacing, [&](const Eigen::Vector3d& v) {
+      p.viewed[heading_bin(v.z())] = true;  // its heading's window holds the flown yaw
+    });
     if (config_.volumetric.skip_viewed_poses) {
-      p.viewed.assign(static_cast<size_t>(n_yaw), false);
       for (size_t i = 0; i < input.reached_goals.size(); ++i) {
         const Eigen::Vector3d& v = input.reached_goals[i];
         if ((v.head<2>() - p.xy).norm() >= half_spacing) continue;
@@ -336,8 +383,7 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
                 M_PI / n_yaw) {
           continue;
         }
-        const long m = std::lround(v.z() / (2.0 * M_PI / n_yaw));
-        p.viewed[static_cast<size_t>(((m % n_yaw) + n_yaw) % n_yaw)] = true;
+        p.viewed[heading_bin(v.z())] = true;
       }
     }
     if (!c.gains.empty()) {
