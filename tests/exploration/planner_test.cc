@@ -350,6 +350,47 @@ TEST(Planner, VolumetricViewedPosesKeepNoGain) {
   EXPECT_EQ(same.yaw_rad, goal.yaw_rad);
 }
 
+// A pose the vehicle flew through facing its heading keeps no gain (skip_flown_poses): within
+// candidate_spacing_m / 2 of the position and within half a heading step; not farther, not
+// facing elsewhere, and not with the rule off.
+TEST(Planner, VolumetricFlownPosesKeepNoGain) {
+  const RoomMap map(2.2);
+  PlannerConfig config;
+  config.mode = ExplorationMode::kVolumetric;
+  config.volumetric.skip_flown_poses = true;
+  VolumetricPlanner planner(config);
+  PlannerInput in = InputAt(map, {-1.0, -1.0});
+  const PlanResult first = planner.Plan(in);
+  ASSERT_EQ(first.status, PlanStatus::kGoal) << first.reason;
+  const Candidate goal = first.candidates[static_cast<size_t>(first.chosen)];
+  ASSERT_GT(goal.gain_nats, config.volumetric.end_gain_nats);
+  const auto gain_of_goal = [&](const PlanResult& r) {
+    for (const Candidate& c : r.candidates) {
+      if (c.cell == goal.cell && c.yaw_rad == goal.yaw_rad) return c.gain_nats;
+    }
+    return -1.0;
+  };
+  const double deg = M_PI / 180.0;
+  const double n_yaw = config.candidates.n_yaw;
+  ASSERT_GT(180.0 / n_yaw, 10.0);  // half a step is more than 10 deg
+  const Eigen::Vector3d facing(goal.position_m.x() + 0.2, goal.position_m.y(),
+                               goal.yaw_rad + 5.0 * deg);
+  for (const Eigen::Vector3d& away :
+       {Eigen::Vector3d(facing.x(), facing.y(), goal.yaw_rad + 180.0 / n_yaw * deg + 5.0 * deg),
+        Eigen::Vector3d(goal.position_m.x() + 0.5, goal.position_m.y(), facing.z())}) {
+    in.flown_views = {away};
+    EXPECT_EQ(gain_of_goal(planner.Plan(in)), goal.gain_nats) << away.transpose();
+  }
+  in.flown_views = {facing};
+  const PlanResult flown = planner.Plan(in);
+  EXPECT_EQ(gain_of_goal(flown), 0.0);
+  ASSERT_GE(flown.chosen, 0);
+  const Candidate& next = flown.candidates[static_cast<size_t>(flown.chosen)];
+  EXPECT_FALSE(next.cell == goal.cell && next.yaw_rad == goal.yaw_rad);
+  config.volumetric.skip_flown_poses = false;
+  EXPECT_EQ(gain_of_goal(VolumetricPlanner(config).Plan(in)), goal.gain_nats);
+}
+
 // The volumetric planner reuses a position's gains only while the map within its rays' reach is
 // unchanged: after a change, its plan equals a fresh planner's, candidate for candidate.
 TEST(Planner, VolumetricReuseIsExact) {
