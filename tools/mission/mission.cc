@@ -295,6 +295,7 @@ MissionResult RunMission(const MissionConfig& mc) {
       next_control += control_period_us;
     }
     drain();
+    r.mapper_queue_max = std::max(r.mapper_queue_max, mapper.queue_depth());
     mapper.ProcessPending();
     mapper.PublishDue();
     drain();
@@ -475,7 +476,8 @@ std::string MissionSummary(const MissionResult& r) {
     << r.plan_positions_gained_median << " evaluated exactly per replan; "
     << 100.0 * r.plan_ray_memo_fraction << "% of rays reused from their memo\n"
     << "scans applied: " << r.scans_applied
-    << ", every message applied: " << (r.mapper_applied_every_message ? "yes" : "no") << "\n"
+    << ", every message applied: " << (r.mapper_applied_every_message ? "yes" : "no")
+    << ", mapper queue at most " << r.mapper_queue_max << " scans\n"
     << "map entropy: " << r.final_entropy_nats << " nats, map hash " << std::hex << r.map_hash
     << std::dec << "\n"
     << "known fraction: " << r.quality.known_fraction << " of " << r.quality.observable_cells

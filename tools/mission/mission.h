@@ -63,6 +63,7 @@ struct MissionResult {
   int plans{0};
   double planning_wall_s{0};  ///< total wall time of all plans
   int64_t scans_applied{0};
+  size_t mapper_queue_max{0};  ///< most scans waiting in the mapper's queue at once
   bool mapper_applied_every_message{false};
   uint64_t map_hash{0};
   double final_entropy_nats{0};

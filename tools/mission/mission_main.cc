@@ -1,7 +1,9 @@
 // kestrel-mission: the whole system in one process, deterministic (tools/mission/mission.h).
 #include <cstdio>
+#include <optional>
 
 #include "common/process.h"
+#include "common/process_usage.h"
 #include "tools/mission/mission.h"
 
 namespace {
@@ -12,9 +14,27 @@ const char* const kUsage =
     "                       [--log FILE.lcmlog] [--drop-sensors FRACTION]\n"
     "                       [--mocap-outage-at S --mocap-outage DURATION_S]\n"
     "                       [--sim-set k=v]... [--mapper-set k=v]...\n"
-    "                       [--explorer-set k=v]... [--no-quality] [--verbose]\n"
+    "                       [--explorer-set k=v]... [--no-quality] [--verbose] [--soak S]\n"
     "Runs simulator, controller, mapper and explorer in lockstep over memq:// and prints a\n"
-    "summary (known fraction, accuracy, Brier score against the simulator's ground truth).\n";
+    "summary (known fraction, accuracy, Brier score against the simulator's ground truth).\n"
+    "--soak S flies missions back to back in this one process (seeds N, N+1, ...) until S\n"
+    "simulated seconds in all, and prints after each one the process's resident memory, open\n"
+    "files and threads (docs/design.md section 7.9); the summary is the last flight's.\n";
+
+// One soak line: the flight, its outcome and what the process holds after it.
+void PrintSoakLine(int flight, const kestrel::MissionConfig& mc, const kestrel::MissionResult& r,
+                   double total_s) {
+  const std::optional<kestrel::ProcessUsage> u = kestrel::ReadProcessUsage();
+  std::printf(
+      "soak flight %d: seed %lld, %.1f s simulated (%.1f s in all), known %.4f, collisions %d, "
+      "%s, mapper queue at most %zu; process: RSS %lld KiB (peak %lld KiB), open files %d, "
+      "threads %d\n",
+      flight, static_cast<long long>(mc.seed), r.sim_time_s, total_s, r.quality.known_fraction,
+      r.collisions, r.landed ? "landed" : "not landed", r.mapper_queue_max,
+      static_cast<long long>(u ? u->rss_kib : -1), static_cast<long long>(u ? u->peak_rss_kib : -1),
+      u ? u->open_files : -1, u ? u->threads : -1);
+  std::fflush(stdout);
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -22,6 +42,7 @@ int main(int argc, char** argv) {
       "kestrel-mission", argc, argv, kUsage,
       [](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
         kestrel::MissionConfig mc;
+        double soak_s = 0.0;
         const auto& p = args.positional;
         for (size_t i = 0; i < p.size(); ++i) {
           auto value = [&]() -> std::string {
@@ -66,10 +87,23 @@ int main(int argc, char** argv) {
             mc.compute_quality = false;
           else if (p[i] == "--verbose")
             mc.verbose = true;
+          else if (p[i] == "--soak")
+            soak_s = std::stod(value());
           else
             throw kestrel::ConfigError("unexpected argument '" + p[i] + "'\n" + kUsage);
         }
-        const kestrel::MissionResult r = kestrel::RunMission(mc);
+        if (!(soak_s >= 0.0)) throw kestrel::ConfigError("--soak needs S >= 0 simulated seconds");
+        if (soak_s == 0.0) {
+          std::printf("%s", kestrel::MissionSummary(kestrel::RunMission(mc)).c_str());
+          return 0;
+        }
+        double total_s = 0.0;
+        kestrel::MissionResult r;
+        for (int flight = 1; total_s < soak_s; ++flight, ++mc.seed) {
+          r = kestrel::RunMission(mc);
+          total_s += r.sim_time_s;
+          PrintSoakLine(flight, mc, r, total_s);
+        }
         std::printf("%s", kestrel::MissionSummary(r).c_str());
         return 0;
       });
