@@ -203,4 +203,23 @@ std::string CheckMapDelta(const map3d_delta_t& delta) {
   return "";
 }
 
+void SnapshotDeltaBuffer::Begin(int64_t epoch, int64_t map_seq) {
+  epoch_ = epoch;
+  tail_seq_ = map_seq;
+  deltas_.clear();
+}
+
+bool SnapshotDeltaBuffer::Keep(const map3d_delta_t& delta) {
+  if (delta.epoch != epoch_ || delta.prev_seq != tail_seq_ || delta.seq <= tail_seq_) return false;
+  deltas_.push_back(delta);
+  tail_seq_ = delta.seq;
+  return true;
+}
+
+std::vector<map3d_delta_t> SnapshotDeltaBuffer::Take() {
+  std::vector<map3d_delta_t> kept;
+  kept.swap(deltas_);
+  return kept;
+}
+
 }  // namespace kestrel

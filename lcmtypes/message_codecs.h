@@ -48,4 +48,23 @@ void EncodeMapChunkCells(const std::vector<float>& probabilities, int8_t encodin
 /// that is not positive and finite, probabilities outside [0, 1] or NaN.
 [[nodiscard]] std::string CheckMapDelta(const map3d_delta_t& delta);
 
+/// The deltas a map copy keeps while a paced snapshot's chunks arrive (docs/design.md §3.3): from
+/// the snapshot's first chunk on, each delta of the same mapper (epoch) that follows the snapshot,
+/// or the last delta kept (prev_seq), is kept, to be applied once the snapshot is whole. Used by
+/// the explorer's MapReplica and the viewer's VoxelStream.
+class SnapshotDeltaBuffer {
+ public:
+  /// The first chunk of a snapshot of mapper `epoch` at `map_seq`: forgets what was kept.
+  void Begin(int64_t epoch, int64_t map_seq);
+  /// Keeps `delta` if it follows the snapshot or the last kept delta; returns whether it did.
+  bool Keep(const map3d_delta_t& delta);
+  /// The kept deltas in the order they came; none are kept after.
+  [[nodiscard]] std::vector<map3d_delta_t> Take();
+
+ private:
+  int64_t epoch_{0};
+  int64_t tail_seq_{-1};
+  std::vector<map3d_delta_t> deltas_;
+};
+
 }  // namespace kestrel

@@ -47,13 +47,11 @@ bool MapReplica::Apply(const map3d_chunk_t& chunk, std::string* error) {
     staging_id_ = chunk.snapshot_id;
     staging_epoch_ = chunk.epoch;
     staging_next_chunk_ = 0;
-    staging_tail_seq_ = chunk.map_seq;
-    staged_deltas_.clear();
+    staged_deltas_.Begin(chunk.epoch, chunk.map_seq);
   }
   if (chunk.snapshot_id != staging_id_ || chunk.epoch != staging_epoch_ ||
       chunk.chunk_index != staging_next_chunk_) {
     staging_id_ = -1;  // a chunk was lost: wait for the next snapshot
-    staged_deltas_.clear();
     *error = "snapshot " + std::to_string(chunk.snapshot_id) + " chunk " +
              std::to_string(chunk.chunk_index) + " out of sequence";
     return false;
@@ -82,9 +80,7 @@ bool MapReplica::Apply(const map3d_chunk_t& chunk, std::string* error) {
     stale_ = false;
     staging_id_ = -1;
     // The deltas sent while the snapshot's chunks were paced follow it (docs/design.md §3.3).
-    std::deque<map3d_delta_t> kept;
-    kept.swap(staged_deltas_);
-    for (const map3d_delta_t& delta : kept) {
+    for (const map3d_delta_t& delta : staged_deltas_.Take()) {
       if (!Apply(delta, error)) return false;
     }
   }
@@ -98,12 +94,7 @@ bool MapReplica::Apply(const map3d_delta_t& delta, std::string* error) {
   }
   if (!SameLattice(delta.origin_m, delta.resolution_m, error)) return false;
   // A delta sent while the staged snapshot's chunks are still arriving: kept for it.
-  const bool kept = staging_id_ >= 0 && delta.epoch == staging_epoch_ &&
-                    delta.prev_seq == staging_tail_seq_ && delta.seq > staging_tail_seq_;
-  if (kept) {
-    staged_deltas_.push_back(delta);
-    staging_tail_seq_ = delta.seq;
-  }
+  const bool kept = staging_id_ >= 0 && staged_deltas_.Keep(delta);
   if (!has_snapshot_) {
     if (kept) return true;
     *error = "delta before any snapshot";

@@ -15,7 +15,6 @@
 /// past it).
 
 #include <cstdint>
-#include <deque>
 #include <string>
 #include <vector>
 
@@ -23,6 +22,7 @@
 
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
+#include "lcmtypes/message_codecs.h"
 
 namespace kestrel {
 
@@ -82,8 +82,7 @@ class MapReplica {
   int64_t staging_id_{-1};
   int64_t staging_epoch_{0};
   int staging_next_chunk_{0};
-  int64_t staging_tail_seq_{-1};             // the staged snapshot's map_seq, then kept deltas'
-  std::deque<map3d_delta_t> staged_deltas_;  // deltas following the staged snapshot
+  SnapshotDeltaBuffer staged_deltas_;  // deltas following the staged snapshot
 };
 
 }  // namespace kestrel

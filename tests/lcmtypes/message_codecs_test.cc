@@ -270,5 +270,34 @@ TEST(CompressedPayloads, MostCompressibleImageStillDecodes) {
   EXPECT_EQ(back, zeros);
 }
 
+// The deltas kept while a snapshot's chunks arrive: those of the snapshot's mapper that follow
+// it or the last one kept, in order; a new snapshot forgets them; Take empties the buffer.
+TEST(SnapshotDeltaBuffer, KeepsTheDeltasThatFollowTheSnapshot) {
+  const auto delta = [](int64_t epoch, int64_t prev_seq, int64_t seq) {
+    map3d_delta_t d{};
+    d.epoch = epoch;
+    d.prev_seq = prev_seq;
+    d.seq = seq;
+    return d;
+  };
+  SnapshotDeltaBuffer b;
+  b.Begin(7, 10);
+  EXPECT_FALSE(b.Keep(delta(8, 10, 11)));  // another mapper
+  EXPECT_FALSE(b.Keep(delta(7, 9, 10)));   // before the snapshot
+  EXPECT_FALSE(b.Keep(delta(7, 11, 12)));  // a gap
+  EXPECT_TRUE(b.Keep(delta(7, 10, 11)));
+  EXPECT_FALSE(b.Keep(delta(7, 10, 11)));  // again
+  EXPECT_TRUE(b.Keep(delta(7, 11, 13)));
+  const std::vector<map3d_delta_t> kept = b.Take();
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_EQ(kept[0].seq, 11);
+  EXPECT_EQ(kept[1].seq, 13);
+  EXPECT_TRUE(b.Take().empty());
+  EXPECT_TRUE(b.Keep(delta(7, 13, 14)));  // still following the last kept
+  b.Begin(7, 20);
+  EXPECT_TRUE(b.Take().empty());
+  EXPECT_FALSE(b.Keep(delta(7, 14, 15)));
+}
+
 }  // namespace
 }  // namespace kestrel

@@ -77,8 +77,7 @@ bool VoxelStream::Apply(const map3d_chunk_t& chunk, std::string* error) {
     staging_id_ = chunk.snapshot_id;
     staging_epoch_ = chunk.epoch;
     staging_next_chunk_ = 0;
-    staging_tail_seq_ = chunk.map_seq;
-    staged_deltas_.clear();
+    staged_deltas_.Begin(chunk.epoch, chunk.map_seq);
   }
   if (chunk.snapshot_id != staging_id_ || chunk.epoch != staging_epoch_ ||
       chunk.chunk_index != staging_next_chunk_) {
@@ -151,9 +150,7 @@ bool VoxelStream::Apply(const map3d_chunk_t& chunk, std::string* error) {
 }
 
 bool VoxelStream::ApplyStagedDeltas(std::string* error) {
-  std::vector<map3d_delta_t> kept;
-  kept.swap(staged_deltas_);
-  for (const map3d_delta_t& delta : kept) {
+  for (const map3d_delta_t& delta : staged_deltas_.Take()) {
     if (!Apply(delta, error)) return false;
   }
   return true;
@@ -165,12 +162,7 @@ bool VoxelStream::Apply(const map3d_delta_t& delta, std::string* error) {
     return false;
   }
   // A delta sent while the staged snapshot's chunks are still arriving: kept for it.
-  const bool kept = staging_id_ >= 0 && delta.epoch == staging_epoch_ &&
-                    delta.prev_seq == staging_tail_seq_ && delta.seq > staging_tail_seq_;
-  if (kept) {
-    staged_deltas_.push_back(delta);
-    staging_tail_seq_ = delta.seq;
-  }
+  const bool kept = staging_id_ >= 0 && staged_deltas_.Keep(delta);
   if (!has_snapshot_) {
     if (kept) return true;
     *error = "delta before any snapshot";
