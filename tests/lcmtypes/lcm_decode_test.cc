@@ -1,37 +1,15 @@
 // The message contract and the one guarded decode path (common/lcm_decode.h).
 #include "common/lcm_decode.h"
 
-#include <atomic>
 #include <chrono>
 #include <cstdlib>
-#include <new>
 #include <random>
 
 #include <gtest/gtest.h>
 
 #include "lcmtypes/lcm_schemas.h"
+#include "tests/lcmtypes/allocation_watch.h"
 #include "tests/lcmtypes/sample_messages.h"
-
-// The replacement operator new below pairs malloc with free on purpose.
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-
-// ---- Allocation watch: the largest single allocation made while `g_watch` is set. ----
-namespace {
-std::atomic<bool> g_watch{false};
-std::atomic<size_t> g_largest{0};
-}  // namespace
-
-void* operator new(size_t size) {
-  if (g_watch.load(std::memory_order_relaxed)) {
-    size_t prev = g_largest.load();
-    while (size > prev && !g_largest.compare_exchange_weak(prev, size)) {
-    }
-  }
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, size_t) noexcept { std::free(p); }
 
 namespace kestrel {
 namespace {
@@ -130,15 +108,14 @@ TEST(LcmDecode, HugeLengthIsRejectedBeforeAllocation) {
   depth_image_t decoded;
   std::string error;
   const auto start = std::chrono::steady_clock::now();
-  g_largest = 0;
-  g_watch = true;
-  const bool ok = GuardedDecode(bytes.data(), bytes.size(), &decoded, &error);
-  g_watch = false;
+  bool ok = true;
+  const size_t largest = testing::LargestAllocation(
+      [&] { ok = GuardedDecode(bytes.data(), bytes.size(), &decoded, &error); });
   const double elapsed_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   EXPECT_FALSE(ok);
   EXPECT_NE(error.find("data"), std::string::npos) << error;
-  EXPECT_LT(g_largest.load(), 64u * 1024u) << "allocation during a rejected decode";
+  EXPECT_LT(largest, 64u * 1024u) << "allocation during a rejected decode";
   EXPECT_LT(elapsed_s, 1.0);
   // Negative lengths too.
   PutInt32(&bytes, data_size_offset, -5);
@@ -175,11 +152,10 @@ TEST(LcmDecode, RandomCorruptionIsHandled) {
       }
       T decoded;
       std::string error;
-      g_largest = 0;
-      g_watch = true;
-      const bool ok = GuardedDecode(bytes.data(), bytes.size(), &decoded, &error);
-      g_watch = false;
-      EXPECT_LE(g_largest.load(), bytes.size() * 8 + 4096) << name;
+      bool ok = true;
+      const size_t largest = testing::LargestAllocation(
+          [&] { ok = GuardedDecode(bytes.data(), bytes.size(), &decoded, &error); });
+      EXPECT_LE(largest, bytes.size() * 8 + 4096) << name;
       if (!ok) ++rejected;
       if (ok) {
         EXPECT_EQ(Encode(decoded), bytes) << name << ": accepted bytes must round-trip";

@@ -6,46 +6,17 @@
 
 #include <gtest/gtest.h>
 
-#include <atomic>
 #include <climits>
 #include <cmath>
 #include <cstdlib>
-#include <new>
 #include <random>
 
-// The replacement operator new below pairs malloc with free on purpose.
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-
-// ---- Allocation watch: the largest single allocation made while `g_watch` is set. ----
-namespace {
-std::atomic<bool> g_watch{false};
-std::atomic<size_t> g_largest{0};
-}  // namespace
-
-void* operator new(size_t size) {
-  if (g_watch.load(std::memory_order_relaxed)) {
-    size_t prev = g_largest.load();
-    while (size > prev && !g_largest.compare_exchange_weak(prev, size)) {
-    }
-  }
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, size_t /*size*/) noexcept { std::free(p); }
+#include "tests/lcmtypes/allocation_watch.h"
 
 namespace kestrel {
 namespace {
 
-// The largest single allocation `f` makes.
-template <class F>
-size_t LargestAllocation(F&& f) {
-  g_largest = 0;
-  g_watch = true;
-  f();
-  g_watch = false;
-  return g_largest.load();
-}
+using testing::LargestAllocation;
 
 depth_image_t Image(int width, int height) {
   depth_image_t m{};
