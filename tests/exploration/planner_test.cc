@@ -298,6 +298,17 @@ TEST(Planner, VolumetricLocalFirst) {
   EXPECT_GT(goal_x(faint, 12.0), 5.0);
 }
 
+// The planner's first plan from `in` into *first: a goal worth more than the end threshold (the
+// pose the viewed- and flown-pose tests then mask).
+void FirstGoalPlan(VolumetricPlanner* planner, const PlannerInput& in, const PlannerConfig& config,
+                   PlanResult* first) {
+  *first = planner->Plan(in);
+  ASSERT_EQ(first->status, PlanStatus::kGoal) << first->reason;
+  ASSERT_GE(first->chosen, 0);
+  ASSERT_GT(first->candidates[static_cast<size_t>(first->chosen)].gain_nats,
+            config.volumetric.end_gain_nats);
+}
+
 // skip_viewed_poses: a pose the vehicle reached as a goal (reached_goals) keeps no gain in the
 // choice or the end rule; without the option the same pose is chosen again.
 TEST(Planner, VolumetricViewedPosesKeepNoGain) {
@@ -307,10 +318,9 @@ TEST(Planner, VolumetricViewedPosesKeepNoGain) {
   config.volumetric.skip_viewed_poses = true;
   VolumetricPlanner planner(config);
   PlannerInput in = InputAt(map, {-1.0, -1.0});
-  const PlanResult first = planner.Plan(in);
-  ASSERT_EQ(first.status, PlanStatus::kGoal) << first.reason;
+  PlanResult first;
+  ASSERT_NO_FATAL_FAILURE(FirstGoalPlan(&planner, in, config, &first));
   const Candidate goal = first.candidates[static_cast<size_t>(first.chosen)];
-  ASSERT_GT(goal.gain_nats, config.volumetric.end_gain_nats);
   // A goal 0.2 m from the candidate's position, 10 deg off its heading, was reached while the
   // vehicle faced 40 deg away from it (mid-turn): nothing is masked.
   in.reached_goals.emplace_back(goal.position_m.x() + 0.2, goal.position_m.y(),
@@ -360,10 +370,9 @@ TEST(Planner, VolumetricFlownPosesKeepNoGain) {
   config.volumetric.skip_flown_poses = true;
   VolumetricPlanner planner(config);
   PlannerInput in = InputAt(map, {-1.0, -1.0});
-  const PlanResult first = planner.Plan(in);
-  ASSERT_EQ(first.status, PlanStatus::kGoal) << first.reason;
+  PlanResult first;
+  ASSERT_NO_FATAL_FAILURE(FirstGoalPlan(&planner, in, config, &first));
   const Candidate goal = first.candidates[static_cast<size_t>(first.chosen)];
-  ASSERT_GT(goal.gain_nats, config.volumetric.end_gain_nats);
   const auto gain_of_goal = [&](const PlanResult& r) {
     for (const Candidate& c : r.candidates) {
       if (c.cell == goal.cell && c.yaw_rad == goal.yaw_rad) return c.gain_nats;
