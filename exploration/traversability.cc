@@ -55,6 +55,62 @@ void DistanceTransform1D(const double* f, int n, double* d, std::vector<int>* v_
   }
 }
 
+// Step 3b of the file comment: for every pair of 4-adjacent free cells, neither traversable, the
+// clearance at their shared edge's midpoint m (distance to the nearest blocked cell centre minus
+// alpha/2, as at the centres) by a local search: a clearance >= need makes both passage cells,
+// each keeping its best midpoint (the first in scan order on ties). Only pairs whose centres both
+// lie within alpha/2 of need can qualify (the clearance changes by at most alpha/2 from a centre
+// to the midpoint), so few pairs are searched. `site` is the padded blocked grid (width pw).
+void FindPassages(const std::vector<bool>& site, int pw, double need, const std::vector<bool>& free,
+                  Traversability* t) {
+  const GridMap2D& grid = t->clearance;
+  const double alpha = grid.resolution_m;
+  const int w = grid.width;
+  const int h = grid.height;
+  const int ph = h + 2;
+  // Sites farther than need + alpha from m cannot be its nearest when its clearance is below
+  // need + alpha/2, which holds for every pair searched (its centres are below need).
+  const int reach = static_cast<int>(std::ceil((need + alpha) / alpha)) + 1;
+  const double limit2 = (need + 0.5 * alpha) * (need + 0.5 * alpha) / (alpha * alpha);
+  const auto candidate = [&](int x, int y) {
+    const size_t i = static_cast<size_t>(x + w * y);
+    return free[i] && !t->traversable[i] && t->clearance.values[i] >= need - 0.5 * alpha;
+  };
+  const auto offer = [&](int cell, const Eigen::Vector2d& point, double clearance) {
+    double& c = t->clearance.values[static_cast<size_t>(cell)];
+    const auto it = t->passage_points.find(cell);
+    if (it == t->passage_points.end() || clearance > c) {
+      t->passage_points[cell] = point;
+      c = clearance;
+    }
+  };
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (!candidate(x, y)) continue;
+      for (const auto& [dx, dy] : {std::pair{1, 0}, std::pair{0, 1}}) {
+        const int xb = x + dx;
+        const int yb = y + dy;
+        if (xb >= w || yb >= h || !candidate(xb, yb)) continue;
+        // m in padded cell units (cell (x, y) has its centre at (x + 1, y + 1) padded).
+        const double mx = x + 1 + 0.5 * dx;
+        const double my = y + 1 + 0.5 * dy;
+        double best2 = std::numeric_limits<double>::infinity();
+        for (int v = std::max(0, y + 1 - reach); v <= std::min(ph - 1, y + 1 + reach); ++v) {
+          for (int u = std::max(0, x + 1 - reach); u <= std::min(pw - 1, x + 1 + reach); ++u) {
+            if (!site[static_cast<size_t>(u + pw * v)]) continue;
+            best2 = std::min(best2, (u - mx) * (u - mx) + (v - my) * (v - my));
+          }
+        }
+        if (best2 < limit2) continue;
+        const double clearance = std::sqrt(best2) * alpha - 0.5 * alpha;
+        const Eigen::Vector2d point = 0.5 * (grid.CenterOf({x, y}) + grid.CenterOf({xb, yb}));
+        offer(x + w * y, point, clearance);
+        offer(xb + w * yb, point, clearance);
+      }
+    }
+  }
+}
+
 }  // namespace
 
 void TraversabilityConfig::Validate() const {
@@ -79,6 +135,9 @@ void TraversabilityConfig::Validate() const {
   KESTREL_THROW_UNLESS(
       std::isfinite(clearance_weight) && clearance_weight >= 0.0,
       "traversability clearance_weight = " << clearance_weight << ", accepted [0, inf)");
+  KESTREL_THROW_UNLESS(
+      std::isfinite(passage_margin_m) && passage_margin_m >= 0.0,
+      "traversability passage_margin_m = " << passage_margin_m << ", accepted [0, inf)");
 }
 
 std::vector<double> SquaredDistanceTransform(int width, int height, const std::vector<bool>& site) {
@@ -202,6 +261,7 @@ Traversability ComputeTraversability(const OccupancyGridView& map,
       t.traversable[i] = free[i] && c >= need;
     }
   }
+  FindPassages(site, pw, config.passage_clearance_m(), free, &t);
   if (band_inside && flown != nullptr && flown->size() >= 2) {
     // The flown corridor (file comment): the vehicle's centre has been along these segments
     // (consecutive points at most kMaxFlownGap apart).
@@ -278,6 +338,19 @@ std::vector<double> ClearanceStepWeights(const Traversability& map,
     w[i] = 1.0 + config.clearance_weight * s * s;
   }
   return w;
+}
+
+int AllowPassages(const Traversability& map, std::vector<bool>* traversable) {
+  KESTREL_THROW_UNLESS(
+      traversable != nullptr && traversable->size() == static_cast<size_t>(map.band.size()),
+      "AllowPassages: traversable flags do not match the map");
+  int added = 0;
+  for (const auto& [cell, point] : map.passage_points) {
+    std::vector<bool>::reference flag = (*traversable)[static_cast<size_t>(cell)];
+    if (!flag) ++added;
+    flag = true;
+  }
+  return added;
 }
 
 int AllowEscape(const Traversability& map, const TraversabilityConfig& config,

@@ -15,6 +15,11 @@
 ///     straight ahead, within alpha (sqrt(2) - 1)/2 = 0.016 m for the paper's cells otherwise).
 ///  3. Traversable: clearance >= vehicle radius + margin. A gap whose mapped free width is w is
 ///     passable where w/2 >= radius + margin, wherever it lies: no lattice.
+///  3b. Passages: a gap of an even number of free cells has its middle on a cell edge, half a cell
+///     from the centres on either side, so the centres' clearance under-reads it by alpha/2 (14
+///     free cells read like 13). Two 4-adjacent free cells, neither traversable, whose shared
+///     edge's midpoint has clearance >= radius + passage_margin are passage cells: paths may
+///     cross them and pass them through that midpoint (passage_points), goals may not.
 ///  4. Preferred clearance (ClearanceStepWeights): paths are searched with steps weighted up
 ///     where the clearance is below radius + margin + preferred_extra, so they keep that much
 ///     more room where the space allows (round a shelf's end wide, not at the margin) and pass
@@ -37,6 +42,7 @@
 
 #include <Eigen/Core>
 #include <optional>
+#include <unordered_map>
 #include <vector>
 
 #include "exploration/grid_map_2d.h"
@@ -55,25 +61,32 @@ struct TraversabilityConfig {
   double p_init{0.1};             ///< P_init of the 3D map (the start-up zone's rule), in (0, 1)
   double preferred_extra_m{0.0};  ///< clearance paths prefer beyond radius + margin, m (>= 0)
   double clearance_weight{0.0};   ///< step weight at the required clearance, minus 1 (>= 0)
+  double passage_margin_m{0.08};  ///< clearance beyond the radius at a passage point, m (>= 0)
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
   /// Radius + margin: the clearance a traversable cell needs, m.
   [[nodiscard]] double required_clearance_m() const { return vehicle_radius_m + margin_m; }
+  /// Radius + passage margin: the clearance a passage point needs, m.
+  [[nodiscard]] double passage_clearance_m() const { return vehicle_radius_m + passage_margin_m; }
 };
 
 /// The fine traversability of one map.
 struct Traversability {
   /// Per 2D cell, the largest P over the band (1 where the band leaves the map): what blocks.
   GridMap2D band;
-  /// Per 2D cell, clearance to the nearest blocked cell (file comment, step 2), m; 0 on blocked
-  /// cells, large where nothing is blocked.
+  /// Per 2D cell, clearance to the nearest blocked cell (file comment, step 2), m, at the cell's
+  /// centre or, for a passage cell, at its passage point; 0 on blocked cells, large where nothing
+  /// is blocked.
   GridMap2D clearance;
   /// clearance >= radius + margin, x fastest.
   std::vector<bool> traversable;
   /// Per cell: blocked by unknown space only (band max in [P_init/2, 0.5], not known free, not
   /// known occupied): what the frontier baseline looks for.
   std::vector<bool> unknown;
+  /// Passage cells (file comment, step 3b) by index, each with the point paths pass it through
+  /// (an edge midpoint, m). Not in `traversable`: AllowPassages adds them for paths.
+  std::unordered_map<int, Eigen::Vector2d> passage_points;
 };
 
 /// Computes the fine traversability (file comment).
@@ -99,6 +112,10 @@ struct Traversability {
 /// most). Empty (unweighted Euclidean steps) when preferred_extra_m or clearance_weight is 0.
 [[nodiscard]] std::vector<double> ClearanceStepWeights(const Traversability& map,
                                                        const TraversabilityConfig& config);
+
+/// Marks the passage cells (file comment, step 3b) traversable, for paths (not for goals).
+/// Returns how many cells it added.
+int AllowPassages(const Traversability& map, std::vector<bool>* traversable);
 
 /// Escape from a place short of clearance (new map data can leave the vehicle there, e.g. a table
 /// top or sensor noise that blurs into the band): marks traversable the free cells within

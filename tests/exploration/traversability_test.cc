@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <random>
 #include <vector>
 
@@ -56,7 +57,8 @@ TraversabilityConfig Config(double h) {
   c.band_below_m = 0.2;
   c.band_above_m = 0.2;
   c.vehicle_radius_m = 0.44;
-  c.margin_m = 0.08;  // below the shipped 0.10 m: GapPassableWhereverItLies holds for both
+  c.margin_m = 0.10;
+  c.passage_margin_m = 0.08;
   return c;
 }
 
@@ -65,8 +67,10 @@ bool Reachable(const Traversability& t, const Eigen::Vector2d& from, const Eigen
   const auto a = t.band.CellOf(from);
   const auto b = t.band.CellOf(to);
   if (!a || !b) return false;
+  std::vector<bool> usable = t.traversable;
+  AllowPassages(t, &usable);
   const DistanceField f =
-      ComputeDistanceField(t.band.width, t.band.height, t.traversable, *a, t.band.resolution_m);
+      ComputeDistanceField(t.band.width, t.band.height, usable, *a, t.band.resolution_m);
   return f.Reachable(t.band.IndexOf(*b)) && t.traversable[static_cast<size_t>(t.band.IndexOf(*b))];
 }
 
@@ -98,21 +102,99 @@ TEST(SquaredDistanceTransform, EqualsBruteForce) {
   }
 }
 
-// A wall across the room with one gap at an arbitrary offset (not on any lattice): 1.1 m (15 whole
-// cells, 1.125 m) passes the 0.88 m vehicle with 0.10 m of margin a side, 0.9 m does not.
+// A wall across the room with one gap at an arbitrary offset (not on any lattice), n whole free
+// cells wide: 15 (1.125 m) pass the 0.88 m vehicle through a cell centre with 0.10 m of margin a
+// side, 14 (1.05 m) through a passage point (the middle of the gap, on a cell edge) with 0.08 m,
+// 13 (0.975 m) do not.
 TEST(Traversability, GapPassableWhereverItLies) {
-  for (const double gap : {1.1, 0.9}) {
+  for (const int n : {13, 14, 15}) {
     for (const double offset : {1.237, 2.0, 2.561}) {
       TestMap m(100, 80, 24, kFree);  // 7.5 x 6 x 1.8 m, all known free
       const double x0 = std::floor(offset / kAlpha) * kAlpha;
-      const double x1 = x0 + std::round(gap / kAlpha) * kAlpha;
+      const double x1 = x0 + n * kAlpha;
       m.Box({0, 2.95, 0}, {x0, 3.1, 1.8}, kOccupied);
       m.Box({x1, 2.95, 0}, {7.5, 3.1, 1.8}, kOccupied);
       const Traversability t = ComputeTraversability(m.View(), Config(1.0));
       const bool pass = Reachable(t, {0.5 * (x0 + x1), 1.2}, {0.5 * (x0 + x1), 4.8});
-      EXPECT_EQ(pass, gap > 1.0) << "gap " << gap << " at x " << x0;
+      EXPECT_EQ(pass, n >= 14) << n << " cells at x " << x0;
+      // Passage points only in the even gap, on its middle line.
+      for (const auto& [cell, point] : t.passage_points) {
+        EXPECT_EQ(n, 14) << "cell " << cell;
+        EXPECT_NEAR(point.x(), 0.5 * (x0 + x1), 1e-9) << "cell " << cell;
+      }
+      EXPECT_EQ(t.passage_points.empty(), n != 14) << n << " cells at x " << x0;
     }
   }
+}
+
+// Passage cells (file comment, step 3b) against brute force on random clutter: every pair of
+// 4-adjacent free cells, neither traversable, whose edge midpoint is at least radius + passage
+// margin + alpha/2 from every blocked cell centre (the map's outside included) makes both passage
+// cells, each with its best midpoint and that clearance; no other cell is one.
+TEST(Traversability, PassagesEqualBruteForce) {
+  std::mt19937 rng(11);
+  int passages = 0;
+  for (int trial = 0; trial < 12; ++trial) {
+    const int w = 30 + static_cast<int>(rng() % 20);
+    const int h = 30 + static_cast<int>(rng() % 20);
+    TestMap m(w, h, 24, kFree);
+    std::uniform_real_distribution<double> ux(0, w * kAlpha), uy(0, h * kAlpha);
+    for (int b = 0; b < 6; ++b) {  // walls and pillars, some a gap of 14 cells apart
+      const double x = ux(rng), y = uy(rng);
+      const double ex = (rng() % 2) ? 0.15 : 1.5, ey = (rng() % 2) ? 0.15 : 1.5;
+      m.Box({x, y, 0}, {x + ex, y + ey, 1.8}, kOccupied);
+      if (rng() % 2)
+        m.Box({x + ex + 14 * kAlpha, y, 0}, {x + 2 * ex + 14 * kAlpha, y + ey, 1.8}, kOccupied);
+    }
+    const TraversabilityConfig c = Config(1.0);
+    const Traversability t = ComputeTraversability(m.View(), c);
+    std::vector<bool> free(static_cast<size_t>(w * h));
+    for (size_t i = 0; i < free.size(); ++i) free[i] = t.band.values[i] <= c.free_threshold;
+    // Blocked cell centres, the ring around the map included, in cells.
+    std::vector<Eigen::Vector2d> blocked;
+    for (int y = -1; y <= h; ++y) {
+      for (int x = -1; x <= w; ++x) {
+        if (x < 0 || y < 0 || x >= w || y >= h || !free[static_cast<size_t>(x + w * y)]) {
+          blocked.emplace_back(x, y);
+        }
+      }
+    }
+    std::map<int, std::pair<Eigen::Vector2d, double>> expected;
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        for (const auto& [dx, dy] : {std::pair{1, 0}, std::pair{0, 1}}) {
+          const int a = x + w * y, b = (x + dx) + w * (y + dy);
+          if (x + dx >= w || y + dy >= h || !free[static_cast<size_t>(a)] ||
+              !free[static_cast<size_t>(b)] || t.traversable[static_cast<size_t>(a)] ||
+              t.traversable[static_cast<size_t>(b)]) {
+            continue;
+          }
+          const Eigen::Vector2d mid(x + 0.5 * dx, y + 0.5 * dy);
+          double d = std::numeric_limits<double>::infinity();
+          for (const Eigen::Vector2d& s : blocked) d = std::min(d, (s - mid).norm());
+          const double clearance = d * kAlpha - 0.5 * kAlpha;
+          if (clearance < c.passage_clearance_m()) continue;
+          const Eigen::Vector2d point = (mid.array() + 0.5).matrix() * kAlpha;
+          for (const int cell : {a, b}) {
+            const auto it = expected.find(cell);
+            if (it == expected.end() || clearance > it->second.second) {
+              expected[cell] = {point, clearance};
+            }
+          }
+        }
+      }
+    }
+    ASSERT_EQ(t.passage_points.size(), expected.size()) << "trial " << trial;
+    for (const auto& [cell, want] : expected) {
+      const auto it = t.passage_points.find(cell);
+      ASSERT_NE(it, t.passage_points.end()) << "trial " << trial << " cell " << cell;
+      EXPECT_NEAR((it->second - want.first).norm(), 0.0, 1e-9) << "cell " << cell;
+      EXPECT_NEAR(t.clearance.values[static_cast<size_t>(cell)], want.second, 1e-9);
+      EXPECT_FALSE(t.traversable[static_cast<size_t>(cell)]);
+    }
+    passages += static_cast<int>(expected.size());
+  }
+  EXPECT_GT(passages, 0);  // the clutter made some
 }
 
 // The preferred clearance's step weights (file comment, step 4): 1 where a cell has the preferred
