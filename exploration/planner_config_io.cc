@@ -141,6 +141,7 @@ PlannerConfig LoadPlannerConfig(const ConfigNode& node) {
     v.Read("band_below_m", &q.band_below_m, Range::Positive());
     v.Read("band_above_m", &q.band_above_m, Range::Positive());
     v.Read("margin_m", &q.margin_m, Range::NonNegative());
+    v.Read("passage_margin_m", &q.passage_margin_m, Range::NonNegative());
     v.Read("preferred_clearance_m", &q.preferred_clearance_m, Range::NonNegative());
     v.Read("clearance_weight", &q.clearance_weight, Range::NonNegative());
     v.Read("candidate_spacing_m", &q.candidate_spacing_m, Range::Positive());

@@ -335,20 +335,40 @@ bool SegmentClear(const GridMap2D& grid, const std::vector<bool>& allowed, const
 }
 
 namespace {
-// The clearance at p (0 outside the map).
-double ClearanceAt(const GridMap2D& clearance, const Eigen::Vector2d& p) {
+// How far p lies across a passage from its cell's path point (nullopt where its cell has none):
+// the point is on a cell edge, the passage runs along that edge, and the offset is measured along
+// the edge's normal.
+std::optional<double> PassageOffset(const PathClearance& room, const GridMap2D& grid,
+                                    const Eigen::Vector2d& p) {
+  if (room.path_points == nullptr) return std::nullopt;
+  const std::optional<Cell2> c = grid.CellOf(p);
+  if (!c) return std::nullopt;
+  const auto it = room.path_points->find(grid.IndexOf(*c));
+  if (it == room.path_points->end()) return std::nullopt;
+  const Eigen::Vector2d& q = it->second;
+  const double u = (q.x() - grid.origin_m.x()) / grid.resolution_m;
+  const bool on_x_edge =
+      std::abs(u - std::round(u)) < 0.25;  // a cell boundary in x: a vertical edge
+  return on_x_edge ? std::abs(p.x() - q.x()) : std::abs(p.y() - q.y());
+}
+
+// The clearance at p (0 outside the map): its cell's; in a cell with a path point (a passage),
+// the point's clearance less p's offset across the passage, so that shortcuts keep to its middle.
+double ClearanceAt(const PathClearance& room, const Eigen::Vector2d& p) {
+  const GridMap2D& clearance = *room.clearance;
   const std::optional<Cell2> c = clearance.CellOf(p);
-  return c ? clearance.at(c->x, c->y) : 0.0;
+  if (!c) return 0.0;
+  return clearance.at(c->x, c->y) - PassageOffset(room, clearance, p).value_or(0.0);
 }
 
 // The least clearance along [a, b], sampled every quarter cell, its ends included.
-double SegmentClearance(const GridMap2D& clearance, const Eigen::Vector2d& a,
+double SegmentClearance(const PathClearance& room, const Eigen::Vector2d& a,
                         const Eigen::Vector2d& b) {
-  const int steps =
-      std::max(1, static_cast<int>(std::ceil((b - a).norm() / (0.25 * clearance.resolution_m))));
+  const int steps = std::max(
+      1, static_cast<int>(std::ceil((b - a).norm() / (0.25 * room.clearance->resolution_m))));
   double least = std::numeric_limits<double>::infinity();
   for (int k = 0; k <= steps; ++k) {
-    least = std::min(least, ClearanceAt(clearance, a + (b - a) * (static_cast<double>(k) / steps)));
+    least = std::min(least, ClearanceAt(room, a + (b - a) * (static_cast<double>(k) / steps)));
   }
   return least;
 }
@@ -363,7 +383,7 @@ std::vector<Eigen::Vector2d> PruneWaypoints(const GridMap2D& grid, const std::ve
   // Per point, its clearance (with `clearance` only).
   std::vector<double> at;
   if (room != nullptr) {
-    for (const Eigen::Vector2d& p : points) at.push_back(ClearanceAt(*room, p));
+    for (const Eigen::Vector2d& p : points) at.push_back(ClearanceAt(clearance, p));
   }
   out.push_back(points.front());
   size_t i = 0;
@@ -378,7 +398,7 @@ std::vector<Eigen::Vector2d> PruneWaypoints(const GridMap2D& grid, const std::ve
     const auto keeps_room = [&](size_t j) {
       if (room == nullptr) return true;
       const double need = std::min(clearance.preferred_m, least[j]) - 0.5 * room->resolution_m;
-      return SegmentClearance(*room, points[i], points[j]) >= need;
+      return SegmentClearance(clearance, points[i], points[j]) >= need;
     };
     size_t j = points.size() - 1;
     while (j > i + 1 &&
@@ -647,7 +667,15 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
     }
   }
   std::vector<Eigen::Vector2d> points{start_xy};
-  for (int cell : plan.cell_path) points.push_back(collision.CenterOf(collision.CellAt(cell)));
+  // Where the path crosses each cell: its centre, or its passage point (PathClearance).
+  const auto path_point = [&](int cell) -> Eigen::Vector2d {
+    if (clearance.path_points != nullptr) {
+      const auto it = clearance.path_points->find(cell);
+      if (it != clearance.path_points->end()) return it->second;
+    }
+    return collision.CenterOf(collision.CellAt(cell));
+  };
+  for (int cell : plan.cell_path) points.push_back(path_point(cell));
   plan.unpruned_waypoints = static_cast<int>(points.size());
   // Leaving an occupied cell's margin: no pruning across the start cell's centre.
   std::vector<Eigen::Vector2d> way2;
@@ -847,8 +875,11 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
         double t = s.time_s - start.time_s;
         size_t seg = 0;
         while (seg + 1 < durations.size() && t > durations[seg]) t -= durations[seg++];
+        // In a passage, the half cell next to its middle line only (PathClearance).
         if (DiscClear(collision, leaving[seg] ? allowed_leaving : allowed,
-                      s.flat.position_m.head<2>(), r)) {
+                      s.flat.position_m.head<2>(), r) &&
+            PassageOffset(clearance, collision, s.flat.position_m.head<2>()).value_or(0.0) <=
+                0.5 * collision.resolution_m) {
           continue;
         }
         bad[seg] = true;

@@ -60,6 +60,7 @@
 #include <Eigen/Core>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "common/trajectory.h"
@@ -129,9 +130,16 @@ struct YawPiece {
 /// shortcut must keep, at every point of it, a clearance of at least min(preferred_m, the least
 /// clearance at the points it replaces) - alpha/2, so that pruning does not take back the room
 /// the clearance-weighted search chose (cut a shelf's end at the margin).
+/// Passages (exploration/traversability.h, step 3b): a path crosses a cell with a path point
+/// there, not at its centre; in such a cell the clearance counts less the offset across the
+/// passage from the point, and the sampled trajectory must keep within alpha/2 of the point
+/// across the passage (the half cell next to its middle line).
 struct PathClearance {
   const GridMap2D* clearance{nullptr};  ///< per cell, m (Traversability::clearance); null: off
   double preferred_m{0.0};              ///< radius + margin + the preferred extra, m
+  /// Cells a path crosses at a point other than their centre (Traversability::passage_points,
+  /// the middle of a passage), by index; null: none.
+  const std::unordered_map<int, Eigen::Vector2d>* path_points{nullptr};
 };
 
 /// Greedy line-of-sight pruning of `points` (step 2 of the file comment): keeps the first and

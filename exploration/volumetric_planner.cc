@@ -112,6 +112,7 @@ bool FineSearch(const PlannerConfig& config, const PlannerInput& input, bool wit
     return false;
   }
   *traversable = tr.traversable;
+  AllowPassages(tr, traversable);  // for paths; goals read tr.traversable
   // A vehicle that new map data left short of the required clearance moves away along space no
   // tighter than where it is (Dijkstra always starts from its own cell).
   AllowEscape(tr, tc, input.position_m.head<2>(), kEscapeRadius, traversable);
@@ -135,6 +136,7 @@ void FineTrajectoryTo(const PlannerConfig& config, const PlannerInput& input,
     room.preferred_m = FineTraversabilityConfig(config).required_clearance_m() +
                        config.volumetric.preferred_clearance_m;
   }
+  if (result->traversability) room.path_points = &result->traversability->passage_points;
   result->trajectory =
       PlanTrajectory(result->collision.collision, traversable, result->field, goal_cell,
                      input.Start(), goal_yaw, config.projection.height_m, tc, room);
@@ -210,6 +212,9 @@ void VolumetricConfig::Validate() const {
   KESTREL_THROW_UNLESS(std::isfinite(margin_m) && margin_m >= 0.0,
                        "volumetric.margin_m = " << margin_m << ", accepted [0, inf)");
   KESTREL_THROW_UNLESS(
+      std::isfinite(passage_margin_m) && passage_margin_m >= 0.0,
+      "volumetric.passage_margin_m = " << passage_margin_m << ", accepted [0, inf)");
+  KESTREL_THROW_UNLESS(
       std::isfinite(candidate_spacing_m) && candidate_spacing_m > 0.0,
       "volumetric.candidate_spacing_m = " << candidate_spacing_m << ", accepted (0, inf)");
   KESTREL_THROW_UNLESS(std::isfinite(end_gain_nats) && end_gain_nats > 0.0,
@@ -233,6 +238,7 @@ TraversabilityConfig FineTraversabilityConfig(const PlannerConfig& config) {
   t.band_above_m = config.volumetric.band_above_m;
   t.vehicle_radius_m = config.trajectory.vehicle_radius_m;
   t.margin_m = config.volumetric.margin_m;
+  t.passage_margin_m = config.volumetric.passage_margin_m;
   t.free_threshold = config.projection.collision_threshold;
   t.p_init = config.projection.p_init;
   t.preferred_extra_m = config.volumetric.preferred_clearance_m;
@@ -698,6 +704,7 @@ bool TrajectoryStillClear(const PlannerConfig& config, const PlannerInput& input
     }
     Traversability tr = ComputeTraversability(input.map, tc, zone, &input.flown_path);
     allowed = tr.traversable;
+    AllowPassages(tr, &allowed);
     AllowEscape(tr, tc, start_xy, kEscapeRadius, &allowed);
     AllowEscape(tr, tc, input.position_m.head<2>(), kEscapeRadius, &allowed);
     for (const Eigen::Vector2d& p : {start_xy, Eigen::Vector2d(input.position_m.head<2>())}) {

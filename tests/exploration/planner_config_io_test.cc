@@ -53,6 +53,7 @@ TEST(PlannerConfigIo, ReferenceFileEqualsDefaults) {
   EXPECT_EQ(c.volumetric.band_below_m, d.volumetric.band_below_m);
   EXPECT_EQ(c.volumetric.band_above_m, d.volumetric.band_above_m);
   EXPECT_EQ(c.volumetric.margin_m, d.volumetric.margin_m);
+  EXPECT_EQ(c.volumetric.passage_margin_m, d.volumetric.passage_margin_m);
   EXPECT_EQ(c.volumetric.candidate_spacing_m, d.volumetric.candidate_spacing_m);
   EXPECT_EQ(c.volumetric.end_gain_nats, d.volumetric.end_gain_nats);
   EXPECT_EQ(c.volumetric.gain.azimuth_bins, d.volumetric.gain.azimuth_bins);

@@ -545,6 +545,61 @@ TEST(Planner, VolumetricPathsKeepThePreferredClearance) {
   EXPECT_LT(least_clearance(off), required + 0.1);
 }
 
+// A wall across the room at y = 0.45..0.6 m with a door of n whole free cells.
+// The vehicle (0.44 m radius) plans from the south room to the north one: through 14 cells
+// (1.05 m) it passes on the door's middle line, the passage points (exploration/traversability.h,
+// step 3b), keeping radius + passage margin - alpha/2 from every blocked cell; 13 cells, or 14
+// with the passage margin at the full margin, are closed.
+TEST(Planner, VolumetricPassesAnEvenDoorThroughItsMiddle) {
+  const auto plan = [](int n, double passage_margin_m, double* least_m, double* worst_offset_m) {
+    RoomMap map(100.0);
+    for (int k = 0; k < map.dims.z(); ++k) {  // clear the inner wall, build the door wall
+      for (int j = 3; j < map.dims.y() - 3; ++j) {
+        for (int i = 3; i < map.dims.x() - 3; ++i) {
+          const double y = map.origin.y() + (j + 0.5) * map.alpha;
+          const double z = map.origin.z() + (k + 0.5) * map.alpha;
+          const bool door = i >= 40 - n / 2 && i < 40 - n / 2 + n;  // cell 40 starts at x = 0
+          map.at(i, j, k) = z < 0.0 || (y > 0.45 && y < 0.6 && !door) ? 0.9999f : 1e-4f;
+        }
+      }
+    }
+    const double middle = (40 - n / 2 + 0.5 * n) * map.alpha + map.origin.x();
+    PlannerConfig config;
+    config.mode = ExplorationMode::kVolumetric;
+    config.volumetric.passage_margin_m = passage_margin_m;
+    // Diagonally across the door, so that pruning keeps a waypoint in it.
+    const PlanResult r =
+        PlanToPoint(config, InputAt(map, {middle - 1.2, -1.5}), {middle + 1.2, 1.8}, 0.0);
+    if (r.status != PlanStatus::kGoal || !r.trajectory.trajectory) return false;
+    // Blocked band cells (every wall cell here spans the band) against the sampled centre.
+    const GridMap2D& band = r.collision.collision;
+    *least_m = std::numeric_limits<double>::infinity();
+    *worst_offset_m = 0.0;
+    for (const TrajectorySample& smp : r.trajectory.trajectory->Sample(0.01)) {
+      const Eigen::Vector2d p = smp.flat.position_m.head<2>();
+      if (std::abs(p.y() - 0.525) > 0.6) continue;  // near the door
+      for (int y = 0; y < band.height; ++y) {
+        for (int x = 0; x < band.width; ++x) {
+          if (band.at(x, y) <= config.projection.collision_threshold) continue;
+          *least_m = std::min(*least_m, (band.CenterOf({x, y}) - p).norm() - 0.5 * map.alpha);
+        }
+      }
+      if (std::abs(p.y() - 0.525) < 0.075) {  // in the wall's rows
+        *worst_offset_m = std::max(*worst_offset_m, std::abs(p.x() - middle));
+      }
+    }
+    return true;
+  };
+  double least = 0.0, offset = 0.0;
+  ASSERT_TRUE(plan(14, 0.08, &least, &offset));
+  EXPECT_GE(least, 0.44 + 0.08 - 0.5 * 0.075);
+  EXPECT_LE(offset, 0.5 * 0.075);  // in the half cells next to the middle line
+  EXPECT_FALSE(plan(13, 0.08, &least, &offset));
+  EXPECT_FALSE(plan(14, 0.10, &least, &offset));
+  ASSERT_TRUE(plan(15, 0.10, &least, &offset));  // 15 cells: through the middle cell's centre
+  EXPECT_GE(least, 0.44 + 0.10 - 0.5 * 0.075);
+}
+
 // New map data can leave the vehicle short of clearance (0.25 m from a wall, 0.49 m needed): it
 // escapes along space no tighter than where it is, and the plan flies it away.
 TEST(Planner, VolumetricEscapesFromNearAWall) {
