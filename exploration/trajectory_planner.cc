@@ -875,11 +875,15 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
         double t = s.time_s - start.time_s;
         size_t seg = 0;
         while (seg + 1 < durations.size() && t > durations[seg]) t -= durations[seg++];
-        // In a passage, the half cell next to its middle line only (PathClearance).
+        // In a passage, the half cell next to its middle line only (PathClearance), unless the
+        // piece is straight (a rest at both ends): then it is a segment SegmentClear checked.
+        const bool straight = (seg == 0 ? v0.isZero() && a0.isZero() : stop_at[seg]) &&
+                              (seg + 2 == way2.size() || stop_at[seg + 1]);
         if (DiscClear(collision, leaving[seg] ? allowed_leaving : allowed,
                       s.flat.position_m.head<2>(), r) &&
-            PassageOffset(clearance, collision, s.flat.position_m.head<2>()).value_or(0.0) <=
-                0.5 * collision.resolution_m) {
+            (straight ||
+             PassageOffset(clearance, collision, s.flat.position_m.head<2>()).value_or(0.0) <=
+                 0.5 * collision.resolution_m)) {
           continue;
         }
         bad[seg] = true;
