@@ -45,6 +45,8 @@ void ExplorerConfig::Validate() const {
       "explorer.replan_lookahead_s = "
           << replan_lookahead_s << ", flown_path_spacing_m = " << flown_path_spacing_m
           << " (accepted > 0), max_home_attempts = " << max_home_attempts << " (accepted >= 1)");
+  KESTREL_THROW_UNLESS(max_end_deferrals >= 0,
+                       "explorer.max_end_deferrals = " << max_end_deferrals << " must be >= 0");
   KESTREL_THROW_UNLESS(max_failed_plans >= 1,
                        "explorer.max_failed_plans = " << max_failed_plans << " must be >= 1");
   KESTREL_THROW_UNLESS(max_status_candidates >= 1, "explorer.max_status_candidates = "
@@ -91,6 +93,7 @@ ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
     e.Read("max_home_attempts", &c.max_home_attempts, Range::Closed(1, 1000));
     e.Read("flown_path_spacing_m", &c.flown_path_spacing_m, Range::Positive());
     e.Read("max_failed_plans", &c.max_failed_plans, Range::Closed(1, 1000));
+    e.Read("max_end_deferrals", &c.max_end_deferrals, Range::Closed(0, 1000));
     e.Read("return_home", &c.return_home);
     e.Read("land_at_end", &c.land_at_end);
     e.Read("max_status_candidates", &c.max_status_candidates, Range::Closed(1, 100000));
@@ -316,6 +319,7 @@ void ExplorerNode::Plan(const std::string& reason) {
   ++plan_seq_;
   if (result.status == PlanStatus::kGoal && result.trajectory.trajectory.has_value()) {
     failed_plans_ = 0;
+    end_deferrals_ = 0;
     const bool matched = result.trajectory.start_matched;
     const bool in_flight = Splicing(now_s());
     // Evaluated only where it matters (a map check of the whole remaining path).
@@ -339,6 +343,16 @@ void ExplorerNode::Plan(const std::string& reason) {
         PublishFrom(*result.trajectory.trajectory);
         break;
     }
+  } else if (result.status == PlanStatus::kExplorationDone &&
+             end_deferrals_ < config_.max_end_deferrals && !TakeOffReachable(result)) {
+    // The end rules judge the space reachable now; without the take-off point in it, map noise
+    // has closed a way the vehicle flew (e.g. a door jamb read a cell wider), and the verdict
+    // covers part of the building only. Stop, let the map settle, plan again.
+    ++end_deferrals_;
+    drops_.Count("end_deferred", "an end rule held with the take-off point unreachable (" +
+                                     result.reason + "): stopping and planning again");
+    if (trajectory_ && Splicing(now_s())) Stop();
+    next_attempt_s_ = now_s() + config_.retry_period_s;
   } else if (result.status == PlanStatus::kExplorationDone) {
     end_rule_ = result.end_rule.empty() ? "gain rule" : result.end_rule;
     Log(LogLevel::kInfo, "exploration ended by the " + end_rule_ + ": " + result.reason);
@@ -382,6 +396,24 @@ bool ExplorerNode::Stop() {
                "clear: stopping on the line of flight");
   Publish(*stop);
   return true;
+}
+
+bool ExplorerNode::TakeOffReachable(const PlanResult& result) const {
+  if (!result.traversability) return true;
+  const GridMap2D& grid = result.traversability->band;
+  const double r = config_.planner.trajectory.vehicle_radius_m;
+  const std::optional<Cell2> c = grid.CellOf(home_xy_);
+  if (!c) return false;
+  const int reach = static_cast<int>(std::ceil(r / grid.resolution_m));
+  for (int y = std::max(0, c->y - reach); y <= std::min(grid.height - 1, c->y + reach); ++y) {
+    for (int x = std::max(0, c->x - reach); x <= std::min(grid.width - 1, c->x + reach); ++x) {
+      if ((grid.CenterOf({x, y}) - home_xy_).norm() <= r &&
+          result.field.Reachable(grid.IndexOf(x, y))) {
+        return true;
+      }
+    }
+  }
+  return false;
 }
 
 bool ExplorerNode::ProgressStalled() {

@@ -105,9 +105,14 @@ struct ExplorerConfig {
   double flown_path_spacing_m{0.25};  ///< the flown corridor keeps a point every this many m
   double retry_period_s{1.0};         ///< wait after a failed plan, s
   int max_failed_plans{5};            ///< consecutive failures before returning home
-  bool return_home{true};             ///< fly back to the take-off point at the end
-  bool land_at_end{true};             ///< then send a land command
-  int max_status_candidates{512};     ///< candidates listed in EXPLORATION_STATUS (best first)
+  /// An end rule that holds while the take-off point is unreachable (fine modes) is deferred this
+  /// many times in a row, retry_period_s apart, the vehicle stopped (docs/exploration.md, "Ending
+  /// and the flight home"): map noise closed a way the vehicle flew, and the verdict covers only
+  /// part of the building. 0: never deferred.
+  int max_end_deferrals{5};
+  bool return_home{true};          ///< fly back to the take-off point at the end
+  bool land_at_end{true};          ///< then send a land command
+  int max_status_candidates{512};  ///< candidates listed in EXPLORATION_STATUS (best first)
   /// The 2D maps go out at most this often, s (0: with every plan). The volumetric mode's band is
   /// at the map's resolution (lasr: 165 kB per message); at 1 Hz replans that traffic crowded the
   /// receive buffers of every process on the multicast group.
@@ -187,6 +192,9 @@ class ExplorerNode {
   bool RemainingPathSafe();
   /// Publishes PlanStop from the flown trajectory's state now (ReplanUse::kStop); false if none.
   bool Stop();
+  /// Whether the plan's distance field reaches a cell within the vehicle radius of the take-off
+  /// point (true where the plan has no fine traversability: the paper's modes).
+  [[nodiscard]] bool TakeOffReachable(const PlanResult& result) const;
   void Publish(const PiecewisePolynomialTrajectory& trajectory);
   void PublishStatus(const PlanResult& result, const std::string& reason);
   void PublishMaps(const PlanResult& result);
@@ -225,6 +233,7 @@ class ExplorerNode {
   int64_t plan_seq_{0};
   int64_t command_seq_{0};
   int failed_plans_{0};
+  int end_deferrals_{0};  ///< consecutive end rules deferred (max_end_deferrals)
   double last_plan_s_{-1e300};
   double next_attempt_s_{-1e300};
   double last_safety_check_s_{-1e300};

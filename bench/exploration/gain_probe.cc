@@ -93,7 +93,8 @@ int FrontierOnce(char** argv) {
 }
 
 // ASCII picture of the fine traversability around (x, y): '#' blocked by a known occupied cell,
-// '?' blocked by unknown space, '-' free but short of clearance, '.' traversable, 'V' (x, y).
+// '?' blocked by unknown space, '-' free but short of clearance, 'p' a passage cell (paths only),
+// '.' traversable, 'V' (x, y).
 int Traversable(int argc, char** argv) {
   const LoadedMap<DenseOccupancyMap> loaded = LoadDenseMap(argv[2]);
   PlannerConfig config;
@@ -118,7 +119,11 @@ int Traversable(int argc, char** argv) {
         continue;
       }
       const size_t i = static_cast<size_t>(t.band.IndexOf(x, y));
-      char ch = t.traversable[i] ? '.' : t.clearance.values[i] > 0 ? '-' : t.unknown[i] ? '?' : '#';
+      char ch = t.traversable[i]                                  ? '.'
+                : t.passage_points.count(static_cast<int>(i)) > 0 ? 'p'
+                : t.clearance.values[i] > 0                       ? '-'
+                : t.unknown[i]                                    ? '?'
+                                                                  : '#';
       if (x == c->x && y == c->y) ch = 'V';
       std::putchar(ch);
     }

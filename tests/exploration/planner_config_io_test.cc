@@ -25,6 +25,7 @@ TEST(PlannerConfigIo, ReferenceFileEqualsDefaults) {
   EXPECT_EQ(e.startup_min_rise_m, ed.startup_min_rise_m);
   EXPECT_EQ(e.startup_yaw_profile, ed.startup_yaw_profile);
   EXPECT_EQ(e.max_failed_plans, ed.max_failed_plans);
+  EXPECT_EQ(e.max_end_deferrals, ed.max_end_deferrals);
   EXPECT_EQ(e.map_channel, ed.map_channel);
   EXPECT_EQ(e.pose_channel, ed.pose_channel);
   const PlannerConfig& c = e.planner;
