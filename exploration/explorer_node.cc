@@ -344,7 +344,8 @@ void ExplorerNode::Plan(const std::string& reason) {
         break;
     }
   } else if (result.status == PlanStatus::kExplorationDone &&
-             end_deferrals_ < config_.max_end_deferrals && !TakeOffReachable(result)) {
+             end_deferrals_ < config_.max_end_deferrals &&
+             !ReachesWithin(result, home_xy_, config_.planner.trajectory.vehicle_radius_m)) {
     // The end rules judge the space reachable now; without the take-off point in it, map noise
     // has closed a way the vehicle flew (e.g. a door jamb read a cell wider), and the verdict
     // covers part of the building only. Stop, let the map settle, plan again.
@@ -396,24 +397,6 @@ bool ExplorerNode::Stop() {
                "clear: stopping on the line of flight");
   Publish(*stop);
   return true;
-}
-
-bool ExplorerNode::TakeOffReachable(const PlanResult& result) const {
-  if (!result.traversability) return true;
-  const GridMap2D& grid = result.traversability->band;
-  const double r = config_.planner.trajectory.vehicle_radius_m;
-  const std::optional<Cell2> c = grid.CellOf(home_xy_);
-  if (!c) return false;
-  const int reach = static_cast<int>(std::ceil(r / grid.resolution_m));
-  for (int y = std::max(0, c->y - reach); y <= std::min(grid.height - 1, c->y + reach); ++y) {
-    for (int x = std::max(0, c->x - reach); x <= std::min(grid.width - 1, c->x + reach); ++x) {
-      if ((grid.CenterOf({x, y}) - home_xy_).norm() <= r &&
-          result.field.Reachable(grid.IndexOf(x, y))) {
-        return true;
-      }
-    }
-  }
-  return false;
 }
 
 bool ExplorerNode::ProgressStalled() {

@@ -192,9 +192,6 @@ class ExplorerNode {
   bool RemainingPathSafe();
   /// Publishes PlanStop from the flown trajectory's state now (ReplanUse::kStop); false if none.
   bool Stop();
-  /// Whether the plan's distance field reaches a cell within the vehicle radius of the take-off
-  /// point (true where the plan has no fine traversability: the paper's modes).
-  [[nodiscard]] bool TakeOffReachable(const PlanResult& result) const;
   void Publish(const PiecewisePolynomialTrajectory& trajectory);
   void PublishStatus(const PlanResult& result, const std::string& reason);
   void PublishMaps(const PlanResult& result);

@@ -446,4 +446,21 @@ PlanResult PlanToPoint(const PlannerConfig& config, const PlannerInput& input,
   return result;
 }
 
+bool ReachesWithin(const PlanResult& result, const Eigen::Vector2d& xy_m, double radius_m) {
+  if (!result.traversability) return true;
+  const GridMap2D& grid = result.traversability->band;
+  const std::optional<Cell2> c = grid.CellOf(xy_m);
+  if (!c || grid.size() != static_cast<int>(result.field.distance_m.size())) return false;
+  const int reach = static_cast<int>(std::ceil(radius_m / grid.resolution_m));
+  for (int y = std::max(0, c->y - reach); y <= std::min(grid.height - 1, c->y + reach); ++y) {
+    for (int x = std::max(0, c->x - reach); x <= std::min(grid.width - 1, c->x + reach); ++x) {
+      if ((grid.CenterOf({x, y}) - xy_m).norm() <= radius_m &&
+          result.field.Reachable(grid.IndexOf(x, y))) {
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
 }  // namespace kestrel

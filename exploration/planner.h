@@ -367,4 +367,10 @@ class FineFrontierPlanner final : public ExplorationPlanner {
 [[nodiscard]] PlanResult PlanToPoint(const PlannerConfig& config, const PlannerInput& input,
                                      const Eigen::Vector2d& goal_xy, double goal_yaw_rad);
 
+/// Whether a fine-mode plan's distance field reaches a cell whose centre lies within radius_m of
+/// xy_m (the explorer asks it of the take-off point before it ends exploration). True for plans
+/// without a fine traversability (the paper's modes, on C).
+[[nodiscard]] bool ReachesWithin(const PlanResult& result, const Eigen::Vector2d& xy_m,
+                                 double radius_m);
+
 }  // namespace kestrel

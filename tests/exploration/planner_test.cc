@@ -593,11 +593,39 @@ TEST(Planner, VolumetricPassesAnEvenDoorThroughItsMiddle) {
   double least = 0.0, offset = 0.0;
   ASSERT_TRUE(plan(14, 0.08, &least, &offset));
   EXPECT_GE(least, 0.44 + 0.08 - 0.5 * 0.075);
-  EXPECT_LE(offset, 0.5 * 0.075);  // in the half cells next to the middle line
-  EXPECT_FALSE(plan(13, 0.08, &least, &offset));
+  EXPECT_LE(offset, 0.5 * 0.075);                 // in the half cells next to the middle line
+  EXPECT_FALSE(plan(13, 0.08, &least, &offset));  // and the far room is out of reach:
   EXPECT_FALSE(plan(14, 0.10, &least, &offset));
   ASSERT_TRUE(plan(15, 0.10, &least, &offset));  // 15 cells: through the middle cell's centre
   EXPECT_GE(least, 0.44 + 0.10 - 0.5 * 0.075);
+}
+
+// ReachesWithin (what the explorer asks of the take-off point before it ends exploration): a plan
+// from the south of the inner wall reaches the north through the open end, and not when the map
+// closes that end; a paper-mode plan (no fine traversability) always answers true.
+TEST(Planner, ReachesWithinFollowsTheDistanceField) {
+  PlannerConfig config;
+  config.mode = ExplorationMode::kVolumetric;
+  RoomMap open(100.0);
+  const PlanResult r = MakePlanner(config)->Plan(InputAt(open, {1.5, -1.5}));
+  ASSERT_TRUE(r.traversability.has_value()) << r.reason;
+  EXPECT_TRUE(ReachesWithin(r, {-1.5, -1.5}, 0.44));
+  EXPECT_TRUE(ReachesWithin(r, {1.5, -1.5}, 0.44));
+  RoomMap closed(100.0);  // the inner wall (x = 0.5..0.7) run up to the north wall
+  for (int k = 0; k < closed.dims.z(); ++k) {
+    for (int j = 0; j < closed.dims.y(); ++j) {
+      for (int i = 0; i < closed.dims.x(); ++i) {
+        const double x = closed.origin.x() + (i + 0.5) * closed.alpha;
+        if (std::abs(x - 0.6) < 0.1) closed.at(i, j, k) = 0.9999f;
+      }
+    }
+  }
+  const PlanResult c = MakePlanner(config)->Plan(InputAt(closed, {1.5, -1.5}));
+  ASSERT_TRUE(c.traversability.has_value()) << c.reason;
+  EXPECT_FALSE(ReachesWithin(c, {-1.5, -1.5}, 0.44));
+  EXPECT_TRUE(ReachesWithin(c, {1.5, -1.5}, 0.44));
+  EXPECT_FALSE(ReachesWithin(c, {50.0, 50.0}, 0.44));  // outside the map
+  EXPECT_TRUE(ReachesWithin(PlanResult{}, {50.0, 50.0}, 0.44));
 }
 
 // New map data can leave the vehicle short of clearance (0.25 m from a wall, 0.49 m needed): it
