@@ -424,13 +424,21 @@ void ExplorerNode::PlanHome(const std::string& reason) {
     SendLand();
     return;
   }
-  // After a first failure, the retries ask for the vehicle's radius only, without the margin
-  // (docs/exploration.md, "Ending and the flight home"): new map data (noise at a door jamb or
-  // over furniture) can close a way the vehicle flew, and a slow, careful flight home beats
-  // landing in an unknown place.
+  // After a first failure, the retries ask for the vehicle's radius only, without the margin,
+  // and for the body's own height below h, without the tilt allowance, at half the speed and
+  // acceleration (docs/exploration.md, "Ending and the flight home"): new map data (noise at a
+  // door jamb or over a table top at the band's lower edge) can close a way the vehicle flew,
+  // and a slow, careful flight home beats landing in an unknown place.
   PlannerConfig planner = config_.planner;
   const bool squeeze = home_attempts_ > 0;
-  if (squeeze) planner.volumetric.margin_m = 0.0;
+  if (squeeze) {
+    planner.volumetric.margin_m = 0.0;
+    planner.volumetric.passage_margin_m = 0.0;
+    planner.volumetric.band_below_m =
+        std::min(planner.volumetric.band_below_m, planner.volumetric.band_above_m);
+    planner.trajectory.max_speed_mps *= 0.5;
+    planner.trajectory.max_acceleration_mps2 *= 0.5;
+  }
   PlanResult home = PlanToPoint(planner, PlanningInput(), home_xy_, home_yaw_rad_);
   ++plan_seq_;
   ++home_attempts_;
@@ -456,8 +464,36 @@ void ExplorerNode::PlanHome(const std::string& reason) {
     return;
   }
   landing_ = "landed elsewhere: no path home after " + std::to_string(home_attempts_) +
-             " attempts (" + home.reason + "), " +
-             std::to_string((pose_.p.head<2>() - home_xy_).norm()) + " m from the take-off point";
+             " attempts (" + home.reason + "), ";
+  // Not onto furniture: the nearest reachable place with known-free space under the vehicle's
+  // disc from the ground to the flight (LandingCell), reached by the careful flight above.
+  const PlannerInput input = PlanningInput();
+  const double r = config_.planner.trajectory.vehicle_radius_m;
+  const std::optional<int> spot =
+      LandingCell(home, input.map, r, lowest_z_m_,
+                  config_.planner.projection.height_m - planner.volumetric.band_below_m,
+                  config_.planner.projection.collision_threshold);
+  if (spot && home.traversability) {
+    const GridMap2D& grid = home.traversability->band;
+    const Eigen::Vector2d xy = grid.CenterOf(grid.CellAt(*spot));
+    const std::optional<Cell2> own = grid.CellOf(pose_.p.head<2>());
+    if (!own || grid.IndexOf(*own) != *spot) {
+      PlanResult to_spot = PlanToPoint(planner, input, xy, YawOf(pose_.q));
+      ++plan_seq_;
+      if (to_spot.status == PlanStatus::kGoal && to_spot.trajectory.trajectory.has_value()) {
+        landing_ += std::to_string((xy - home_xy_).norm()) +
+                    " m from the take-off point, on known-free ground " +
+                    std::to_string((xy - pose_.p.head<2>()).norm()) + " m from where it stopped";
+        Log(LogLevel::kWarning, landing_ + ": flying there");
+        home_trajectory_ = true;  // the trajectory ends where the vehicle lands
+        PublishFrom(*to_spot.trajectory.trajectory);
+        PublishStatus(to_spot, reason + " (" + end_rule_ + "): flying to a landing place");
+        return;
+      }
+    }
+  }
+  landing_ += std::to_string((pose_.p.head<2>() - home_xy_).norm()) + " m from the take-off point";
+  if (!spot) landing_ += ", no known-free ground within reach: in place";
   Log(LogLevel::kWarning, landing_);
   SendLand();
   PublishStatus(home, reason + " (" + end_rule_ + "): " + landing_);
@@ -571,10 +607,12 @@ void ExplorerNode::Step() {
         break;
       }
       // The flight home ends in the cell holding the take-off point (or the reachable one nearest
-      // to it): land there.
+      // to it), or at a landing place elsewhere: land there.
       if (trajectory_.has_value() && t >= trajectory_->end_time_s() + 0.5) {
-        landing_ = "returned home (" + std::to_string((pose_.p.head<2>() - home_xy_).norm()) +
-                   " m from the take-off point)";
+        if (landing_.empty()) {  // else: a landing place elsewhere (PlanHome)
+          landing_ = "returned home (" + std::to_string((pose_.p.head<2>() - home_xy_).norm()) +
+                     " m from the take-off point)";
+        }
         Log(LogLevel::kInfo, landing_);
         SendLand();
         // The status says DONE too: processes watching EXPLORATION_STATUS (kestrel-flight-check,

@@ -463,4 +463,52 @@ bool ReachesWithin(const PlanResult& result, const Eigen::Vector2d& xy_m, double
   return false;
 }
 
+std::optional<int> LandingCell(const PlanResult& result, const OccupancyGridView& map,
+                               double radius_m, double ground_z_m, double top_z_m,
+                               double free_threshold) {
+  if (!result.traversability) return std::nullopt;
+  const GridMap2D& grid = result.traversability->band;
+  const double alpha = map.resolution_m;
+  if (grid.width != map.dims.x() || grid.height != map.dims.y() ||
+      grid.size() != static_cast<int>(result.field.distance_m.size())) {
+    return std::nullopt;
+  }
+  // The layers between the ground (plus a cell) and the flight.
+  const int k0 =
+      static_cast<int>(std::ceil((ground_z_m + alpha - map.origin_m.z()) / alpha - 1e-9));
+  const int k1 = static_cast<int>(std::floor((top_z_m - map.origin_m.z()) / alpha + 1e-9)) - 1;
+  std::vector<int> order;
+  for (int i = 0; i < grid.size(); ++i) {
+    if (result.field.Reachable(i)) order.push_back(i);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return result.field.distance_m[static_cast<size_t>(a)] <
+           result.field.distance_m[static_cast<size_t>(b)];
+  });
+  const double reach_m = radius_m + alpha * std::sqrt(0.5);
+  const int reach = static_cast<int>(std::ceil(reach_m / alpha));
+  for (const int i : order) {
+    const Cell2 c = grid.CellAt(i);
+    const Eigen::Vector2d centre = grid.CenterOf(c);
+    bool clear = true;
+    for (int y = c.y - reach; clear && y <= c.y + reach; ++y) {
+      for (int x = c.x - reach; clear && x <= c.x + reach; ++x) {
+        if ((grid.CenterOf({x, y}) - centre).norm() > reach_m) continue;
+        if (!grid.Contains(x, y)) {
+          clear = false;
+          break;
+        }
+        for (int k = std::max(0, k0); k <= std::min(map.dims.z() - 1, k1); ++k) {
+          if (!(map.At(x, y, k) <= free_threshold)) {
+            clear = false;
+            break;
+          }
+        }
+      }
+    }
+    if (clear && k0 >= 0 && k1 < map.dims.z()) return i;
+  }
+  return std::nullopt;
+}
+
 }  // namespace kestrel

@@ -373,4 +373,15 @@ class FineFrontierPlanner final : public ExplorationPlanner {
 [[nodiscard]] bool ReachesWithin(const PlanResult& result, const Eigen::Vector2d& xy_m,
                                  double radius_m);
 
+/// Where to land when no path home exists (docs/exploration.md, "Ending and the flight home"):
+/// of the cells a fine-mode plan's distance field reaches (nearest first), the first whose
+/// vehicle disc (radius_m) has nothing below the flight to land on: every 3D cell whose column
+/// centre lies within radius_m + alpha/sqrt(2) of the cell's centre and whose z extent lies in
+/// [ground_z_m + alpha, top_z_m] is known free (P <= free_threshold; one layer above the ground is
+/// left out: the floor's own cells and what no landing gear notices). nullopt if there is none
+/// or the plan has no fine traversability.
+[[nodiscard]] std::optional<int> LandingCell(const PlanResult& result, const OccupancyGridView& map,
+                                             double radius_m, double ground_z_m, double top_z_m,
+                                             double free_threshold);
+
 }  // namespace kestrel

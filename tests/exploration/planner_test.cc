@@ -628,6 +628,56 @@ TEST(Planner, ReachesWithinFollowsTheDistanceField) {
   EXPECT_TRUE(ReachesWithin(PlanResult{}, {50.0, 50.0}, 0.44));
 }
 
+// LandingCell (where the explorer lands when no path home exists): with a chair (0.4 m square,
+// 0.46 m tall) under the vehicle, the nearest reachable cell whose disc clears the chair; with
+// nothing under it, the vehicle's own cell; with the space below the flight unknown, none.
+TEST(Planner, LandingCellAvoidsWhatIsBelowTheFlight) {
+  PlannerConfig config;
+  config.mode = ExplorationMode::kVolumetric;
+  const double top = config.projection.height_m - config.volumetric.band_below_m;
+  const auto landing = [&](RoomMap& map) {
+    const PlannerInput in = InputAt(map, {-1.5, -1.5});
+    const PlanResult r = MakePlanner(config)->Plan(in);
+    EXPECT_TRUE(r.traversability.has_value()) << r.reason;
+    const std::optional<int> cell = LandingCell(r, in.map, 0.44, 0.0, top, 0.05);
+    std::optional<Eigen::Vector2d> xy;
+    if (cell) {
+      EXPECT_TRUE(r.field.Reachable(*cell));
+      xy = r.traversability->band.CenterOf(r.traversability->band.CellAt(*cell));
+    }
+    return xy;
+  };
+  RoomMap bare(100.0);
+  const std::optional<Eigen::Vector2d> own = landing(bare);
+  ASSERT_TRUE(own.has_value());
+  EXPECT_LT((*own - Eigen::Vector2d(-1.5, -1.5)).norm(), 0.075);
+  RoomMap chair(100.0);
+  const auto set_below = [&](RoomMap& map, double x0, double x1, double y0, double y1, float p) {
+    for (int k = 0; k < map.dims.z(); ++k) {
+      for (int j = 0; j < map.dims.y(); ++j) {
+        for (int i = 0; i < map.dims.x(); ++i) {
+          const double x = map.origin.x() + (i + 0.5) * map.alpha;
+          const double y = map.origin.y() + (j + 0.5) * map.alpha;
+          const double z = map.origin.z() + (k + 0.5) * map.alpha;
+          if (x > x0 && x < x1 && y > y0 && y < y1 && z > 0.0 && z < 0.46) map.at(i, j, k) = p;
+        }
+      }
+    }
+  };
+  set_below(chair, -1.7, -1.3, -1.7, -1.3, 0.9999f);
+  const std::optional<Eigen::Vector2d> away = landing(chair);
+  ASSERT_TRUE(away.has_value());
+  // The disc misses the chair's cells (centres within 0.2 m of (-1.5, -1.5) on each axis)...
+  const Eigen::Vector2d d = (away->array() + 1.5).abs().matrix();
+  const double to_chair = std::hypot(std::max(0.0, d.x() - 0.2), std::max(0.0, d.y() - 0.2));
+  EXPECT_GT(to_chair, 0.44);
+  // ...and is the nearest that does: within a cell and a half of the least such distance.
+  EXPECT_LT((*away - Eigen::Vector2d(-1.5, -1.5)).norm(), 0.2 + 0.44 + 0.075 * 3);
+  RoomMap unknown(100.0);
+  set_below(unknown, -3.0, 3.0, -3.0, 3.0, 0.1f);
+  EXPECT_FALSE(landing(unknown).has_value());
+}
+
 // New map data can leave the vehicle short of clearance (0.25 m from a wall, 0.49 m needed): it
 // escapes along space no tighter than where it is, and the plan flies it away.
 TEST(Planner, VolumetricEscapesFromNearAWall) {
