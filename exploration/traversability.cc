@@ -73,7 +73,7 @@ void FindPassages(const std::vector<bool>& site, int pw, double need, const std:
   const int reach = static_cast<int>(std::ceil((need + alpha) / alpha)) + 1;
   const double limit2 = (need + 0.5 * alpha) * (need + 0.5 * alpha) / (alpha * alpha);
   const auto candidate = [&](int x, int y) {
-    const size_t i = static_cast<size_t>(x + w * y);
+    const size_t i = static_cast<size_t>(x) + static_cast<size_t>(w) * static_cast<size_t>(y);
     return free[i] && !t->traversable[i] && t->clearance.values[i] >= need - 0.5 * alpha;
   };
   const auto offer = [&](int cell, const Eigen::Vector2d& point, double clearance) {
