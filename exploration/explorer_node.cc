@@ -392,6 +392,13 @@ bool ExplorerNode::Stop() {
   now.time_s = now_s();
   std::optional<PiecewisePolynomialTrajectory> stop = PlanStop(now, config_.planner.trajectory);
   if (!stop) return false;  // not expected: a finite state always has a stop
+  // The stop follows the velocity, not the map: where that line leaves the usable cells (into a
+  // door jamb when the vehicle enters a door at an angle), the caller flies the checked replan.
+  if (!TrajectoryStillClear(config_.planner, Input(), *stop, now.time_s - 0.5)) {
+    drops_.Count("stop_not_clear",
+                 "stopping on the line of flight would leave the usable cells: flying the replan");
+    return false;
+  }
   drops_.Count("stopped",
                "a replan could not start from the flown state and the flown path is no longer "
                "clear: stopping on the line of flight");
