@@ -3,48 +3,75 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
 
 #include "common/log.h"
 #include "common/node_loop.h"
 
 namespace kestrel {
 
-ProcessArgs ParseProcessArgs(int argc, char** argv, const std::string& usage) {
+namespace {
+const char* const kCommonHelp =
+    "\nCommon options:\n"
+    "  --config FILE        YAML configuration (keys are checked; unknown keys are errors)\n"
+    "  --set KEY.PATH=VALUE override one configuration value (repeatable)\n"
+    "  --lcm-url URL        LCM provider, e.g. udpm://239.255.76.67:7667?ttl=0\n"
+    "  --sim-clock CHANNEL  follow the simulator's time (sim_truth_t on CHANNEL, e.g. "
+    "SIM_TRUTH)\n"
+    "  -h, --help           this text\n";
+}  // namespace
+
+bool ParseCommandLine(int argc, const char* const* argv, const OptionDeclarer& declare,
+                      ProcessArgs* args) {
+  CLI::App app;
+  app.set_help_flag();  // the process's own usage text is printed instead of CLI11's
+  bool help = false;
+  app.add_flag("-h,--help", help);
+  app.add_option("--config", args->config_path);
+  // One value per --set, so a positional argument after it stays positional.
+  app.add_option("--set", args->overrides)->allow_extra_args(false);
+  app.add_option("--lcm-url", args->lcm_url);
+  app.add_option("--sim-clock", args->sim_clock_channel);
+  if (declare) declare(app);
+  // Extras are collected, not thrown, so that a mistyped option is named first (before, say, a
+  // required option that the mistyping left out) and in the order typed.
+  app.allow_extras();
+  std::vector<std::string> reversed;  // CLI11 takes the arguments last first
+  for (int i = argc - 1; i >= 1; --i) reversed.emplace_back(argv[i]);
+  std::string refusal;
+  try {
+    app.parse(reversed);
+  } catch (const CLI::ParseError& e) {
+    refusal = e.what();
+  }
+  if (help) return false;
+  const std::vector<std::string> extras = app.remaining();
+  if (!extras.empty()) {
+    const std::string& first = extras.front();
+    throw CommandLineError(first.rfind('-', 0) == 0 && first.size() > 1
+                               ? "unknown option " + first
+                               : "unexpected argument '" + first + "'");
+  }
+  if (!refusal.empty()) throw CommandLineError(refusal);
+  return true;
+}
+
+ProcessArgs ParseProcessArgs(int argc, char** argv, const std::string& usage,
+                             const OptionDeclarer& declare) {
   ProcessArgs args;
-  const std::string common_help =
-      "\nCommon options:\n"
-      "  --config FILE        YAML configuration (keys are checked; unknown keys are errors)\n"
-      "  --set KEY.PATH=VALUE override one configuration value (repeatable)\n"
-      "  --lcm-url URL        LCM provider, e.g. udpm://239.255.76.67:7667?ttl=0\n"
-      "  --sim-clock CHANNEL  follow the simulator's time (sim_truth_t on CHANNEL, e.g. "
-      "SIM_TRUTH)\n"
-      "  -h, --help           this text\n";
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&](const std::string& flag) -> std::string {
-      const std::string prefix = flag + "=";
-      if (a.rfind(prefix, 0) == 0) return a.substr(prefix.size());
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "%s: %s needs a value\n%s%s", argv[0], flag.c_str(), usage.c_str(),
-                     common_help.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") {
-      std::printf("%s%s", usage.c_str(), common_help.c_str());
-      std::exit(0);
-    } else if (a == "--config" || a.rfind("--config=", 0) == 0) {
-      args.config_path = value("--config");
-    } else if (a == "--set" || a.rfind("--set=", 0) == 0) {
-      args.overrides.push_back(value("--set"));
-    } else if (a == "--lcm-url" || a.rfind("--lcm-url=", 0) == 0) {
-      args.lcm_url = value("--lcm-url");
-    } else if (a == "--sim-clock" || a.rfind("--sim-clock=", 0) == 0) {
-      args.sim_clock_channel = value("--sim-clock");
-    } else {
-      args.positional.push_back(a);  // process-specific flags and arguments: the body's to check
-    }
+  bool run = false;
+  try {
+    run = ParseCommandLine(argc, argv, declare, &args);
+  } catch (const CommandLineError& e) {
+    Log(LogLevel::kError, std::string("command line: ") + e.what() + " (--help lists the options)");
+    std::exit(2);
+  }
+  if (!run) {
+    std::printf("%s%s", usage.c_str(), kCommonHelp);
+    std::exit(0);
   }
   return args;
 }
@@ -58,8 +85,14 @@ ConfigNode LoadProcessConfig(const ProcessArgs& args) {
 
 int RunProcess(const std::string& name, int argc, char** argv, const std::string& usage,
                const std::function<int(const ProcessArgs&, ConfigNode&)>& body) {
+  return RunProcess(name, argc, argv, usage, OptionDeclarer(), body);
+}
+
+int RunProcess(const std::string& name, int argc, char** argv, const std::string& usage,
+               const OptionDeclarer& declare,
+               const std::function<int(const ProcessArgs&, ConfigNode&)>& body) {
   SetLogProcessName(name);
-  const ProcessArgs args = ParseProcessArgs(argc, argv, usage);
+  const ProcessArgs args = ParseProcessArgs(argc, argv, usage, declare);
   try {
     ConfigNode config = LoadProcessConfig(args);
     NodeLoop::InstallSignalHandlers();

@@ -3,6 +3,7 @@
 // heartbeat. See control/controller_node.h.
 #include <lcm/lcm-cpp.hpp>
 
+#include "common/command_line.h"
 #include "common/heartbeat.h"
 #include "common/node_loop.h"
 #include "common/process.h"
@@ -19,18 +20,11 @@ const char* const kUsage =
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::string vehicle_path = "config/vehicle/paper.yaml";
   return kestrel::RunProcess(
       "kestrel-controller", argc, argv, kUsage,
-      [](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
-        std::string vehicle_path = "config/vehicle/paper.yaml";
-        const auto& p = args.positional;
-        for (size_t i = 0; i < p.size(); ++i) {
-          if (p[i] == "--vehicle" && i + 1 < p.size()) {
-            vehicle_path = p[++i];
-          } else {
-            throw kestrel::ConfigError("unexpected argument '" + p[i] + "'\n" + kUsage);
-          }
-        }
+      [&](CLI::App& app) { app.add_option("--vehicle", vehicle_path); },
+      [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
         const kestrel::VehicleConfig vehicle = kestrel::LoadVehicleConfigFile(vehicle_path);
         kestrel::ControllerConfig config = kestrel::LoadControllerConfig(node, vehicle);
         config.flight.vehicle = vehicle;

@@ -19,9 +19,6 @@ int main(int argc, char** argv) {
   return kestrel::RunProcess(
       "kestrel-explorer", argc, argv, kUsage,
       [](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
-        if (!args.positional.empty()) {
-          throw kestrel::ConfigError("unexpected argument '" + args.positional[0] + "'\n" + kUsage);
-        }
         const kestrel::ExplorerConfig config = kestrel::LoadExplorerConfig(node);
         node.CheckNoUnknownKeys();
         lcm::LCM lcm(args.lcm_url);

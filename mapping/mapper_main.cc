@@ -1,6 +1,7 @@
 // kestrel-mapper: fuses depth images and planar scans into the exact 3D occupancy map.
 #include <lcm/lcm-cpp.hpp>
 
+#include "common/command_line.h"
 #include "common/log.h"
 #include "common/node_loop.h"
 #include "common/process.h"
@@ -17,22 +18,15 @@ const char* const kUsage =
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::string save_path, octomap_path, ply_path;
   return kestrel::RunProcess(
       "kestrel-mapper", argc, argv, kUsage,
-      [](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
-        std::string save_path, octomap_path, ply_path;
-        const auto& p = args.positional;
-        for (size_t i = 0; i < p.size(); ++i) {
-          if (i + 1 < p.size() && p[i] == "--save") {
-            save_path = p[++i];
-          } else if (i + 1 < p.size() && p[i] == "--export-octomap") {
-            octomap_path = p[++i];
-          } else if (i + 1 < p.size() && p[i] == "--export-ply") {
-            ply_path = p[++i];
-          } else {
-            throw kestrel::ConfigError("unexpected argument '" + p[i] + "'\n" + kUsage);
-          }
-        }
+      [&](CLI::App& app) {
+        app.add_option("--save", save_path);
+        app.add_option("--export-octomap", octomap_path);
+        app.add_option("--export-ply", ply_path);
+      },
+      [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
         const kestrel::MapperConfig config = kestrel::LoadMapperConfig(node);
         node.CheckNoUnknownKeys();
         lcm::LCM lcm(args.lcm_url);

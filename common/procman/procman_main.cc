@@ -5,6 +5,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "common/command_line.h"
 #include "common/identity.h"
 #include "common/log.h"
 #include "common/node_loop.h"
@@ -26,41 +27,21 @@ const char* const kUsage =
 
 int main(int argc, char** argv) {
   using kestrel::procman::Deputy;
+  std::string sheet_path, script;
+  std::vector<std::string> starts;
+  bool exit_after_script = false;
+  kestrel::procman::DeputyConfig config;
   return kestrel::RunProcess(
       "kestrel-procman", argc, argv, kUsage,
-      [](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
-        std::string sheet_path, script;
-        std::vector<std::string> starts;
-        bool exit_after_script = false;
-        kestrel::procman::DeputyConfig config;
-        const auto& p = args.positional;
-        for (size_t i = 0; i < p.size(); ++i) {
-          auto value = [&]() -> std::string {
-            if (i + 1 >= p.size()) throw std::invalid_argument(p[i] + " needs a value");
-            return p[++i];
-          };
-          if (p[i] == "--host") {
-            config.host = value();
-          } else if (p[i] == "--log-dir") {
-            config.log_dir = value();
-          } else if (p[i] == "--start") {
-            starts.push_back(value());
-          } else if (p[i] == "--script") {
-            script = value();
-          } else if (p[i] == "--exit-after-script") {
-            exit_after_script = true;
-          } else if (p[i].rfind("--", 0) == 0 || !sheet_path.empty()) {
-            std::fprintf(stderr, "kestrel-procman: unexpected argument '%s'\n%s", p[i].c_str(),
-                         kUsage);
-            return 2;
-          } else {
-            sheet_path = p[i];
-          }
-        }
-        if (sheet_path.empty() || config.host.empty()) {
-          std::fprintf(stderr, "%s", kUsage);
-          return 2;
-        }
+      [&](CLI::App& app) {
+        app.add_option("sheet", sheet_path)->required();
+        app.add_option("--host", config.host)->required();
+        app.add_option("--log-dir", config.log_dir);
+        app.add_option("--start", starts)->allow_extra_args(false);
+        app.add_option("--script", script);
+        app.add_flag("--exit-after-script", exit_after_script);
+      },
+      [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
         const kestrel::procman::Sheet sheet = kestrel::procman::LoadSheet(sheet_path);
         // One run id for every command and respawn of this runner (docs/design.md §3.5).
         const std::string run_id = kestrel::EnsureRunIdInEnvironment();

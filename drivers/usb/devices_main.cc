@@ -9,6 +9,7 @@
 #include <string>
 #include <thread>
 
+#include "common/command_line.h"
 #include "common/config.h"
 #include "common/node_loop.h"
 #include "common/process.h"
@@ -29,27 +30,17 @@ const char kNone[] = "no Hokuyo (15d1:0000) or Xtion (1d27:0600/0601) device att
 }  // namespace
 
 int main(int argc, char** argv) {
+  bool list = false;
+  double watch_s = 0.0;
   return kestrel::RunProcess(
       "kestrel-devices", argc, argv, kUsage,
-      [](const kestrel::ProcessArgs& args, kestrel::ConfigNode& config_node) {
-        bool watch = false;
-        double watch_s = 0.0;
-        for (size_t i = 0; i < args.positional.size(); ++i) {
-          const std::string& a = args.positional[i];
-          if (a == "--list") {
-            watch = false;
-          } else if (a == "--watch" && i + 1 < args.positional.size()) {
-            char* end = nullptr;
-            watch_s = std::strtod(args.positional[++i].c_str(), &end);
-            if (end == nullptr || *end != '\0' || !(watch_s > 0.0 && watch_s <= 86400.0)) {
-              throw kestrel::ConfigError("--watch SECONDS: '" + args.positional[i] +
-                                         "', accepted a number in (0, 86400]");
-            }
-            watch = true;
-          } else {
-            throw kestrel::ConfigError("unexpected argument '" + a + "'\n" + kUsage);
-          }
-        }
+      [&](CLI::App& app) {
+        app.add_flag("--list", list);
+        app.add_option("--watch", watch_s)->check(kestrel::cli::Within(1e-3, 86400.0));
+      },
+      [&](const kestrel::ProcessArgs&, kestrel::ConfigNode& config_node) {
+        const bool watch = watch_s > 0.0;
+        if (list && watch) throw kestrel::ConfigError("--list and --watch exclude each other");
         const kestrel::DevicesConfig config = kestrel::LoadDevicesConfig(config_node);
         config_node.CheckNoUnknownKeys();
 

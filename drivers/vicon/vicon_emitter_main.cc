@@ -19,9 +19,6 @@ int main(int argc, char** argv) {
   return kestrel::RunProcess(
       "kestrel-vicon-emitter", argc, argv, kUsage,
       [](const kestrel::ProcessArgs& args, kestrel::ConfigNode& config_node) {
-        if (!args.positional.empty()) {
-          throw kestrel::ConfigError("unexpected argument '" + args.positional[0] + "'");
-        }
         const kestrel::ViconEmitterConfig config = kestrel::LoadViconEmitterConfig(config_node);
         config_node.CheckNoUnknownKeys();
         lcm::LCM lcm(args.lcm_url);

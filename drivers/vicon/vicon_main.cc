@@ -17,9 +17,6 @@ int main(int argc, char** argv) {
   return kestrel::RunProcess(
       "kestrel-vicon", argc, argv, kUsage,
       [](const kestrel::ProcessArgs& args, kestrel::ConfigNode& config_node) {
-        if (!args.positional.empty()) {
-          throw kestrel::ConfigError("unexpected argument '" + args.positional[0] + "'");
-        }
         const kestrel::ViconConfig config = kestrel::LoadViconConfig(config_node);
         config_node.CheckNoUnknownKeys();
         lcm::LCM lcm(args.lcm_url);

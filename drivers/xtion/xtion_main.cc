@@ -2,6 +2,7 @@
 #include <cstdio>
 
 #include "common/clock.h"
+#include "common/command_line.h"
 #include "common/node_loop.h"
 #include "common/process.h"
 #include "drivers/xtion/xtion_config.h"
@@ -17,20 +18,12 @@ const char kUsage[] =
 }  // namespace
 
 int main(int argc, char** argv) {
+  bool list = false;
   return kestrel::RunProcess(
-      "kestrel-xtion", argc, argv, kUsage,
-      [](const kestrel::ProcessArgs& args, kestrel::ConfigNode& config) {
+      "kestrel-xtion", argc, argv, kUsage, [&](CLI::App& app) { app.add_flag("--list", list); },
+      [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode& config) {
         const kestrel::XtionConfig xtion_config = kestrel::LoadXtionConfig(config);
         config.CheckNoUnknownKeys();
-        bool list = false;
-        for (const auto& a : args.positional) {
-          if (a == "--list") {
-            list = true;
-          } else {
-            std::fprintf(stderr, "kestrel-xtion: unknown argument '%s'\n%s", a.c_str(), kUsage);
-            return 2;
-          }
-        }
         lcm::LCM lcm(args.lcm_url);
         if (!lcm.good()) {
           std::fprintf(stderr, "kestrel-xtion: cannot open LCM '%s'\n", args.lcm_url.c_str());

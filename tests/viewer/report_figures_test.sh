@@ -67,7 +67,7 @@ expect_error 2 "are required" "$bin/kestrel-report" --log "$fixture/combined.lcm
 expect_error 1 "no log file" "$bin/kestrel-report" --log "$work/missing.lcmlog" --out "$work/x"
 head -c 5000 /dev/urandom >"$work/garbage.lcmlog"
 expect_error 1 "has no MAP3D message" "$bin/kestrel-report" --log "$work/garbage.lcmlog" --out "$work/x"
-expect_error 2 "is not a number of seconds" "$bin/kestrel-report-export" \
+expect_error 2 "Could not convert: --times" "$bin/kestrel-report-export" \
   --log "$fixture/combined.lcmlog" --out "$work/x" --times 10,abc
 head -c 3000000 "$fixture/combined.lcmlog" >"$work/cut.lcmlog"
 expect_error 0 "ends inside an event" "$bin/kestrel-report" --log "$work/cut.lcmlog" --out "$work/cut"

@@ -2,11 +2,14 @@
 // process-sheet orders to the runners on every host, and a one-screen status of every process.
 #include <chrono>
 #include <cstdio>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/clock.h"
+#include "common/command_line.h"
 #include "common/identity.h"
 #include "common/lcm_decode.h"
 #include "common/process.h"
@@ -24,20 +27,6 @@ const char* const kUsage =
     "  TARGET: all | cmd:ID | group:PATH; HOST: the runner to order (default every runner)\n"
     "  --wait S: wait up to S seconds for CONTROLLER_STATUS to show the commanded mode; exit 1\n"
     "            if it does not (the e-stop is always sent at once, and repeated 3 times)\n";
-
-double ArgDouble(const std::vector<std::string>& p, const std::string& flag, double fallback) {
-  for (size_t i = 0; i + 1 < p.size(); ++i) {
-    if (p[i] == flag) return std::stod(p[i + 1]);
-  }
-  return fallback;
-}
-std::string ArgString(const std::vector<std::string>& p, const std::string& flag,
-                      const std::string& fallback) {
-  for (size_t i = 0; i + 1 < p.size(); ++i) {
-    if (p[i] == flag) return p[i + 1];
-  }
-  return fallback;
-}
 
 /// Listens for `seconds` and collects the operator view.
 kestrel::procman::OperatorView Listen(lcm::LCM& lcm, double seconds) {
@@ -66,11 +55,24 @@ kestrel::procman::OperatorView Listen(lcm::LCM& lcm, double seconds) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::vector<std::string> p;  // the command words: takeoff | status | procman start cmd:ID ...
+  double height_m = 1.0;
+  double wait_s = 0.0;
+  double seconds = 2.0;
+  std::string channel = "COMMAND";
+  std::string host;
   return kestrel::RunProcess(
       "kestrel-cmd", argc, argv, kUsage,
-      [](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
+      [&](CLI::App& app) {
+        app.add_option("--height", height_m)->check(kestrel::cli::Positive());
+        app.add_option("--wait", wait_s)->check(kestrel::cli::NonNegative());
+        app.add_option("--seconds", seconds)->check(kestrel::cli::Positive());
+        app.add_option("--channel", channel);
+        app.add_option("--host", host);
+        app.add_option("words", p);
+      },
+      [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
         using namespace kestrel;
-        const auto& p = args.positional;
         if (p.empty()) {
           std::fprintf(stderr, "%s", kUsage);
           return 2;
@@ -93,12 +95,10 @@ int main(int argc, char** argv) {
           cmd.epoch = NewPublisherEpoch();
           cmd.source = "operator";
           cmd.command = vehicle.at(verb).first;
-          cmd.height_m = ArgDouble(p, "--height", 1.0);
-          const std::string channel = ArgString(p, "--channel", "COMMAND");
+          cmd.height_m = height_m;
           const int repeats = verb == "estop" ? 3 : 1;
           for (int i = 0; i < repeats; ++i) lcm.publish(channel, &cmd);
           std::printf("sent %s on %s\n", verb.c_str(), channel.c_str());
-          const double wait_s = ArgDouble(p, "--wait", 0.0);
           if (wait_s <= 0) return 0;
           const auto end = std::chrono::steady_clock::now() +
                            std::chrono::milliseconds(static_cast<int64_t>(wait_s * 1000));
@@ -115,13 +115,13 @@ int main(int argc, char** argv) {
           return reached ? 0 : 1;
         }
         if (verb == "status") {
-          const auto view = Listen(lcm, ArgDouble(p, "--seconds", 2.0));
+          const auto view = Listen(lcm, seconds);
           std::printf("%s", procman::FormatOperatorView(view, clock.NowUtime()).c_str());
           return 0;
         }
         if (verb == "procman" && p.size() >= 2) {
           if (p[1] == "list") {
-            const auto view = Listen(lcm, ArgDouble(p, "--seconds", 2.0));
+            const auto view = Listen(lcm, seconds);
             procman::OperatorView runners_only;
             runners_only.runners = view.runners;
             std::printf("%s", procman::FormatOperatorView(runners_only, clock.NowUtime()).c_str());
@@ -137,7 +137,7 @@ int main(int argc, char** argv) {
             order.seq = order.utime;
             order.epoch = NewPublisherEpoch();
             order.source = "kestrel-cmd";
-            order.host = ArgString(p, "--host", "");
+            order.host = host;
             order.action = actions.at(p[1]);
             const std::string& t = p[2];
             if (t == "all") {

@@ -2,8 +2,6 @@
 // mapping: every process's heartbeat, message counts, map entropy falling, the vehicle moving,
 // no collision. Prints what it saw, with the messages it lost (tools/flight_check/message_loss.h);
 // exits 0 when every check passes.
-//   kestrel-flight-check URL SECONDS [--until-landed] [--csv FILE] [--hover HEIGHT_M]
-//   [--no-map-loss]
 // --until-landed: stop listening as soon as the explorer is done and the controller is idle
 // again (the whole exploration), and require that it happened. --csv: MAP_STATUS over time.
 // --no-map-loss: fail if any map snapshot chunk or delta was lost on the way to this listener
@@ -14,11 +12,14 @@
 #include <cstdlib>
 #include <map>
 #include <set>
+#include <stdexcept>
 #include <string>
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "common/command_line.h"
 #include "common/lcm_decode.h"
+#include "common/process.h"
 #include "kestrel/controller_status_t.hpp"
 #include "kestrel/exploration_status_t.hpp"
 #include "kestrel/heartbeat_t.hpp"
@@ -26,35 +27,29 @@
 #include "kestrel/sim_truth_t.hpp"
 #include "tools/flight_check/message_loss.h"
 
-int main(int argc, char** argv) {
-  if (argc < 3) {
-    std::fprintf(stderr,
-                 "usage: kestrel-flight-check URL SECONDS [--until-landed] [--csv FILE]\n"
-                 "                            [--hover HEIGHT_M] [--no-map-loss]\n");
-    return 2;
-  }
-  bool until_landed = false;
-  bool no_map_loss = false;
-  double hover_height_m = -1.0;  // --hover H: only the simulator and the controller, hovering at H
+namespace {
+const char* const kUsage =
+    "usage: kestrel-flight-check URL SECONDS [--until-landed] [--csv FILE] [--hover HEIGHT_M]\n"
+    "                            [--no-map-loss]\n"
+    "Listens on URL for SECONDS (wall time) and checks that the system flies and maps; exits 0\n"
+    "when every check passes. --csv writes MAP_STATUS over time, one flushed line per status.\n";
+
+/// Listens for `seconds` and prints what it saw and the checks; returns the exit code.
+int CheckFlight(const std::string& url, double seconds, bool until_landed, bool no_map_loss,
+                double hover_height_m, const std::string& csv_path) {
   FILE* csv = nullptr;
-  for (int i = 3; i < argc; ++i) {
-    if (std::string(argv[i]) == "--until-landed") until_landed = true;
-    if (std::string(argv[i]) == "--no-map-loss") no_map_loss = true;
-    if (std::string(argv[i]) == "--hover" && i + 1 < argc) hover_height_m = std::atof(argv[++i]);
-    if (std::string(argv[i]) == "--csv" && i + 1 < argc) {
-      csv = std::fopen(argv[++i], "w");
-      if (csv != nullptr)
-        std::fprintf(csv, "time_s,entropy_nats,x_m,y_m,z_m,explorer_state,collisions\n");
-    }
+  if (!csv_path.empty()) {
+    csv = std::fopen(csv_path.c_str(), "w");
+    if (csv == nullptr) throw std::runtime_error("cannot write " + csv_path);
+    std::fprintf(csv, "time_s,entropy_nats,x_m,y_m,z_m,explorer_state,collisions\n");
   }
   int explorer_state = 0;
   int controller_mode = -1;
   bool explorer_done = false;
   double position[3] = {0, 0, 0};
   int64_t first_status_utime = -1;
-  lcm::LCM lcm(argv[1]);
-  if (!lcm.good()) return 1;
-  const double seconds = std::atof(argv[2]);
+  lcm::LCM lcm(url);
+  if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + url + "'");
   std::map<std::string, int> counts;
   std::set<std::string> processes;
   double first_entropy = -1, last_entropy = -1;
@@ -87,6 +82,7 @@ int main(int argc, char** argv) {
           std::fprintf(csv, "%.3f,%.1f,%.3f,%.3f,%.3f,%d,%d\n",
                        static_cast<double>(m.utime - first_status_utime) * 1e-6, m.map_entropy_nats,
                        position[0], position[1], position[2], explorer_state, collisions);
+          std::fflush(csv);  // scripts/demo reads the last line while flying
         }
       },
       nullptr);
@@ -101,7 +97,6 @@ int main(int argc, char** argv) {
         max_distance = std::max(max_distance, std::sqrt(dx * dx + dy * dy));
         max_height = std::max(max_height, m.position_m[2]);
         collisions = m.collision_count;
-        for (int a = 0; a < 3; ++a) position[a] = m.position_m[a];
         for (int a = 0; a < 3; ++a) position[a] = m.position_m[a];
       },
       nullptr);
@@ -202,4 +197,27 @@ int main(int argc, char** argv) {
   }
   std::printf("%s\n", failures == 0 ? "PASS" : "FAIL");
   return failures == 0 ? 0 : 1;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string url;
+  double seconds = 0.0;
+  bool until_landed = false;
+  bool no_map_loss = false;
+  double hover_height_m = -1.0;  // --hover H: only the simulator and the controller, hovering at H
+  std::string csv_path;
+  return kestrel::RunProcess(
+      "kestrel-flight-check", argc, argv, kUsage,
+      [&](CLI::App& app) {
+        app.add_option("url", url)->required();
+        app.add_option("seconds", seconds)->required()->check(kestrel::cli::Positive());
+        app.add_flag("--until-landed", until_landed);
+        app.add_flag("--no-map-loss", no_map_loss);
+        app.add_option("--hover", hover_height_m)->check(kestrel::cli::Positive());
+        app.add_option("--csv", csv_path);
+      },
+      [&](const kestrel::ProcessArgs&, kestrel::ConfigNode&) {
+        return CheckFlight(url, seconds, until_landed, no_map_loss, hover_height_m, csv_path);
+      });
 }

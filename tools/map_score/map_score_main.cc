@@ -3,7 +3,9 @@
 // cells). The map's lattice must be the world's (map limits and resolution).
 #include <cmath>
 #include <cstdio>
+#include <string>
 
+#include "common/command_line.h"
 #include "common/process.h"
 #include "mapping/map_file.h"
 #include "tools/map_score/map_scorer.h"
@@ -22,33 +24,20 @@ const char* const kUsage =
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::string world_path, map_path, octomap_path, ply_path;
+  double range_m = 4.0, vfov_deg = 45.0, unknown_bin_m = 0.0;
   return kestrel::RunProcess(
       "kestrel-map-score", argc, argv, kUsage,
-      [](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
-        std::string world_path, map_path, octomap_path, ply_path;
-        double range_m = 4.0, vfov_deg = 45.0, unknown_bin_m = 0.0;
-        const auto& p = args.positional;
-        for (size_t i = 0; i + 1 < p.size(); i += 2) {
-          if (p[i] == "--world")
-            world_path = p[i + 1];
-          else if (p[i] == "--map")
-            map_path = p[i + 1];
-          else if (p[i] == "--range-m")
-            range_m = std::stod(p[i + 1]);
-          else if (p[i] == "--octomap")
-            octomap_path = p[i + 1];
-          else if (p[i] == "--ply")
-            ply_path = p[i + 1];
-          else if (p[i] == "--unknown-bin-m")
-            unknown_bin_m = std::stod(p[i + 1]);
-          else if (p[i] == "--vfov-deg")
-            vfov_deg = std::stod(p[i + 1]);
-          else
-            throw kestrel::ConfigError("unexpected argument '" + p[i] + "'\n" + kUsage);
-        }
-        if (world_path.empty() || map_path.empty() || p.size() % 2 != 0) {
-          throw kestrel::ConfigError(std::string("--world and --map are required\n") + kUsage);
-        }
+      [&](CLI::App& app) {
+        app.add_option("--world", world_path)->required();
+        app.add_option("--map", map_path)->required();
+        app.add_option("--range-m", range_m)->check(kestrel::cli::Positive());
+        app.add_option("--vfov-deg", vfov_deg)->check(kestrel::cli::Within(1.0, 180.0));
+        app.add_option("--octomap", octomap_path);
+        app.add_option("--ply", ply_path);
+        app.add_option("--unknown-bin-m", unknown_bin_m)->check(kestrel::cli::NonNegative());
+      },
+      [&](const kestrel::ProcessArgs&, kestrel::ConfigNode&) {
         const kestrel::World world = kestrel::LoadWorld(world_path);
         const auto loaded = kestrel::LoadDenseMap(map_path);
         const kestrel::DenseGrid& g = loaded.map->grid();

@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <optional>
 
+#include "common/command_line.h"
 #include "common/process.h"
 #include "common/process_usage.h"
 #include "tools/mission/mission.h"
@@ -38,60 +39,35 @@ void PrintSoakLine(int flight, const kestrel::MissionConfig& mc, const kestrel::
 }  // namespace
 
 int main(int argc, char** argv) {
+  kestrel::MissionConfig mc;
+  double soak_s = 0.0;
   return kestrel::RunProcess(
       "kestrel-mission", argc, argv, kUsage,
-      [](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
-        kestrel::MissionConfig mc;
-        double soak_s = 0.0;
-        const auto& p = args.positional;
-        for (size_t i = 0; i < p.size(); ++i) {
-          auto value = [&]() -> std::string {
-            if (i + 1 >= p.size()) throw kestrel::ConfigError(p[i] + " needs a value");
-            return p[++i];
-          };
-          if (p[i] == "--root")
-            mc.root = value();
-          else if (p[i] == "--world")
-            mc.world_file = value();
-          else if (p[i] == "--seed")
-            mc.seed = std::stoll(value());
-          else if (p[i] == "--max-time")
-            mc.max_time_s = std::stod(value());
-          else if (p[i] == "--csv")
-            mc.csv_path = value();
-          else if (p[i] == "--plans-csv")
-            mc.plans_csv_path = value();
-          else if (p[i] == "--map")
-            mc.map_path = value();
-          else if (p[i] == "--drop-sensors")
-            mc.sensor_drop_fraction = std::stod(value());
-          else if (p[i] == "--mocap-outage-at")
-            mc.mocap_outage_at_s = std::stod(value());
-          else if (p[i] == "--mocap-outage")
-            mc.mocap_outage_s = std::stod(value());
-          else if (p[i] == "--log")
-            mc.log_path = value();
-          else if (p[i] == "--octomap")
-            mc.octomap_path = value();
-          else if (p[i] == "--ply")
-            mc.ply_path = value();
-          else if (p[i] == "--sim")
-            mc.sim_file = value();
-          else if (p[i] == "--sim-set")
-            mc.sim_overrides.push_back(value());
-          else if (p[i] == "--mapper-set")
-            mc.mapper_overrides.push_back(value());
-          else if (p[i] == "--explorer-set")
-            mc.explorer_overrides.push_back(value());
-          else if (p[i] == "--no-quality")
-            mc.compute_quality = false;
-          else if (p[i] == "--verbose")
-            mc.verbose = true;
-          else if (p[i] == "--soak")
-            soak_s = std::stod(value());
-          else
-            throw kestrel::ConfigError("unexpected argument '" + p[i] + "'\n" + kUsage);
-        }
+      [&](CLI::App& app) {
+        app.add_option("--root", mc.root);
+        app.add_option("--world", mc.world_file);
+        app.add_option("--seed", mc.seed);
+        app.add_option("--max-time", mc.max_time_s)->check(kestrel::cli::Positive());
+        app.add_option("--csv", mc.csv_path);
+        app.add_option("--plans-csv", mc.plans_csv_path);
+        app.add_option("--map", mc.map_path);
+        app.add_option("--drop-sensors", mc.sensor_drop_fraction)
+            ->check(kestrel::cli::Within(0.0, 1.0));
+        app.add_option("--mocap-outage-at", mc.mocap_outage_at_s)
+            ->check(kestrel::cli::NonNegative());
+        app.add_option("--mocap-outage", mc.mocap_outage_s)->check(kestrel::cli::NonNegative());
+        app.add_option("--log", mc.log_path);
+        app.add_option("--octomap", mc.octomap_path);
+        app.add_option("--ply", mc.ply_path);
+        app.add_option("--sim", mc.sim_file);
+        app.add_option("--sim-set", mc.sim_overrides)->allow_extra_args(false);
+        app.add_option("--mapper-set", mc.mapper_overrides)->allow_extra_args(false);
+        app.add_option("--explorer-set", mc.explorer_overrides)->allow_extra_args(false);
+        app.add_flag("--no-quality", [&](int64_t) { mc.compute_quality = false; });
+        app.add_flag("--verbose", mc.verbose);
+        app.add_option("--soak", soak_s)->check(kestrel::cli::NonNegative());
+      },
+      [&](const kestrel::ProcessArgs&, kestrel::ConfigNode&) {
         if (!(soak_s >= 0.0)) throw kestrel::ConfigError("--soak needs S >= 0 simulated seconds");
         if (soak_s == 0.0) {
           std::printf("%s", kestrel::MissionSummary(kestrel::RunMission(mc)).c_str());

@@ -44,9 +44,6 @@ int main(int argc, char** argv) {
   return kestrel::RunProcess(
       "kestrel-viewer", argc, argv, kUsage,
       [](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
-        if (!args.positional.empty()) {
-          throw kestrel::ConfigError("unexpected argument '" + args.positional[0] + "'\n" + kUsage);
-        }
         const kestrel::ViewerConfig config = kestrel::LoadViewerConfig(node);
         node.CheckNoUnknownKeys();
         const std::string web_root = config.web_root.empty() ? DefaultWebRoot() : config.web_root;

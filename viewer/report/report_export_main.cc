@@ -1,8 +1,9 @@
 // kestrel-report-export: the data step of kestrel-report (viewer/report/report_export.h): reads
 // a run's LCM log and writes the CSV files that kestrel_report.py draws.
+#include <cmath>
 #include <cstdio>
-#include <sstream>
 
+#include "common/command_line.h"
 #include "common/process.h"
 #include "viewer/report/report_export.h"
 
@@ -16,73 +17,24 @@ const char* const kUsage =
     "truth.csv (with --world) and meta.csv. --times: seconds since the first MAP_STATUS at which\n"
     "to keep the 2D maps (default: half way and the end).\n";
 
-std::vector<double> ParseTimes(const std::string& text) {
-  std::vector<double> times;
-  std::stringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    size_t used = 0;
-    double t = 0.0;
-    try {
-      t = std::stod(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != item.size()) {
-      throw kestrel::ConfigError("--times: '" + item + "' is not a number of seconds");
-    }
-    times.push_back(t);
-  }
-  return times;
-}
-
-double ParseNumber(const std::string& flag, const std::string& text) {
-  size_t used = 0;
-  double v = 0.0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size()) {
-    throw kestrel::ConfigError(flag + ": '" + text + "' is not a number");
-  }
-  return v;
-}
 }  // namespace
 
 int main(int argc, char** argv) {
+  kestrel::ReportExportConfig rc;
+  double vfov_deg = rc.vertical_fov_rad * 180.0 / M_PI;
   return kestrel::RunProcess(
       "kestrel-report-export", argc, argv, kUsage,
-      [](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
-        kestrel::ReportExportConfig rc;
-        const auto& p = args.positional;
-        for (size_t i = 0; i < p.size(); ++i) {
-          auto value = [&]() -> std::string {
-            if (i + 1 >= p.size()) throw kestrel::ConfigError(p[i] + " needs a value\n" + kUsage);
-            return p[++i];
-          };
-          if (p[i] == "--log") {
-            rc.log_path = value();
-          } else if (p[i] == "--out") {
-            rc.out_dir = value();
-          } else if (p[i] == "--world") {
-            rc.world_path = value();
-          } else if (p[i] == "--times") {
-            rc.map2d_times_s = ParseTimes(value());
-          } else if (p[i] == "--threshold") {
-            rc.occupied_threshold = ParseNumber(p[i], value());
-          } else if (p[i] == "--range-m") {
-            rc.sensor_range_m = ParseNumber(p[i], value());
-          } else if (p[i] == "--vfov-deg") {
-            rc.vertical_fov_rad = ParseNumber(p[i], value()) * M_PI / 180.0;
-          } else {
-            throw kestrel::ConfigError("unexpected argument '" + p[i] + "'\n" + kUsage);
-          }
-        }
-        if (rc.log_path.empty() || rc.out_dir.empty()) {
-          throw kestrel::ConfigError(std::string("--log and --out are required\n") + kUsage);
-        }
+      [&](CLI::App& app) {
+        app.add_option("--log", rc.log_path)->required();
+        app.add_option("--out", rc.out_dir)->required();
+        app.add_option("--world", rc.world_path);
+        app.add_option("--times", rc.map2d_times_s)->delimiter(',')->allow_extra_args(false);
+        app.add_option("--threshold", rc.occupied_threshold);
+        app.add_option("--range-m", rc.sensor_range_m);
+        app.add_option("--vfov-deg", vfov_deg);
+      },
+      [&](const kestrel::ProcessArgs&, kestrel::ConfigNode&) {
+        rc.vertical_fov_rad = vfov_deg * M_PI / 180.0;
         try {
           rc.Validate();
         } catch (const std::invalid_argument& e) {
