@@ -41,6 +41,32 @@ ConfigNode Load(const std::string& root, const std::string& file,
   return node;
 }
 
+// The explorer's state in words (exploration_status_t::STATE_*).
+std::string ExplorerStateName(int state) {
+  switch (state) {
+    case exploration_status_t::STATE_WAITING:
+      return "waiting";
+    case exploration_status_t::STATE_STARTUP:
+      return "start-up";
+    case exploration_status_t::STATE_EXPLORING:
+      return "exploring";
+    case exploration_status_t::STATE_RETURNING:
+      return "returning";
+    case exploration_status_t::STATE_DONE:
+      return "done";
+    case exploration_status_t::STATE_FAILED:
+      return "failed";
+    default:
+      return "state " + std::to_string(state);
+  }
+}
+
+std::string Fixed3(double v) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.3f", v);
+  return text;
+}
+
 // The upper median (the element at size / 2 once sorted) of v, 0 if v is empty.
 double Median(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -258,6 +284,7 @@ MissionResult RunMission(const MissionConfig& mc) {
   int64_t next_control = t0;
   int64_t next_explore = t0;
   int64_t next_sample = t0;
+  double next_progress_s = 0.0;
   bool takeoff_sent = false;
   int64_t takeoff_utime = -1, land_utime = -1;
   int reported_collisions = 0;
@@ -352,6 +379,15 @@ MissionResult RunMission(const MissionConfig& mc) {
         if (r.time_to_95_s < 0 && q.known_fraction >= 0.95) r.time_to_95_s = t;
       }
       r.samples.push_back(s);
+      if (mc.progress_period_s > 0.0 && t >= next_progress_s) {
+        next_progress_s = t + mc.progress_period_s - 0.5 * mc.quality_period_s;
+        std::fprintf(stderr,
+                     "progress: %6.1f s simulated, %-9s known %s, entropy %.0f nats, path %.0f m, "
+                     "collisions %d\n",
+                     t, ExplorerStateName(s.explorer_state).c_str(),
+                     mc.compute_quality ? Fixed3(s.known_fraction).c_str() : "-", s.entropy_nats,
+                     r.path_length_m, sim.simulator().vehicle().collision_count());
+      }
       if (mc.verbose) {
         std::fprintf(
             stderr,

@@ -35,7 +35,10 @@ struct MissionConfig {
   std::string map_path;          ///< final map file (Kestrel map) if set
   std::string octomap_path;      ///< final map exported for OctoMap tools (.bt or .ot) if set
   std::string ply_path;          ///< occupied cells as a PLY point cloud if set
-  bool verbose{false};           ///< progress lines on stderr
+  bool verbose{false};           ///< every plan, collision and sample on stderr (debugging)
+  /// > 0: one progress line on stderr at most this often (simulated s, at the quality samples):
+  /// time, explorer state, known fraction, map entropy, path, collisions.
+  double progress_period_s{0.0};
   // Faults, injected between the simulator and the other nodes.
   double sensor_drop_fraction{0.0};  ///< drop this fraction of depth images and scans (seeded)
   double mocap_outage_at_s{-1.0};    ///< motion capture lost from this time (s after start)...
