@@ -19,6 +19,13 @@ command -v node >/dev/null || skip "node is not installed"
   skip "viewer/web/node_modules/playwright-core is missing (scripts/setup runs npm ci there)"
 [[ -f $web/node_modules/three/build/three.module.js ]] ||
   skip "viewer/web/node_modules/three is missing (scripts/setup runs npm ci there)"
+# playwright-core states the oldest Node it runs on ("engines": {"node": ">=20"}); Debian 12's
+# nodejs is 18.
+need_major=$(sed -n 's/.*"node": *">= *\([0-9]*\).*/\1/p' "$web/node_modules/playwright-core/package.json")
+have_major=$(node -p 'process.versions.node.split(".")[0]')
+if [[ -n $need_major && $have_major -lt $need_major ]]; then
+  skip "node $(node --version) is older than playwright-core's Node >= $need_major"
+fi
 staged=$(dirname "$viewer")/web
 if [[ ! -f $staged/three.module.js ]]; then
   echo "FAIL: three.js is installed but not staged in $staged: re-run cmake, then build"
