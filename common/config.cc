@@ -1,7 +1,10 @@
 #include "common/config.h"
 
+#include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 namespace kestrel {
@@ -12,6 +15,32 @@ std::string FormatNumber(double v) {
   std::ostringstream s;
   s << v;
   return s.str();
+}
+
+// The shortest text that reads back as the same double ("0.1", "1e-05", "300").
+std::string RoundTrip(double v) {
+  if (std::isnan(v)) return ".nan";
+  if (std::isinf(v)) return v > 0 ? ".inf" : "-.inf";
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), v);
+  return std::string(buffer, result.ptr);
+}
+
+// The shortest text that reads back as the same float ("0.1", not "0.10000000149011612").
+std::string RoundTrip(float v) {
+  if (!std::isfinite(v)) return RoundTrip(static_cast<double>(v));
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), v);
+  return std::string(buffer, result.ptr);
+}
+
+template <typename Numbers>
+std::string RoundTripList(const Numbers& values) {
+  std::string out = "[";
+  for (int i = 0; i < static_cast<int>(values.size()); ++i) {
+    out += (i ? ", " : "") + RoundTrip(static_cast<double>(values[i]));
+  }
+  return out + "]";
 }
 
 std::string Describe(const YAML::Node& node) {
@@ -55,11 +84,31 @@ std::string Range::ToString() const {
          (max_inclusive ? "]" : ")");
 }
 
-/// The parsed document, the file name and the set of key paths that were read.
+/// The parsed document, the file name, the set of key paths that were read, the values in
+/// effect (EffectiveValues) and the files included from it.
 struct ConfigNode::Document {
   std::string file;
   YAML::Node root;
   std::set<std::string> used;
+  std::vector<ConfigValue> values;
+  std::map<std::string, size_t> value_index;  ///< key path -> index in `values`
+  std::set<std::string> overridden;           ///< key paths set by ApplyOverride
+  std::vector<std::shared_ptr<const Document>> included;
+
+  /// Whether an override set `key_path` or a section or element above it.
+  [[nodiscard]] bool Overridden(std::string key_path) const {
+    while (!key_path.empty()) {
+      if (overridden.count(key_path) != 0) return true;
+      const size_t cut = key_path.find_last_of(".[");
+      if (cut == std::string::npos) break;
+      key_path.resize(cut);
+    }
+    return false;
+  }
+  void Collect(std::vector<ConfigValue>* out) const {
+    out->insert(out->end(), values.begin(), values.end());
+    for (const auto& d : included) d->Collect(out);
+  }
 };
 
 ConfigNode::ConfigNode(std::shared_ptr<Document> doc, const YAML::Node& node, std::string path)
@@ -125,10 +174,20 @@ void ConfigNode::ApplyOverride(const std::string& assignment) {
     }
     return static_cast<size_t>(index);
   };
-  // yaml-cpp nodes are handles: walk with fresh handles, assigning into the tree.
+  // yaml-cpp nodes are handles: walk with fresh handles, assigning into the tree. The key path
+  // is rebuilt in ConfigNode's form ("sensors[0].name") for EffectiveValues.
   std::vector<YAML::Node> chain{node_};
+  std::string overridden_path = path_;
+  auto extend_path = [&](const YAML::Node& here, const std::string& part) {
+    if (here.IsSequence()) {
+      overridden_path += "[" + std::to_string(element_index(here, part)) + "]";
+    } else {
+      overridden_path += (overridden_path.empty() ? "" : ".") + part;
+    }
+  };
   for (size_t i = 0; i + 1 < parts.size(); ++i) {
     YAML::Node here = chain.back();  // not const: a missing key is created, as the last one is
+    extend_path(here, parts[i]);
     YAML::Node next = here.IsSequence() ? here[element_index(here, parts[i])] : here[parts[i]];
     if (next.IsDefined() && !next.IsNull() && !next.IsMap() && !next.IsSequence()) {
       throw ConfigError(file() + ": override '" + assignment + "': '" + parts[i] +
@@ -136,10 +195,38 @@ void ConfigNode::ApplyOverride(const std::string& assignment) {
     }
     chain.push_back(next);
   }
+  extend_path(chain.back(), parts.back());
   if (chain.back().IsSequence()) {
     chain.back()[element_index(chain.back(), parts.back())] = value;
   } else {
     chain.back()[parts.back()] = value;
+  }
+  doc_->overridden.insert(overridden_path);
+}
+
+ConfigNode ConfigNode::Include(const std::string& path) const {
+  ConfigNode included = LoadFile(path);
+  doc_->included.push_back(included.doc_);
+  return included;
+}
+
+std::vector<ConfigValue> ConfigNode::EffectiveValues() const {
+  std::vector<ConfigValue> out;
+  doc_->Collect(&out);
+  return out;
+}
+
+void ConfigNode::Record(const std::string& key, std::string value) const {
+  const std::string key_path = KeyPath(key);
+  const ConfigSource source = !Has(key)                    ? ConfigSource::kDefault
+                              : doc_->Overridden(key_path) ? ConfigSource::kOverride
+                                                           : ConfigSource::kFile;
+  const auto [it, inserted] = doc_->value_index.emplace(key_path, doc_->values.size());
+  if (inserted) {
+    doc_->values.push_back({doc_->file, key_path, std::move(value), source});
+  } else {
+    doc_->values[it->second].value = std::move(value);
+    doc_->values[it->second].source = source;
   }
 }
 
@@ -229,110 +316,124 @@ void ConfigNode::ReadNumber(const std::string& key, double* out, const Range& ra
 }
 
 void ConfigNode::Read(const std::string& key, double* value, const Range& range) const {
-  if (!Has(key)) return;
-  ReadNumber(key, value, range, false);
+  if (Has(key)) ReadNumber(key, value, range, false);
+  Record(key, RoundTrip(*value));
 }
 
 void ConfigNode::Read(const std::string& key, float* value, const Range& range) const {
-  if (!Has(key)) return;
-  double v = 0.0;
-  ReadNumber(key, &v, range, false);
-  *value = static_cast<float>(v);
+  if (Has(key)) {
+    double v = 0.0;
+    ReadNumber(key, &v, range, false);
+    *value = static_cast<float>(v);
+  }
+  Record(key, RoundTrip(*value));
 }
 
 void ConfigNode::Read(const std::string& key, int* value, const Range& range) const {
-  if (!Has(key)) return;
-  double v = 0.0;
-  Range r = range;
-  r.min = std::max(r.min, static_cast<double>(std::numeric_limits<int>::min()));
-  r.max = std::min(r.max, static_cast<double>(std::numeric_limits<int>::max()));
-  ReadNumber(key, &v, r, true);
-  *value = static_cast<int>(v);
+  if (Has(key)) {
+    double v = 0.0;
+    Range r = range;
+    r.min = std::max(r.min, static_cast<double>(std::numeric_limits<int>::min()));
+    r.max = std::min(r.max, static_cast<double>(std::numeric_limits<int>::max()));
+    ReadNumber(key, &v, r, true);
+    *value = static_cast<int>(v);
+  }
+  Record(key, std::to_string(*value));
 }
 
 void ConfigNode::Read(const std::string& key, int64_t* value, const Range& range) const {
-  if (!Has(key)) return;
-  const YAML::Node n = Lookup(key);
-  int64_t v = 0;
-  const std::string expected = "an integer in " + range.ToString();
-  try {
-    v = n.as<int64_t>();
-  } catch (const YAML::Exception&) {
-    ThrowBad(key, n, expected);
+  if (Has(key)) {
+    const YAML::Node n = Lookup(key);
+    int64_t v = 0;
+    const std::string expected = "an integer in " + range.ToString();
+    try {
+      v = n.as<int64_t>();
+    } catch (const YAML::Exception&) {
+      ThrowBad(key, n, expected);
+    }
+    if (!range.Contains(static_cast<double>(v))) ThrowBad(key, n, expected);
+    *value = v;
   }
-  if (!range.Contains(static_cast<double>(v))) ThrowBad(key, n, expected);
-  *value = v;
+  Record(key, std::to_string(*value));
 }
 
 void ConfigNode::Read(const std::string& key, bool* value) const {
-  if (!Has(key)) return;
-  const YAML::Node n = Lookup(key);
-  try {
-    *value = n.as<bool>();
-  } catch (const YAML::Exception&) {
-    ThrowBad(key, n, "true or false");
+  if (Has(key)) {
+    const YAML::Node n = Lookup(key);
+    try {
+      *value = n.as<bool>();
+    } catch (const YAML::Exception&) {
+      ThrowBad(key, n, "true or false");
+    }
   }
+  Record(key, *value ? "true" : "false");
 }
 
 void ConfigNode::Read(const std::string& key, std::string* value) const {
-  if (!Has(key)) return;
-  const YAML::Node n = Lookup(key);
-  if (!n.IsScalar()) ThrowBad(key, n, "a string");
-  *value = n.Scalar();
+  if (Has(key)) {
+    const YAML::Node n = Lookup(key);
+    if (!n.IsScalar()) ThrowBad(key, n, "a string");
+    *value = n.Scalar();
+  }
+  Record(key, *value);
 }
 
 void ConfigNode::Read(const std::string& key, std::string* value,
                       const std::vector<std::string>& choices) const {
-  if (!Has(key)) return;
-  const YAML::Node n = Lookup(key);
-  std::string accepted = "one of {";
-  for (size_t i = 0; i < choices.size(); ++i) accepted += (i ? ", " : "") + choices[i];
-  accepted += "}";
-  if (!n.IsScalar()) ThrowBad(key, n, accepted);
-  for (const auto& c : choices) {
-    if (n.Scalar() == c) {
-      *value = c;
-      return;
-    }
+  if (Has(key)) {
+    const YAML::Node n = Lookup(key);
+    std::string accepted = "one of {";
+    for (size_t i = 0; i < choices.size(); ++i) accepted += (i ? ", " : "") + choices[i];
+    accepted += "}";
+    if (!n.IsScalar()) ThrowBad(key, n, accepted);
+    const auto chosen = std::find(choices.begin(), choices.end(), n.Scalar());
+    if (chosen == choices.end()) ThrowBad(key, n, accepted);
+    *value = *chosen;
   }
-  ThrowBad(key, n, accepted);
+  Record(key, *value);
 }
 
 void ConfigNode::Read(const std::string& key, std::vector<double>* value, const Range& range,
                       int size) const {
-  if (!Has(key)) return;
-  const YAML::Node n = Lookup(key);
-  const std::string expected = (size >= 0 ? "a list of " + std::to_string(size) + " numbers"
-                                          : std::string("a list of numbers")) +
-                               " each in " + range.ToString();
-  if (!n.IsSequence()) ThrowBad(key, n, expected);
-  if (size >= 0 && static_cast<int>(n.size()) != size) ThrowBad(key, n, expected);
-  std::vector<double> out;
-  for (size_t i = 0; i < n.size(); ++i) {
-    double v = 0.0;
-    try {
-      v = n[i].as<double>();
-    } catch (const YAML::Exception&) {
-      ThrowBad(key, n, expected);
+  if (Has(key)) {
+    const YAML::Node n = Lookup(key);
+    const std::string expected = (size >= 0 ? "a list of " + std::to_string(size) + " numbers"
+                                            : std::string("a list of numbers")) +
+                                 " each in " + range.ToString();
+    if (!n.IsSequence()) ThrowBad(key, n, expected);
+    if (size >= 0 && static_cast<int>(n.size()) != size) ThrowBad(key, n, expected);
+    std::vector<double> out;
+    for (size_t i = 0; i < n.size(); ++i) {
+      double v = 0.0;
+      try {
+        v = n[i].as<double>();
+      } catch (const YAML::Exception&) {
+        ThrowBad(key, n, expected);
+      }
+      if (!std::isfinite(v) || !range.Contains(v)) ThrowBad(key, n, expected);
+      out.push_back(v);
     }
-    if (!std::isfinite(v) || !range.Contains(v)) ThrowBad(key, n, expected);
-    out.push_back(v);
+    *value = std::move(out);
   }
-  *value = std::move(out);
+  Record(key, RoundTripList(*value));
 }
 
 void ConfigNode::Read(const std::string& key, Eigen::Vector3d* value, const Range& range) const {
-  if (!Has(key)) return;
-  std::vector<double> v;
-  Read(key, &v, range, 3);
-  *value = Eigen::Vector3d(v[0], v[1], v[2]);
+  if (Has(key)) {
+    std::vector<double> v;
+    Read(key, &v, range, 3);
+    *value = Eigen::Vector3d(v[0], v[1], v[2]);
+  }
+  Record(key, RoundTripList(*value));
 }
 
 void ConfigNode::Read(const std::string& key, Eigen::Vector4d* value, const Range& range) const {
-  if (!Has(key)) return;
-  std::vector<double> v;
-  Read(key, &v, range, 4);
-  *value = Eigen::Vector4d(v[0], v[1], v[2], v[3]);
+  if (Has(key)) {
+    std::vector<double> v;
+    Read(key, &v, range, 4);
+    *value = Eigen::Vector4d(v[0], v[1], v[2], v[3]);
+  }
+  Record(key, RoundTripList(*value));
 }
 
 void ConfigNode::CollectUnknown(const YAML::Node& node, const std::string& path,

@@ -15,8 +15,15 @@
 ///   root.CheckNoUnknownKeys();                                 // recursive
 /// @endcode
 /// Command-line overrides: ApplyOverride("xtion.sigma_m=0.2") before reading.
+///
+/// Every scalar read is also recorded, present or not: the key path, the value the process runs
+/// with (the file's, an override's or the default left in place) and where it came from.
+/// EffectiveValues() lists them, with those of the files loaded through Include(), so a process
+/// can publish the configuration it really runs with (common/config_publisher.h,
+/// docs/design.md §6).
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <set>
@@ -27,6 +34,22 @@
 #include <yaml-cpp/yaml.h>
 
 namespace kestrel {
+
+/// Where an effective value came from.
+enum class ConfigSource : int8_t {
+  kDefault = 0,   ///< the key is absent: the value is the code's default
+  kFile = 1,      ///< the configuration file
+  kOverride = 2,  ///< a --set override (ApplyOverride) of the key or of a section above it
+};
+
+/// One value a process read: `value` is YAML text (numbers in their shortest round-trip form,
+/// lists as "[a, b, c]", strings as they are).
+struct ConfigValue {
+  std::string file;  ///< the file it was read from ("(defaults)" when the process had none)
+  std::string key;   ///< dotted key path, "sensors[1].sigma_m" style
+  std::string value;
+  ConfigSource source{ConfigSource::kDefault};
+};
 
 /// A configuration error: file, key, value, accepted range. what() is the full sentence.
 class ConfigError : public std::runtime_error {
@@ -68,6 +91,14 @@ class ConfigNode {
   /// Applies "a.b.c=value" (value parsed as YAML) to this document; throws ConfigError naming the
   /// override if it is malformed. Creates the key if absent (it is then checked like any other).
   void ApplyOverride(const std::string& assignment);
+
+  /// Loads another file this configuration names (a vehicle file, a world) and attaches it, so
+  /// that EffectiveValues() of this document lists its values too. @throws ConfigError
+  [[nodiscard]] ConfigNode Include(const std::string& path) const;
+
+  /// Every scalar read so far on this document, in the order first read (a key read twice keeps
+  /// its first place and its latest value), then those of the included files.
+  [[nodiscard]] std::vector<ConfigValue> EffectiveValues() const;
 
   [[nodiscard]] bool Has(const std::string& key) const;
   /// A required mapping child; throws ConfigError if missing or not a mapping.
@@ -124,6 +155,8 @@ class ConfigNode {
   ConfigNode(std::shared_ptr<Document> doc, const YAML::Node& node, std::string path);
   [[nodiscard]] std::string KeyPath(const std::string& key) const;
   [[nodiscard]] YAML::Node Lookup(const std::string& key) const;
+  /// Records the value in effect for `key` (read or default) for EffectiveValues().
+  void Record(const std::string& key, std::string value) const;
   [[noreturn]] void ThrowMissing(const std::string& key) const;
   [[noreturn]] void ThrowBad(const std::string& key, const YAML::Node& value,
                              const std::string& expected) const;

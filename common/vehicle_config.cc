@@ -168,4 +168,8 @@ VehicleConfig LoadVehicleConfigFile(const std::string& path) {
   return LoadVehicleConfig(ConfigNode::LoadFile(path));
 }
 
+VehicleConfig LoadVehicleConfigFile(const std::string& path, const ConfigNode& including) {
+  return LoadVehicleConfig(including.Include(path));
+}
+
 }  // namespace kestrel

@@ -82,5 +82,9 @@ struct RotorGeometry {
 
 /// LoadVehicleConfig(ConfigNode::LoadFile(path)). @throws ConfigError.
 [[nodiscard]] VehicleConfig LoadVehicleConfigFile(const std::string& path);
+/// LoadVehicleConfig(including.Include(path)): the vehicle file named by the configuration
+/// `including` becomes part of its effective configuration. @throws ConfigError.
+[[nodiscard]] VehicleConfig LoadVehicleConfigFile(const std::string& path,
+                                                  const ConfigNode& including);
 
 }  // namespace kestrel

@@ -89,7 +89,7 @@ MapperConfig LoadMapperConfig(const ConfigNode& node) {
   if (node.Has("vehicle_config")) {
     std::string path;
     node.Read("vehicle_config", &path);
-    vehicle = LoadVehicleConfigFile(ResolvePath(path, node.file()));
+    vehicle = LoadVehicleConfigFile(ResolvePath(path, node.file()), node);
   }
   c.sensors = DefaultMapperSensors();
   c.sensors[0].X_BS = vehicle.X_BS_xtion;

@@ -96,8 +96,8 @@ SimConfig LoadSimConfig(const ConfigNode& root, const std::string& base_dir) {
   std::string world_file, vehicle_file;
   root.ReadRequired("world_file", &world_file);
   root.ReadRequired("vehicle_file", &vehicle_file);
-  c.world = LoadWorld(Resolve(base_dir, world_file));
-  c.vehicle = LoadVehicleConfigFile(Resolve(base_dir, vehicle_file));
+  c.world = LoadWorld(Resolve(base_dir, world_file), root);
+  c.vehicle = LoadVehicleConfigFile(Resolve(base_dir, vehicle_file), root);
   root.Read("seed", &c.seed, Range::NonNegative());
   root.Read("mode", &c.mode, std::vector<std::string>{"dynamic", "kinematic"});
   root.Read("physics_step_s", &c.physics_step_s, Range::Closed(1e-5, 0.01));

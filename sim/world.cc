@@ -190,8 +190,8 @@ World ParseWorld(const ConfigNode& root, const ObjReader& read_obj) {
   return world;
 }
 
-World LoadWorld(const std::string& path) {
-  World world = ParseWorld(ConfigNode::LoadFile(path));
+namespace {
+World NamedAfterFile(World world, const std::string& path) {
   if (world.name.empty()) {
     const size_t slash = path.find_last_of('/');
     std::string stem = path.substr(slash == std::string::npos ? 0 : slash + 1);
@@ -199,6 +199,15 @@ World LoadWorld(const std::string& path) {
     world.name = stem.substr(0, dot);
   }
   return world;
+}
+}  // namespace
+
+World LoadWorld(const std::string& path) {
+  return NamedAfterFile(ParseWorld(ConfigNode::LoadFile(path)), path);
+}
+
+World LoadWorld(const std::string& path, const ConfigNode& including) {
+  return NamedAfterFile(ParseWorld(including.Include(path)), path);
 }
 
 bool IsInsideObstacle(const World& world, const Eigen::Vector3d& p_W) {

@@ -112,6 +112,9 @@ using ObjReader = std::function<WorldMesh(const std::string& path)>;
 
 /// Loads and validates a world file. @throws ConfigError (file, key, line, reason).
 [[nodiscard]] World LoadWorld(const std::string& path);
+/// LoadWorld of a file that the configuration `including` names: the file is loaded through
+/// including.Include(path), so that its values are part of the process's effective configuration.
+[[nodiscard]] World LoadWorld(const std::string& path, const ConfigNode& including);
 
 /// True when the point lies strictly inside some primitive (boundaries count as free).
 [[nodiscard]] bool IsInsideObstacle(const World& world, const Eigen::Vector3d& p_W);

@@ -1,6 +1,8 @@
 // YAML configuration: every error names file, key, value and the accepted range.
 #include "common/config.h"
 
+#include <fstream>
+
 #include <gtest/gtest.h>
 
 namespace kestrel {
@@ -184,6 +186,161 @@ TEST(Config, OverridesIndexSequences) {
                     {"'2'", "not an index", "2 elements"});
   ExpectConfigError([&] { root.ApplyOverride("sensors.x.name=a"); }, {"'x'", "not an index"});
   ExpectConfigError([&] { root.ApplyOverride("sensors.-1.name=a"); }, {"'-1'", "not an index"});
+}
+
+// --- The effective configuration (EffectiveValues): what a process publishes as params_t.
+
+const ConfigValue* FindValue(const std::vector<ConfigValue>& values, const std::string& key) {
+  for (const ConfigValue& v : values) {
+    if (v.key == key) return &v;
+  }
+  return nullptr;
+}
+
+TEST(ConfigEffectiveValues, RecordsEveryReadWithItsValueAndSource) {
+  ConfigNode root = ConfigNode::FromString(
+      "a: 0.1\nsensor:\n  sigma_m: 0.3\n  name: xtion\nlist:\n  - {w: 1}\n  - {w: 2}\n",
+      "test.yaml");
+  root.ApplyOverride("sensor.name=hokuyo");
+  root.ApplyOverride("list.1.w=5");
+  double a = 0.0, b = 2.5, sigma = 0.0;
+  int rate_hz = 30;
+  std::string name;
+  root.Read("a", &a);
+  root.Read("b", &b);  // absent: the default stays and is recorded as such
+  const ConfigNode sensor = root.Child("sensor");
+  sensor.Read("sigma_m", &sigma);
+  sensor.Read("name", &name);
+  sensor.Read("rate_hz", &rate_hz);
+  std::vector<int> w;
+  for (const ConfigNode& e : root.Elements("list")) {
+    int v = 0;
+    e.Read("w", &v);
+    w.push_back(v);
+  }
+  const std::vector<ConfigValue> values = root.EffectiveValues();
+  struct Expected {
+    const char* key;
+    const char* value;
+    ConfigSource source;
+  };
+  const Expected expected[] = {{"a", "0.1", ConfigSource::kFile},
+                               {"b", "2.5", ConfigSource::kDefault},
+                               {"sensor.sigma_m", "0.3", ConfigSource::kFile},
+                               {"sensor.name", "hokuyo", ConfigSource::kOverride},
+                               {"sensor.rate_hz", "30", ConfigSource::kDefault},
+                               {"list[0].w", "1", ConfigSource::kFile},
+                               {"list[1].w", "5", ConfigSource::kOverride}};
+  ASSERT_EQ(values.size(), std::size(expected));
+  for (size_t i = 0; i < values.size(); ++i) {  // in the order read
+    EXPECT_EQ(values[i].key, expected[i].key);
+    EXPECT_EQ(values[i].value, expected[i].value) << values[i].key;
+    EXPECT_EQ(values[i].source, expected[i].source) << values[i].key;
+    EXPECT_EQ(values[i].file, "test.yaml");
+  }
+  EXPECT_EQ(w, (std::vector<int>{1, 5}));
+}
+
+TEST(ConfigEffectiveValues, AnOverriddenSectionMarksTheKeysBelowIt) {
+  ConfigNode root = ConfigNode::FromString("sensor:\n  sigma_m: 0.3\n", "test.yaml");
+  root.ApplyOverride("sensor={sigma_m: 0.2, p_rand: 0.05}");
+  double sigma = 0.0, p_rand = 0.0, p_hit = 0.7;
+  const ConfigNode sensor = root.Child("sensor");
+  sensor.Read("sigma_m", &sigma);
+  sensor.Read("p_rand", &p_rand);
+  sensor.Read("p_hit", &p_hit);
+  const std::vector<ConfigValue> values = root.EffectiveValues();
+  ASSERT_NE(FindValue(values, "sensor.sigma_m"), nullptr);
+  EXPECT_EQ(FindValue(values, "sensor.sigma_m")->source, ConfigSource::kOverride);
+  EXPECT_EQ(FindValue(values, "sensor.sigma_m")->value, "0.2");
+  EXPECT_EQ(FindValue(values, "sensor.p_rand")->source, ConfigSource::kOverride);
+  EXPECT_EQ(FindValue(values, "sensor.p_hit")->source, ConfigSource::kDefault);
+}
+
+TEST(ConfigEffectiveValues, ValuesReadBackExactly) {
+  ConfigNode root = ConfigNode::FromString(
+      "third: 0.333333333333333314829616256247\ntiny: 1e-5\nbig: 3e8\nflag: yes\n"
+      "id: 9007199254740993\noffset: [0, -0.045, 1.5]\nq: [1, 0, 0, 0]\n",
+      "test.yaml");
+  double third = 0.0, tiny = 0.0, big = 0.0, unset = 0.1 + 0.2;
+  float f = 0.1F;
+  bool flag = false;
+  int64_t id = 0;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  Eigen::Vector4d q = Eigen::Vector4d::Zero();
+  root.Read("third", &third);
+  root.Read("tiny", &tiny);
+  root.Read("big", &big);
+  root.Read("unset", &unset);
+  root.Read("f", &f);
+  root.Read("flag", &flag);
+  root.Read("id", &id);
+  root.Read("offset", &offset);
+  root.Read("q", &q);
+  const std::vector<ConfigValue> values = root.EffectiveValues();
+  // Each number's text parses back to the very double the process holds.
+  for (const auto& [key, held] : std::vector<std::pair<std::string, double>>{
+           {"third", third}, {"tiny", tiny}, {"big", big}, {"unset", unset}}) {
+    ASSERT_NE(FindValue(values, key), nullptr) << key;
+    EXPECT_EQ(std::stod(FindValue(values, key)->value), held) << key;
+  }
+  EXPECT_EQ(FindValue(values, "unset")->value, "0.30000000000000004");
+  EXPECT_EQ(FindValue(values, "tiny")->value, "1e-05");
+  EXPECT_EQ(FindValue(values, "f")->value, "0.1");  // the float's own shortest text
+  EXPECT_EQ(FindValue(values, "flag")->value, "true");
+  EXPECT_EQ(FindValue(values, "id")->value, "9007199254740993");  // beyond a double's integers
+  EXPECT_EQ(FindValue(values, "offset")->value, "[0, -0.045, 1.5]");
+  EXPECT_EQ(FindValue(values, "q")->value, "[1, 0, 0, 0]");
+  // The text is YAML: read back as a document it gives the same values.
+  std::string yaml;
+  for (const ConfigValue& v : values) yaml += v.key + ": " + v.value + "\n";
+  const ConfigNode again = ConfigNode::FromString(yaml, "again.yaml");
+  Eigen::Vector3d offset_again = Eigen::Vector3d::Zero();
+  double third_again = 0.0;
+  again.Read("offset", &offset_again);
+  again.Read("third", &third_again);
+  EXPECT_EQ(offset_again, offset);
+  EXPECT_EQ(third_again, third);
+}
+
+TEST(ConfigEffectiveValues, AKeyReadTwiceKeepsItsPlaceAndItsLatestValue) {
+  const ConfigNode root = ConfigNode::FromString("x: 1\ny: 2\n", "test.yaml");
+  int x = 0, y = 0;
+  std::string x_text;
+  root.Read("x", &x);
+  root.Read("y", &y);
+  root.Read("x", &x_text);
+  const std::vector<ConfigValue> values = root.EffectiveValues();
+  ASSERT_EQ(values.size(), 2u);
+  EXPECT_EQ(values[0].key, "x");
+  EXPECT_EQ(values[0].value, "1");
+  EXPECT_EQ(values[1].key, "y");
+}
+
+TEST(ConfigEffectiveValues, IncludedFilesFollowWithTheirOwnName) {
+  const std::string path = ::testing::TempDir() + "/kestrel_included_vehicle.yaml";
+  {
+    std::ofstream out(path);
+    out << "mass_kg: 1.5\n";
+  }
+  const ConfigNode root = ConfigNode::FromString("vehicle_file: v.yaml\n", "sim.yaml");
+  std::string vehicle_file;
+  root.Read("vehicle_file", &vehicle_file);
+  const ConfigNode vehicle = root.Include(path);
+  double mass = 0.0, arm = 0.17, seed = 1.0;
+  vehicle.Read("mass_kg", &mass);
+  vehicle.Read("arm_m", &arm);
+  root.Read("seed", &seed);  // read on the including file after the include: still listed first
+  const std::vector<ConfigValue> values = root.EffectiveValues();
+  ASSERT_EQ(values.size(), 4u);
+  EXPECT_EQ(values[0].file, "sim.yaml");
+  EXPECT_EQ(values[1].key, "seed");
+  EXPECT_EQ(values[2].file, path);
+  EXPECT_EQ(values[2].key, "mass_kg");
+  EXPECT_EQ(values[2].source, ConfigSource::kFile);
+  EXPECT_EQ(values[3].key, "arm_m");
+  EXPECT_EQ(values[3].source, ConfigSource::kDefault);
+  ExpectConfigError([&] { (void)root.Include(path + ".missing"); }, {".missing", "cannot open"});
 }
 
 }  // namespace
