@@ -26,6 +26,7 @@ const char* const kCommonHelp =
 
 bool ParseCommandLine(int argc, const char* const* argv, const OptionDeclarer& declare,
                       ProcessArgs* args) {
+  args->command_line.assign(argv, argv + argc);
   CLI::App app;
   app.set_help_flag();  // the process's own usage text is printed instead of CLI11's
   bool help = false;

@@ -37,10 +37,11 @@ class App;
 namespace kestrel {
 
 struct ProcessArgs {
-  std::string config_path;             ///< --config FILE (empty: defaults only)
-  std::vector<std::string> overrides;  ///< --set key.path=value, in order
-  std::string lcm_url;                 ///< --lcm-url URL ("" = LCM_DEFAULT_URL or LCM's default)
-  std::string sim_clock_channel;       ///< --sim-clock CHANNEL: run on the simulator's time
+  std::string config_path;                ///< --config FILE (empty: defaults only)
+  std::vector<std::string> overrides;     ///< --set key.path=value, in order
+  std::string lcm_url;                    ///< --lcm-url URL ("" = LCM_DEFAULT_URL or LCM's default)
+  std::string sim_clock_channel;          ///< --sim-clock CHANNEL: run on the simulator's time
+  std::vector<std::string> command_line;  ///< argv as given, argv[0] first (for params_t)
 };
 
 /// Declares a process's own options and positional arguments on the CLI11 parser, bound to the

@@ -15,6 +15,9 @@
 #include <string>
 #include <vector>
 
+#include "kestrel/param_t.hpp"
+#include "kestrel/params_request_t.hpp"
+#include "kestrel/params_t.hpp"
 #include "kestrel/procman_command_t.hpp"
 #include "lcmtypes/message_codecs.h"
 #include "mapping/map_file.h"
@@ -70,6 +73,9 @@ void WriteLcmSeeds() {
   WriteSamples<candidate_t>(17);
   WriteSamples<named_value_t>(18);
   WriteLcm(19, procman_command_t{}, "procman_command_t-0");
+  WriteSamples<param_t>(20);
+  WriteSamples<params_t>(21);
+  WriteSamples<params_request_t>(22);
 
   // The compressed payloads, and values a consumer accepts (probabilities in [0, 1]).
   depth_image_t depth = MakeSample<depth_image_t>(0);

@@ -27,6 +27,9 @@
 #include "kestrel/map_status_t.hpp"
 #include "kestrel/motor_command_t.hpp"
 #include "kestrel/named_value_t.hpp"
+#include "kestrel/param_t.hpp"
+#include "kestrel/params_request_t.hpp"
+#include "kestrel/params_t.hpp"
 #include "kestrel/planar_scan_t.hpp"
 #include "kestrel/pose_t.hpp"
 #include "kestrel/procman_command_t.hpp"
@@ -176,8 +179,11 @@ constexpr FuzzFn kTypes[] = {
     Fuzz<kestrel::candidate_t>,
     Fuzz<kestrel::named_value_t>,
     Fuzz<kestrel::procman_command_t>,
+    Fuzz<kestrel::param_t>,
+    Fuzz<kestrel::params_t>,
+    Fuzz<kestrel::params_request_t>,
 };
-static_assert(sizeof(kTypes) / sizeof(kTypes[0]) == 20, "one entry per lcmtypes/*.lcm");
+static_assert(sizeof(kTypes) / sizeof(kTypes[0]) == 23, "one entry per lcmtypes/*.lcm");
 
 }  // namespace
 

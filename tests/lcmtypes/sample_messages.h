@@ -22,6 +22,9 @@
 #include "kestrel/map_status_t.hpp"
 #include "kestrel/motor_command_t.hpp"
 #include "kestrel/named_value_t.hpp"
+#include "kestrel/param_t.hpp"
+#include "kestrel/params_request_t.hpp"
+#include "kestrel/params_t.hpp"
 #include "kestrel/planar_scan_t.hpp"
 #include "kestrel/pose_t.hpp"
 #include "kestrel/procman_command_t.hpp"
@@ -299,6 +302,35 @@ inline void Fill(Filler& f, map_status_t* m) {
   m->applied_every_message = false;
 }
 
+inline void Fill(Filler& f, param_t* m) {
+  m->file = f.Text();
+  m->key = f.Text();
+  m->value = f.Text();
+  m->source = param_t::SOURCE_OVERRIDE;
+}
+inline void Fill(Filler& f, params_t* m) {
+  m->utime = f.Int();
+  m->seq = f.Int();
+  m->epoch = f.Int();
+  m->process = f.Text();
+  m->host = f.Text();
+  m->pid = f.Small(2, 99999);
+  m->run_id = f.Text();
+  m->config_file = f.Text();
+  m->num_args = 2;
+  m->args = {f.Text(), f.Text()};
+  m->num_params = 3;
+  m->params.resize(3);
+  for (auto& p : m->params) Fill(f, &p);
+}
+inline void Fill(Filler& f, params_request_t* m) {
+  m->utime = f.Int();
+  m->seq = f.Int();
+  m->epoch = f.Int();
+  m->source = f.Text();
+  m->process = f.Text();
+}
+
 inline void Fill(Filler& f, procman_command_t* m) {
   m->id = f.Text();
   m->group = f.Text();
@@ -372,9 +404,11 @@ void ForEachMessageType(Visitor&& v) {
   v.template Visit<map_status_t>();
   v.template Visit<procman_status_t>();
   v.template Visit<procman_order_t>();
+  v.template Visit<params_t>();
+  v.template Visit<params_request_t>();
 }
 
 /// Number of top-level types ForEachMessageType visits.
-inline constexpr int kNumMessageTypes = 17;
+inline constexpr int kNumMessageTypes = 19;
 
 }  // namespace kestrel::testing
