@@ -4,6 +4,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/command_line.h"
+#include "common/config_publisher.h"
 #include "common/heartbeat.h"
 #include "common/node_loop.h"
 #include "common/process.h"
@@ -25,7 +26,7 @@ int main(int argc, char** argv) {
       "kestrel-controller", argc, argv, kUsage,
       [&](CLI::App& app) { app.add_option("--vehicle", vehicle_path); },
       [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
-        const kestrel::VehicleConfig vehicle = kestrel::LoadVehicleConfigFile(vehicle_path);
+        const kestrel::VehicleConfig vehicle = kestrel::LoadVehicleConfigFile(vehicle_path, node);
         kestrel::ControllerConfig config = kestrel::LoadControllerConfig(node, vehicle);
         config.flight.vehicle = vehicle;
         node.CheckNoUnknownKeys();
@@ -36,6 +37,9 @@ int main(int argc, char** argv) {
             kestrel::MakeProcessClock(lcm, args.sim_clock_channel);
         kestrel::ControllerNode controller(lcm, config, *clock);
         kestrel::Heartbeat heartbeat(lcm, *clock, "kestrel-controller", "HEARTBEAT_CONTROLLER");
+        const kestrel::ConfigPublisher params(lcm, *clock, "kestrel-controller",
+                                              kestrel::ParamsChannelFor(heartbeat.channel()), args,
+                                              node);
         kestrel::NodeLoop loop(lcm, *clock);
         loop.AddTimer("control", kestrel::SecondsToUtime(1.0 / config.rate_hz),
                       [&controller](int64_t utime) { controller.Tick(utime); });

@@ -1,6 +1,7 @@
 // kestrel-explorer: entropy-based exploration (docs/algorithms.md §6-§9).
 #include <lcm/lcm-cpp.hpp>
 
+#include "common/config_publisher.h"
 #include "common/node_loop.h"
 #include "common/process.h"
 #include "common/sim_truth_clock.h"
@@ -26,6 +27,9 @@ int main(int argc, char** argv) {
         const std::unique_ptr<kestrel::Clock> clock =
             kestrel::MakeProcessClock(lcm, args.sim_clock_channel);
         kestrel::ExplorerNode explorer(lcm, config, *clock);
+        const kestrel::ConfigPublisher params(lcm, *clock, "kestrel-explorer",
+                                              kestrel::ParamsChannelFor(config.heartbeat_channel),
+                                              args, node);
         kestrel::NodeLoop loop(lcm, *clock);
         loop.AddTimer("step", 50000, [&](int64_t) { explorer.Step(); });
         return loop.Run();

@@ -2,6 +2,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/command_line.h"
+#include "common/config_publisher.h"
 #include "common/log.h"
 #include "common/node_loop.h"
 #include "common/process.h"
@@ -34,6 +35,9 @@ int main(int argc, char** argv) {
         const std::unique_ptr<kestrel::Clock> clock =
             kestrel::MakeProcessClock(lcm, args.sim_clock_channel);
         kestrel::MapperNode mapper(lcm, config, *clock);
+        const kestrel::ConfigPublisher params(lcm, *clock, "kestrel-mapper",
+                                              kestrel::ParamsChannelFor(config.heartbeat_channel),
+                                              args, node);
         while (!kestrel::NodeLoop::signal_received()) {
           // Drain the socket into the node's queue first, so the backlog is visible, then apply
           // one scan at a time.

@@ -7,6 +7,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/clock.h"
+#include "common/config_publisher.h"
 #include "common/node_loop.h"
 #include "common/process.h"
 #include "sim/sim_node.h"
@@ -47,6 +48,9 @@ int main(int argc, char** argv) {
         }
         kestrel::SimClock clock(kestrel::WallClock().NowUtime());
         kestrel::SimNode node(lcm, sim_config, clock);
+        const kestrel::ConfigPublisher params(
+            lcm, clock, "kestrel-sim", kestrel::ParamsChannelFor(sim_config.heartbeat_channel),
+            args, config);
         const int64_t start_utime = clock.NowUtime();
         const auto wall_start = std::chrono::steady_clock::now();
         while (!kestrel::NodeLoop::signal_received()) {

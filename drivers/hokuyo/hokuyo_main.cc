@@ -2,6 +2,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/clock.h"
+#include "common/config_publisher.h"
 #include "common/node_loop.h"
 #include "common/process.h"
 #include "drivers/hokuyo/hokuyo_node.h"
@@ -23,6 +24,9 @@ int main(int argc, char** argv) {
         if (!lcm.good()) throw std::runtime_error("LCM init failed for '" + args.lcm_url + "'");
         kestrel::WallClock clock;
         kestrel::HokuyoNode node(lcm, hokuyo_config, clock);
+        const kestrel::ConfigPublisher params(
+            lcm, clock, "kestrel-hokuyo",
+            kestrel::ParamsChannelFor(hokuyo_config.heartbeat_channel), args, config);
         kestrel::NodeLoop loop(lcm, clock);
         return node.Run(loop);
       });

@@ -3,6 +3,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/clock.h"
+#include "common/config_publisher.h"
 #include "common/node_loop.h"
 #include "common/process.h"
 #include "drivers/vicon/vicon_config.h"
@@ -25,6 +26,9 @@ int main(int argc, char** argv) {
         if (!lcm.good()) throw std::runtime_error("LCM init failed for '" + args.lcm_url + "'");
         kestrel::WallClock clock;
         kestrel::ViconEmitterNode node(lcm, config, clock);
+        const kestrel::ConfigPublisher params(lcm, clock, "kestrel-vicon-emitter",
+                                              kestrel::ParamsChannelFor(config.heartbeat_channel),
+                                              args, config_node);
         kestrel::NodeLoop loop(lcm, clock);
         node.AddTimers(loop);
         return loop.Run();

@@ -3,6 +3,7 @@
 
 #include "common/clock.h"
 #include "common/command_line.h"
+#include "common/config_publisher.h"
 #include "common/node_loop.h"
 #include "common/process.h"
 #include "drivers/xtion/xtion_config.h"
@@ -37,6 +38,9 @@ int main(int argc, char** argv) {
           }
           return 0;
         }
+        const kestrel::ConfigPublisher params(
+            lcm, clock, "kestrel-xtion", kestrel::ParamsChannelFor(xtion_config.heartbeat_channel),
+            args, config);
         kestrel::NodeLoop loop(lcm, clock);
         loop.AddTimer("heartbeat", kestrel::SecondsToUtime(xtion_config.heartbeat_period_s),
                       [&node](int64_t) { node.PublishHeartbeat(); });

@@ -2,6 +2,7 @@
 // process-sheet orders to the runners on every host, and a one-screen status of every process.
 #include <chrono>
 #include <cstdio>
+#include <map>
 #include <string>
 #include <thread>
 #include <vector>
@@ -10,6 +11,7 @@
 
 #include "common/clock.h"
 #include "common/command_line.h"
+#include "common/config_publisher.h"
 #include "common/identity.h"
 #include "common/lcm_decode.h"
 #include "common/process.h"
@@ -22,11 +24,14 @@ const char* const kUsage =
     "usage: kestrel-cmd takeoff [--height M] | hold | land | estop | idle | track\n"
     "                   [--channel COMMAND] [--wait SECONDS]\n"
     "       kestrel-cmd status [--seconds S]\n"
+    "       kestrel-cmd params [PROCESS] [--seconds S]\n"
     "       kestrel-cmd procman list [--seconds S]\n"
     "       kestrel-cmd procman start|stop|restart TARGET [--host HOST]\n"
     "  TARGET: all | cmd:ID | group:PATH; HOST: the runner to order (default every runner)\n"
     "  --wait S: wait up to S seconds for CONTROLLER_STATUS to show the commanded mode; exit 1\n"
-    "            if it does not (the e-stop is always sent at once, and repeated 3 times)\n";
+    "            if it does not (the e-stop is always sent at once, and repeated 3 times)\n"
+    "  params: asks every process (or PROCESS, e.g. kestrel-mapper) for the configuration it runs\n"
+    "          with and prints each answer that comes within S seconds; exit 1 if none does\n";
 
 /// Listens for `seconds` and collects the operator view.
 kestrel::procman::OperatorView Listen(lcm::LCM& lcm, double seconds) {
@@ -117,6 +122,41 @@ int main(int argc, char** argv) {
         if (verb == "status") {
           const auto view = Listen(lcm, seconds);
           std::printf("%s", procman::FormatOperatorView(view, clock.NowUtime()).c_str());
+          return 0;
+        }
+        if (verb == "params" && p.size() <= 2) {
+          std::map<std::pair<std::string, int64_t>, params_t> answers;  // (channel, epoch)
+          GuardedSubscriptions subs(lcm);
+          subs.Add<params_t>(
+              "PARAMS_.*",
+              [&](const std::string& ch, const params_t& m) {
+                answers[{ch, m.epoch}] = m;
+              },
+              [](const std::string& ch, const std::string& reason) {
+                std::fprintf(stderr, "kestrel-cmd: %s: dropped a malformed message: %s\n",
+                             ch.c_str(), reason.c_str());
+              });
+          params_request_t request{};
+          request.utime = clock.NowUtime();
+          request.seq = 0;
+          request.epoch = NewPublisherEpoch();
+          request.source = "kestrel-cmd";
+          request.process = p.size() == 2 ? p[1] : "";
+          lcm.publish(kParamsRequestChannel, &request);
+          const auto end = std::chrono::steady_clock::now() +
+                           std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000));
+          while (std::chrono::steady_clock::now() < end) lcm.handleTimeout(50);
+          int printed = 0;
+          for (const auto& [key, m] : answers) {
+            if (!request.process.empty() && m.process != request.process) continue;
+            std::printf("%s", FormatParams(m).c_str());
+            ++printed;
+          }
+          if (printed == 0) {
+            std::fprintf(stderr, "kestrel-cmd: no process answered on PARAMS_* within %g s\n",
+                         seconds);
+            return 1;
+          }
           return 0;
         }
         if (verb == "procman" && p.size() >= 2) {

@@ -5,6 +5,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "common/config_publisher.h"
 #include "common/log.h"
 #include "common/node_loop.h"
 #include "common/process.h"
@@ -56,6 +57,9 @@ int main(int argc, char** argv) {
         }
         const kestrel::WallClock clock;
         kestrel::ViewerNode viewer(lcm, config, web_root, clock);
+        const kestrel::ConfigPublisher params(lcm, clock, "kestrel-viewer",
+                                              kestrel::ParamsChannelFor(config.heartbeat_channel),
+                                              args, node);
         kestrel::Log(kestrel::LogLevel::kInfo, "serving http://" + config.host + ":" +
                                                    std::to_string(viewer.port()) + "/ from " +
                                                    web_root);
