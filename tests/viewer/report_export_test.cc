@@ -15,12 +15,14 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/lcm_decode.h"
 #include "kestrel/exploration_status_t.hpp"
 #include "kestrel/grid_map_t.hpp"
 #include "kestrel/map_status_t.hpp"
+#include "kestrel/params_t.hpp"
 #include "mapping/map_file.h"
 #include "sim/world.h"
 #include "sim/world_ray_caster.h"
@@ -305,6 +307,143 @@ TEST(ReportExport, CandidatesAndMap2dAreTheLoggedMessages) {
     ++checked;
   }
   EXPECT_EQ(checked, 2);
+}
+
+/// The fields of one CSV line with RFC 4180 quoting ("a, b" and doubled quotes).
+std::vector<std::string> SplitQuotedCsv(const std::string& line) {
+  std::vector<std::string> fields(1);
+  bool quoted = false;
+  for (size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted && c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+      fields.back() += '"';
+      ++i;
+    } else if (c == '"') {
+      quoted = !quoted;
+    } else if (c == ',' && !quoted) {
+      fields.emplace_back();
+    } else {
+      fields.back() += c;
+    }
+  }
+  return fields;
+}
+
+/// The YAML node at a key path of config.csv ("sensors[1].sigma_m") in a file; undefined if absent.
+YAML::Node NodeAt(const std::string& file, const std::string& key_path) {
+  std::vector<YAML::Node> chain{YAML::LoadFile(file)};
+  std::stringstream parts(key_path);
+  for (std::string part; std::getline(parts, part, '.');) {
+    const size_t bracket = part.find('[');
+    const YAML::Node here = chain.back();
+    YAML::Node next = here[part.substr(0, bracket)];
+    if (bracket != std::string::npos) next = next[std::stoi(part.substr(bracket + 1))];
+    if (!next.IsDefined()) return next;
+    chain.push_back(next);
+  }
+  return chain.back();
+}
+
+// config.csv is the newest params_t of every node in the log, and every value marked "file" is
+// the value at that key in that file (read back here with yaml-cpp), "default" keys are absent.
+TEST(ReportExport, ConfigurationIsWhatTheNodesRanWith) {
+  std::string dir;
+  const Csv meta = ExportFixture(&dir);
+  EXPECT_EQ(Meta(meta, "configurations"),
+            4.0);  // the mission's simulator, controller, mapper, explorer
+  const Csv processes = ReadCsv(dir + "/config_processes.csv");
+  ASSERT_EQ(processes.rows.size(), 4u);
+  std::ifstream in(dir + "/config.csv");
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  EXPECT_EQ(line, "channel,process,epoch,key,value,source,file");
+  std::map<std::string, std::vector<std::vector<std::string>>> rows_by_channel;
+  int from_file = 0, defaults = 0;
+  while (std::getline(in, line)) {
+    const std::vector<std::string> f = SplitQuotedCsv(line);
+    ASSERT_EQ(f.size(), 7u) << line;
+    rows_by_channel[f[0]].push_back(f);
+    const std::string& key = f[3];
+    const std::string& value = f[4];
+    const std::string& source = f[5];
+    const std::string& file = f[6];
+    if (file == "(defaults)") {  // the mission's controller without a file
+      EXPECT_EQ(source, "default") << key;
+      ++defaults;
+      continue;
+    }
+    const YAML::Node in_file = NodeAt(file, key);
+    if (source == "default") {
+      EXPECT_FALSE(in_file.IsDefined() && !in_file.IsNull()) << file << ": " << key;
+      ++defaults;
+      continue;
+    }
+    if (source != "file") continue;  // the mission's overrides: world_file, seed
+    ++from_file;
+    ASSERT_TRUE(in_file.IsDefined()) << file << ": " << key;
+    if (in_file.IsScalar()) {
+      const YAML::Node as_read = YAML::Load(value);
+      double a = 0.0, b = 0.0;
+      if (YAML::convert<double>::decode(in_file, a) && YAML::convert<double>::decode(as_read, b)) {
+        EXPECT_EQ(a, b) << file << ": " << key;
+      } else if (in_file.Scalar() != "yes" && in_file.Scalar() != "no") {
+        EXPECT_EQ(in_file.Scalar(), value) << file << ": " << key;
+      }
+    } else {
+      EXPECT_TRUE(in_file.IsSequence()) << file << ": " << key;
+      EXPECT_EQ(YAML::Load(value).size(), in_file.size()) << file << ": " << key;
+    }
+  }
+  // The fixture's four files set about 320 values; about 20 are left to the code (the lidar's
+  // model values, the sensor models' switches, the ceiling).
+  EXPECT_GT(from_file, 200);
+  EXPECT_GE(defaults, 10);
+  // Each channel's rows are its logged message's params, in order.
+  for (const char* channel :
+       {"PARAMS_SIM", "PARAMS_CONTROLLER", "PARAMS_MAPPER", "PARAMS_EXPLORER"}) {
+    const auto logged = ReadChannel<params_t>(kLog, channel);
+    ASSERT_EQ(logged.size(), 1u) << channel;
+    const auto& rows = rows_by_channel[channel];
+    ASSERT_EQ(rows.size(), logged[0].params.size()) << channel;
+    for (size_t i = 0; i < rows.size(); ++i) {
+      EXPECT_EQ(rows[i][3], logged[0].params[i].key);
+      EXPECT_EQ(rows[i][4], logged[0].params[i].value);
+    }
+  }
+  // The simulator's world and vehicle came through its configuration, with their own file names.
+  bool world_listed = false, vehicle_listed = false;
+  for (const auto& r : rows_by_channel["PARAMS_SIM"]) {
+    world_listed = world_listed || r[6].find("config/worlds/lasr.yaml") != std::string::npos;
+    vehicle_listed = vehicle_listed || r[6].find("config/vehicle/") != std::string::npos;
+  }
+  EXPECT_TRUE(world_listed);
+  EXPECT_TRUE(vehicle_listed);
+}
+
+// An override on the mission's command line is in the log as an override, with the value used.
+TEST(ReportExport, ConfigurationShowsOverrides) {
+  const ScratchDir scratch("overrides");
+  ReportExportConfig c;
+  c.log_path = kFixtureDir + "/frontier.lcmlog";
+  c.out_dir = scratch.path() + "/out";
+  const ReportExportSummary s = ExportReportData(c);
+  EXPECT_EQ(s.configurations, 4u);
+  std::ifstream in(c.out_dir + "/config.csv");
+  bool found = false;
+  for (std::string line; std::getline(in, line);) {
+    const std::vector<std::string> f = SplitQuotedCsv(line);
+    if (f[0] == "PARAMS_EXPLORER" && f[3] == "mode") {
+      EXPECT_EQ(f[4], "frontier");
+      EXPECT_EQ(f[5], "override");
+      found = true;
+    }
+  }
+  EXPECT_TRUE(found);
+  const Csv processes = ReadCsv(c.out_dir + "/config_processes.csv");
+  ASSERT_EQ(processes.rows.size(), 4u);
+  EXPECT_NE(
+      processes.rows[0][processes.Column("command_line")].find("--explorer-set mode=frontier"),
+      std::string::npos);
 }
 
 // A log cut inside an event: the events before the cut are used and a warning says so.

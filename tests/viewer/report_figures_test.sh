@@ -24,6 +24,13 @@ expected="fig1_map3d.json fig1_map3d.png fig2_map2d_0_t25s.json fig2_map2d_0_t25
 got=$(cd "$out" && ls -1 fig* | tr '\n' ' ' | sed 's/ $//')
 [[ $got == "$expected" ]] || fail "figure names: got '$got', expected '$expected'"
 "$python" "$check" --figures "$out" --data "$out/data/main" --runs 2 || fail "figure check"
+# The run's configuration: the mission's four nodes, each value under its file.
+config=$out/configuration.txt
+[[ $(grep -c "^kestrel-mission on " "$config" 2>/dev/null) == 4 ]] ||
+  fail "configuration.txt does not list the mission's 4 nodes"
+grep -Eq "^    mode: volumetric$" "$config" || fail "configuration.txt lacks the explorer's mode"
+grep -Eq "^  .*config/mapper.yaml:$" "$config" || fail "configuration.txt lacks the mapper's file"
+grep -Eq "^    seed: 1 +# override$" "$config" || fail "configuration.txt lacks the simulator's seed override"
 
 # 2. The same check must fail on an empty map and on a map displaced by 3 m.
 neg=$work/negative

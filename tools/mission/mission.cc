@@ -14,6 +14,7 @@
 #include "common/check.h"
 #include "common/clock.h"
 #include "common/config.h"
+#include "common/config_publisher.h"
 #include "common/identity.h"
 #include "common/log.h"
 #include "control/controller_node.h"
@@ -126,9 +127,10 @@ MissionResult RunMission(const MissionConfig& mc) {
   explorer_config.planner.trajectory.vehicle_radius_m = 0.5 * sim_config.vehicle.diameter_m;
 
   ControllerConfig controller_config;
+  ConfigNode controller_cfg = ConfigNode::FromString("{}", "(defaults)");
   if (!mc.controller_file.empty()) {
-    controller_config = LoadControllerConfig(
-        ConfigNode::LoadFile(Resolve(mc.root, mc.controller_file)), sim_config.vehicle);
+    controller_cfg = ConfigNode::LoadFile(Resolve(mc.root, mc.controller_file));
+    controller_config = LoadControllerConfig(controller_cfg, sim_config.vehicle);
   }
   controller_config.flight.vehicle = sim_config.vehicle;
   controller_config.flight.safety.geofence_min_m = world.map_min_m - Eigen::Vector3d(0, 0, 0.2);
@@ -167,6 +169,28 @@ MissionResult RunMission(const MissionConfig& mc) {
     KESTREL_THROW_UNLESS(log->good(), "cannot write the log " << mc.log_path);
     writer.file = log.get();
     lcm.subscribe(".*", &LogWriter::Handle, &writer);
+    // What each node runs with, first in the log (docs/design.md §6). The values the mission
+    // sets from the world and the vehicle after loading (map limits, height, diameter) are not
+    // among them; the world and the vehicle files are, with the simulator's.
+    struct NodeConfig {
+      const char* name;
+      const ConfigNode* node;
+      std::string file;
+    };
+    const NodeConfig configs[] = {
+        {"SIM", &sim_node_cfg, Resolve(mc.root, mc.sim_file)},
+        {"CONTROLLER", &controller_cfg, Resolve(mc.root, mc.controller_file)},
+        {"MAPPER", &mapper_cfg, Resolve(mc.root, mc.mapper_file)},
+        {"EXPLORER", &explorer_cfg, Resolve(mc.root, mc.explorer_file)}};
+    for (const auto& [name, node, file] : configs) {
+      ProcessArgs args;
+      args.config_path = file;
+      args.command_line = mc.command_line;
+      params_t params = MakeParamsMessage("kestrel-mission", args, *node);
+      params.utime = clock.NowUtime();
+      params.epoch = mission_epoch;
+      lcm.publish(std::string("PARAMS_") + name, &params);
+    }
   }
   MissionResult r;
   const int64_t t0_utime = clock.NowUtime();

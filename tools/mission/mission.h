@@ -30,12 +30,15 @@ struct MissionConfig {
   double quality_period_s{5.0};  ///< known fraction / entropy sampling period, s
   bool compute_quality{true};    ///< ground truth and observable cells (section 10)
   std::string log_path;          ///< every message, as an LCM log (lcm-logplayer replays it)
-  std::string csv_path;          ///< time series (t, entropy, known fraction, ...) if set
-  std::string plans_csv_path;    ///< one row per plan (stage times, positions) if set
-  std::string map_path;          ///< final map file (Kestrel map) if set
-  std::string octomap_path;      ///< final map exported for OctoMap tools (.bt or .ot) if set
-  std::string ply_path;          ///< occupied cells as a PLY point cloud if set
-  bool verbose{false};           ///< every plan, collision and sample on stderr (debugging)
+  /// The tool's command line, recorded with each node's configuration (params_t on
+  /// PARAMS_SIM, PARAMS_CONTROLLER, PARAMS_MAPPER, PARAMS_EXPLORER) at the start of the log.
+  std::vector<std::string> command_line;
+  std::string csv_path;        ///< time series (t, entropy, known fraction, ...) if set
+  std::string plans_csv_path;  ///< one row per plan (stage times, positions) if set
+  std::string map_path;        ///< final map file (Kestrel map) if set
+  std::string octomap_path;    ///< final map exported for OctoMap tools (.bt or .ot) if set
+  std::string ply_path;        ///< occupied cells as a PLY point cloud if set
+  bool verbose{false};         ///< every plan, collision and sample on stderr (debugging)
   /// > 0: one progress line on stderr at most this often (simulated s, at the quality samples):
   /// time, explorer state, known fraction, map entropy, path, collisions.
   double progress_period_s{0.0};

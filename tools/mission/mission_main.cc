@@ -75,7 +75,8 @@ int main(int argc, char** argv) {
         app.add_option("--progress", mc.progress_period_s)->check(kestrel::cli::NonNegative());
         app.add_option("--soak", soak_s)->check(kestrel::cli::NonNegative());
       },
-      [&](const kestrel::ProcessArgs&, kestrel::ConfigNode&) {
+      [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
+        mc.command_line = args.command_line;
         if (!(soak_s >= 0.0)) throw kestrel::ConfigError("--soak needs S >= 0 simulated seconds");
         if (soak_s == 0.0) {
           std::printf("%s", kestrel::MissionSummary(kestrel::RunMission(mc)).c_str());

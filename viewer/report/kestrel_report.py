@@ -6,7 +6,9 @@ Draws, with Debian's python3-matplotlib (Agg backend, no display):
                           height) beside the ground truth when the run was simulated (Figs. 1, 5);
   fig2_map2d_<k>_t<T>s.png   the 2D projected maps at each kept time with the flown trajectory
                           and the candidate poses as arrows (Figs. 2, 6);
-  fig3_entropy.png/.svg   map entropy and known fraction against time, runs overlaid (Figs. 3, 7).
+  fig3_entropy.png/.svg   map entropy and known fraction against time, runs overlaid (Figs. 3, 7);
+and writes configuration.txt: what every process of the run ran with (its params_t in the log:
+command line, then every value under the file it came from, defaults and overrides marked).
 Each PNG has a sidecar <name>.json with its pixel size and, per panel, the transform from world
 (or data) coordinates to image pixels, so a test can check that pixels show what the data holds.
 
@@ -334,6 +336,45 @@ def figure_entropy(runs, out_dir):
     save(fig, out_dir, "fig3_entropy", {"panels": panels, "runs": lines}, svg=True)
 
 
+def write_configuration(data_dir, out_dir):
+    """configuration.txt from config_processes.csv and config.csv; returns its path or None."""
+    processes_path = os.path.join(data_dir, "config_processes.csv")
+    values_path = os.path.join(data_dir, "config.csv")
+    if not (os.path.exists(processes_path) and os.path.exists(values_path)):
+        return None
+    with open(processes_path, newline="") as f:
+        processes = list(csv.DictReader(f))
+    with open(values_path, newline="") as f:
+        values = list(csv.DictReader(f))
+    path = os.path.join(out_dir, "configuration.txt")
+    counts = {"file": 0, "override": 0, "default": 0}
+    with open(path, "w") as out:
+        if not processes:
+            out.write("The log holds no process configuration (no PARAMS_* message).\n")
+        for p in processes:
+            out.write(f"{p['process']} on {p['host']}, pid {p['pid']}"
+                      + (f", run {p['run_id']}" if p["run_id"] else "")
+                      + f" ({p['channel']}, epoch {p['epoch']})\n")
+            if p["command_line"]:
+                out.write(f"  command: {p['command_line']}\n")
+            current_file = None
+            for v in values:
+                if v["channel"] != p["channel"] or v["epoch"] != p["epoch"]:
+                    continue
+                if v["file"] != current_file:
+                    current_file = v["file"]
+                    out.write(f"  {current_file}:\n")
+                line = f"    {v['key']}: {v['value']}"
+                if v["source"] != "file":
+                    line = line.ljust(max(len(line) + 2, 44)) + f"# {v['source']}"
+                counts[v["source"]] = counts.get(v["source"], 0) + 1
+                out.write(line + "\n")
+    print(f"kestrel-report: wrote configuration.txt ({len(processes)} processes; "
+          f"{counts['file']} values from files, {counts['override']} overrides, "
+          f"{counts['default']} defaults)")
+    return path
+
+
 def main(argv):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--data", required=True, help="kestrel-report-export output of the run")
@@ -364,6 +405,8 @@ def main(argv):
         figure_map2d(args.data, args.out)
     if "entropy" in only:
         figure_entropy(runs, args.out)
+    if args.only is None:
+        write_configuration(args.data, args.out)
     return 0
 
 

@@ -25,6 +25,7 @@
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
 #include "kestrel/map_status_t.hpp"
+#include "kestrel/params_t.hpp"
 #include "kestrel/pose_t.hpp"
 #include "mapping/map_quality.h"
 #include "mapping/map_replica.h"
@@ -36,6 +37,30 @@ namespace kestrel {
 namespace {
 
 constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+
+/// A CSV field: quoted (quotes doubled) when it holds a comma, a quote or a line break.
+std::string CsvField(const std::string& text) {
+  if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
+  std::string out = "\"";
+  for (const char c : text) {
+    out += c;
+    if (c == '"') out += '"';
+  }
+  return out + "\"";
+}
+
+const char* SourceName(int8_t source) {
+  switch (source) {
+    case param_t::SOURCE_DEFAULT:
+      return "default";
+    case param_t::SOURCE_FILE:
+      return "file";
+    case param_t::SOURCE_OVERRIDE:
+      return "override";
+    default:
+      return "unknown";
+  }
+}
 
 double SecondsBetween(int64_t utime, int64_t origin_utime) {
   return 1e-6 * static_cast<double>(utime - origin_utime);
@@ -199,6 +224,8 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
   std::vector<Map2dCopy> map2d;
   std::vector<PlanCopy> plans;
   std::map<std::string, int64_t> malformed_by_channel;
+  std::vector<std::pair<std::string, params_t>> configurations;    // (channel, newest message)
+  std::map<std::pair<std::string, int64_t>, size_t> params_index;  // (channel, epoch) -> index
 
   auto take_sample = [&](Sample s) {
     if (replica != nullptr && replica->current()) {
@@ -339,6 +366,21 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
       ++summary.plans;
       plan.clock_utime = std::max(clock_utime, plan.msg.utime);
       plans.push_back(std::move(plan));
+    } else if (!config.params_prefix.empty() && channel.rfind(config.params_prefix, 0) == 0) {
+      params_t params;
+      if (!GuardedDecode(data, size, &params, &error)) {
+        malformed();
+        continue;
+      }
+      ++summary.params_messages;
+      // The newest message of each life of each publisher: values read after the start are in it.
+      const auto [it, inserted] =
+          params_index.emplace(std::make_pair(channel, params.epoch), configurations.size());
+      if (inserted) {
+        configurations.emplace_back(channel, std::move(params));
+      } else {
+        configurations[it->second].second = std::move(params);
+      }
     } else if (channel.rfind(config.map2d_prefix, 0) == 0) {
       Map2dCopy copy;
       if (!GuardedDecode(data, size, &copy.msg, &error)) {
@@ -529,6 +571,36 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
     }
     f.Close();
   }
+  {  // config_processes.csv, config.csv
+    CsvFile fp(dir + "config_processes.csv");
+    CsvFile fv(dir + "config.csv");
+    std::fprintf(fp.get(),
+                 "channel,process,host,pid,epoch,run_id,config_file,command_line,utime\n");
+    std::fprintf(fv.get(), "channel,process,epoch,key,value,source,file\n");
+    for (const auto& [channel, m] : configurations) {
+      std::string command_line;
+      for (const std::string& a : m.args) command_line += (command_line.empty() ? "" : " ") + a;
+      std::fprintf(fp.get(), "%s,%s,%s,%d,%lld,%s,%s,%s,%lld\n", CsvField(channel).c_str(),
+                   CsvField(m.process).c_str(), CsvField(m.host).c_str(), m.pid,
+                   static_cast<long long>(m.epoch), CsvField(m.run_id).c_str(),
+                   CsvField(m.config_file).c_str(), CsvField(command_line).c_str(),
+                   static_cast<long long>(m.utime));
+      for (const param_t& p : m.params) {
+        std::fprintf(fv.get(), "%s,%s,%lld,%s,%s,%s,%s\n", CsvField(channel).c_str(),
+                     CsvField(m.process).c_str(), static_cast<long long>(m.epoch),
+                     CsvField(p.key).c_str(), CsvField(p.value).c_str(), SourceName(p.source),
+                     CsvField(p.file).c_str());
+      }
+    }
+    fp.Close();
+    fv.Close();
+    summary.configurations = configurations.size();
+    if (configurations.empty()) {
+      warn("no " + config.params_prefix +
+           "* message in the log: the processes' configuration is unknown (recorded by processes "
+           "built after it was added; kestrel-cmd params asks running ones again)");
+    }
+  }
   {  // meta.csv
     CsvFile f(dir + "meta.csv");
     const Eigen::Vector3d& o = replica->origin_m();
@@ -554,6 +626,7 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
     std::fprintf(f.get(), "truth_cells,%zu\n", summary.truth_cells);
     std::fprintf(f.get(), "plans,%lld\n", static_cast<long long>(summary.plans));
     std::fprintf(f.get(), "map2d_messages,%lld\n", static_cast<long long>(summary.map2d_messages));
+    std::fprintf(f.get(), "configurations,%zu\n", summary.configurations);
     f.Close();
   }
   return summary;

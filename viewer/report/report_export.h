@@ -14,7 +14,11 @@
 ///  - plans.csv, candidates.csv   every EXPLORATION_STATUS and its candidate poses;
 ///  - map2d_index.csv, map2d_<k>_<name>.csv   the newest MAP2D_* grids at each requested time;
 ///  - occupied.csv     cell centres of the final map with P > occupied_threshold, and their P;
-///  - truth.csv        cell centres of the world voxelised on the map lattice (with a world).
+///  - truth.csv        cell centres of the world voxelised on the map lattice (with a world);
+///  - config_processes.csv, config.csv   the configuration of the run (docs/design.md §6): one
+///                     row per process life (channel, process, host, pid, epoch, run id, config
+///                     file, command line) and one per value it ran with (key, value, file,
+///                     source), from the newest params_t of each life on PARAMS_*.
 ///
 /// Times are seconds since the first MAP_STATUS (the demo's convention; the first map update when
 /// the log has no MAP_STATUS), from the messages' own utime (the simulator's clock in a simulated
@@ -42,7 +46,8 @@ struct ReportExportConfig {
   std::string status_channel{"MAP_STATUS"};                        ///< map_status_t (entropy)
   std::string pose_channel{"POSE_VICON"};                          ///< pose_t (trajectory)
   std::string exploration_channel{"EXPLORATION_STATUS"};           ///< exploration_status_t
-  std::string map2d_prefix{"MAP2D_"};  ///< grid_map_t channels: + COLLISION, COMBINED, ENTROPY
+  std::string map2d_prefix{"MAP2D_"};    ///< grid_map_t channels: + COLLISION, COMBINED, ENTROPY
+  std::string params_prefix{"PARAMS_"};  ///< params_t channels: + the process (MAPPER, SIM, ...)
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
@@ -59,6 +64,8 @@ struct ReportExportSummary {
   int64_t poses{0};             ///< POSE_VICON messages
   int64_t plans{0};             ///< EXPLORATION_STATUS messages
   int64_t map2d_messages{0};    ///< MAP2D_* messages
+  int64_t params_messages{0};   ///< PARAMS_* messages
+  size_t configurations{0};     ///< config_processes.csv rows: process lives that told theirs
   size_t samples{0};            ///< timeseries.csv rows
   size_t occupied_cells{0};     ///< occupied.csv rows
   size_t truth_cells{0};        ///< truth.csv rows (0 without a world)
