@@ -8,6 +8,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "common/lcm_url.h"
 #include "common/log.h"
 #include "common/node_loop.h"
 
@@ -93,7 +94,17 @@ int RunProcess(const std::string& name, int argc, char** argv, const std::string
                const OptionDeclarer& declare,
                const std::function<int(const ProcessArgs&, ConfigNode&)>& body) {
   SetLogProcessName(name);
-  const ProcessArgs args = ParseProcessArgs(argc, argv, usage, declare);
+  ProcessArgs args = ParseProcessArgs(argc, argv, usage, declare);
+  // The receive buffer asked for is what the host grants (docs/design.md §7.6).
+  const ReceiveBufferPlan buffer = PlanReceiveBuffer(EffectiveLcmUrl(args.lcm_url), ReadRmemMax());
+  if (buffer.resized) {
+    Log(LogLevel::kInfo, "LCM: asking recv_buf_size=" + std::to_string(buffer.request_bytes) +
+                             ", what net.core.rmem_max allows, for the " +
+                             std::to_string(buffer.asked_bytes) + " the URL asked: sockets get " +
+                             std::to_string(buffer.granted_bytes) +
+                             " bytes (raise net.core.rmem_max for more)");
+    args.lcm_url = buffer.url;
+  }
   try {
     ConfigNode config = LoadProcessConfig(args);
     NodeLoop::InstallSignalHandlers();
