@@ -8,7 +8,7 @@ viewer="$prefix/bin/kestrel-viewer"
 [[ -x $viewer ]] || { echo "no installed kestrel-viewer: skipped"; exit 77; }
 work=$(mktemp -d)
 trap 'kill $pid 2>/dev/null || true; rm -rf "$work"' EXIT
-"$viewer" --config "$prefix/share/kestrel/config/viewer.yaml" --lcm-url memq:// --set port=0 \
+"$viewer" --config "$prefix/share/kestrel/config/viewer.yaml" --lcm-url memq:// --set port=0 --set foxglove.port=0 \
   2>"$work/viewer.log" &
 pid=$!
 for _ in $(seq 50); do

@@ -36,6 +36,11 @@ ViewerConfig LoadViewerConfig(const ConfigNode& node) {
   node.Read("update_rate_hz", &c.update_rate_hz, Range{0.0, 100.0, false, true});
   node.Read("max_client_buffer_bytes", &c.max_client_buffer_bytes, Range::AtLeast(65536));
   node.Read("max_clients", &c.max_clients, Range::AtLeast(1));
+  if (node.Has("foxglove")) {
+    const ConfigNode f = node.Child("foxglove");
+    f.Read("port", &c.foxglove_port, Range::Closed(-1, 65535));
+    f.Read("map_rate_hz", &c.foxglove_map_rate_hz, Range{0.0, 100.0, false, true});
+  }
   if (node.Has("channels")) {
     const ConfigNode ch = node.Child("channels");
     ch.Read("map", &c.map_channel);

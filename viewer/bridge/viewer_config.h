@@ -20,6 +20,10 @@ struct ViewerConfig {
   /// gets one fresh snapshot (its queue never grows without bound).
   int64_t max_client_buffer_bytes{8 << 20};
   int max_clients{16};  ///< pages served at once; more connections are refused
+  /// The Foxglove WebSocket endpoint (viewer/foxglove/foxglove_server.h) on `host`: its port
+  /// (-1: off, 0: any free port) and how often the map's changed blocks are sent.
+  int foxglove_port{8765};
+  double foxglove_map_rate_hz{1.0};
 
   std::string map_channel{"MAP3D"};                       ///< map3d_chunk_t snapshots
   std::string delta_channel{"MAP3D_DELTA"};               ///< map3d_delta_t

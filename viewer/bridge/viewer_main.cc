@@ -1,6 +1,7 @@
 // kestrel-viewer: the live viewer's bridge; Kestrel's channels in, a web page and WebSocket out.
 #include <csignal>
 #include <filesystem>
+#include <memory>
 #include <string>
 
 #include <lcm/lcm-cpp.hpp>
@@ -10,6 +11,7 @@
 #include "common/node_loop.h"
 #include "common/process.h"
 #include "viewer/bridge/viewer_node.h"
+#include "viewer/foxglove/foxglove_node.h"
 
 namespace {
 const char* const kUsage =
@@ -18,7 +20,9 @@ const char* const kUsage =
     "Subscribes to MAP3D, MAP3D_DELTA, MAP_STATUS, MAP2D_*, POSE_VICON, TRAJECTORY and\n"
     "EXPLORATION_STATUS (names from the configuration) and serves the live viewer page on\n"
     "http://127.0.0.1:8740/ (host, port): the 3D map as voxels, the 2D maps, pose, trajectory,\n"
-    "candidates and the entropy history; a page opened late starts from the current state.\n";
+    "candidates and the entropy history; a page opened late starts from the current state.\n"
+    "Foxglove connects to ws://127.0.0.1:8765 (foxglove.port; -1: off): the map as cubes, the\n"
+    "2D maps as grids, the pose as a transform, trajectory and candidates as lines and arrows.\n";
 
 #ifndef KESTREL_VIEWER_WEB_ROOT
 #define KESTREL_VIEWER_WEB_ROOT ""
@@ -38,6 +42,12 @@ std::string DefaultWebRoot() {
     if (std::filesystem::exists(installed / "index.html", error)) return installed.string();
   }
   return KESTREL_VIEWER_WEB_ROOT;
+}
+
+// The channel prefix of the MAP2D regex ("MAP2D_.*" -> "MAP2D_").
+std::string MapPrefixOf(const std::string& regex) {
+  const size_t cut = regex.find_first_of(".*[(|\\+?");
+  return cut == std::string::npos ? regex : regex.substr(0, cut);
 }
 }  // namespace
 
@@ -63,12 +73,31 @@ int main(int argc, char** argv) {
         kestrel::Log(kestrel::LogLevel::kInfo, "serving http://" + config.host + ":" +
                                                    std::to_string(viewer.port()) + "/ from " +
                                                    web_root);
+        std::unique_ptr<kestrel::foxglove::FoxgloveNode> foxglove;
+        if (config.foxglove_port >= 0) {
+          kestrel::foxglove::FoxgloveNodeConfig f;
+          f.server.host = config.host;
+          f.server.port = config.foxglove_port;
+          f.map_rate_hz = config.foxglove_map_rate_hz;
+          f.bridge.occupied_threshold = config.scene.occupied_threshold;
+          f.bridge.map_channel = config.map_channel;
+          f.bridge.delta_channel = config.delta_channel;
+          f.bridge.pose_channel = config.pose_channel;
+          f.bridge.trajectory_channel = config.trajectory_channel;
+          f.bridge.exploration_channel = config.exploration_channel;
+          f.bridge.map2d_prefix = MapPrefixOf(config.map2d_channels);
+          foxglove = std::make_unique<kestrel::foxglove::FoxgloveNode>(lcm, f, clock);
+        }
         while (!kestrel::NodeLoop::signal_received()) {
           // Drain what LCM has (bounded, so the pages are served under a flood), then sockets.
           int handled = 0;
           while (handled < 500 && lcm.handleTimeout(0) > 0) ++handled;
           viewer.Poll();
           viewer.PublishDue();
+          if (foxglove) {
+            foxglove->Poll();
+            foxglove->PublishDue();
+          }
           if (handled == 0) lcm.handleTimeout(5);
         }
         kestrel::Log(kestrel::LogLevel::kInfo, "stopping");
