@@ -18,7 +18,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "kestrel/pose_t.hpp"
 #include "viewer/foxglove/foxglove_bridge.h"
+#include "viewer/foxglove/foxglove_node.h"
 #include "viewer/foxglove/foxglove_server.h"
 
 namespace kestrel::foxglove {
@@ -39,6 +41,8 @@ class FoxgloveServerTest : public ::testing::Test {
     options.port = 0;
     server_ = std::make_unique<FoxgloveServer>(options);
     ASSERT_GT(server_->port(), 0);
+    port_ = server_->port();
+    poll_ = [this] { server_->Poll(); };
   }
   void TearDown() override {
     if (fd_ >= 0) close(fd_);
@@ -49,7 +53,7 @@ class FoxgloveServerTest : public ::testing::Test {
     EXPECT_GE(fd, 0);
     sockaddr_in address{};
     address.sin_family = AF_INET;
-    address.sin_port = htons(static_cast<uint16_t>(server_->port()));
+    address.sin_port = htons(static_cast<uint16_t>(port_));
     address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
     EXPECT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
     return fd;
@@ -63,7 +67,7 @@ class FoxgloveServerTest : public ::testing::Test {
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
     char buffer[65536];
     while (std::chrono::steady_clock::now() < end) {
-      server_->Poll();
+      poll_();
       const ssize_t n = recv(fd_, buffer, sizeof buffer, MSG_DONTWAIT);
       if (n > 0) received_.append(buffer, static_cast<size_t>(n));
       if (done()) return true;
@@ -73,7 +77,7 @@ class FoxgloveServerTest : public ::testing::Test {
   }
   std::string Handshake(const std::string& protocol_header) {
     fd_ = Connect();
-    SendAll("GET / HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(server_->port()) +
+    SendAll("GET / HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port_) +
             "\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n" + protocol_header +
             "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n");
     EXPECT_TRUE(Pump([&] { return received_.find("\r\n\r\n") != std::string::npos; }));
@@ -169,6 +173,8 @@ class FoxgloveServerTest : public ::testing::Test {
   }
 
   std::unique_ptr<FoxgloveServer> server_;
+  int port_{-1};
+  std::function<void()> poll_;  ///< the server's socket work (and, for a node, LCM's)
   int fd_{-1};
   std::string received_;
 };
@@ -246,6 +252,51 @@ TEST_F(FoxgloveServerTest, RefusesAHandshakeWithoutTheSubprotocolOrFromAForeignP
   EXPECT_EQ(foreign.rfind("HTTP/1.1 400", 0), 0u) << foreign;
   EXPECT_EQ(server_->counters().refused, 2);
   EXPECT_EQ(server_->clients(), 0);
+}
+
+// The node: LCM messages (memq://) reach a subscribed client as Foxglove messages, the map's
+// blocks at the node's map rate.
+TEST_F(FoxgloveServerTest, TheNodeForwardsKestrelChannels) {
+  server_.reset();
+  lcm::LCM lcm("memq://");
+  SimClock clock(1000000);
+  FoxgloveNodeConfig config;
+  config.server.port = 0;
+  FoxgloveNode node(lcm, config, clock);
+  port_ = node.port();
+  poll_ = [&] {
+    while (lcm.handleTimeout(0) > 0) {
+    }
+    node.Poll();
+    node.PublishDue();
+  };
+  pose_t pose{};
+  pose.utime = 2000000;
+  pose.valid = true;
+  pose.position_m[0] = 1.25;
+  pose.orientation_wxyz[0] = 1.0;
+  lcm.publish("POSE_VICON", &pose);  // /tf is advertised once the first pose arrived
+  poll_();
+  std::map<std::string, json> channels = Open();
+  ASSERT_EQ(channels.count("/tf"), 1u);
+  SendFrame(1, json{{"op", "subscribe"},
+                    {"subscriptions", {{{"id", 3}, {"channelId", channels["/tf"]["id"]}}}}}
+                   .dump());
+  std::optional<Frame> f = NextFrame();
+  ASSERT_TRUE(f.has_value());
+  ASSERT_EQ(f->opcode, 2);
+  EXPECT_EQ(json::parse(f->payload.substr(13))["translation"]["x"], 1.25);
+  pose.utime = 3000000;
+  pose.position_m[0] = 2.5;
+  lcm.publish("POSE_VICON", &pose);
+  f = NextFrame();
+  ASSERT_TRUE(f.has_value());
+  EXPECT_EQ(json::parse(f->payload.substr(13))["translation"]["x"], 2.5);
+  // A malformed message is counted, not forwarded.
+  const char garbage[] = "garbage";
+  lcm.publish("POSE_VICON", garbage, sizeof garbage);
+  poll_();
+  EXPECT_EQ(node.refused_messages(), 1);
 }
 
 }  // namespace
