@@ -28,7 +28,7 @@ namespace {
 
 using nlohmann::json;
 
-/// One WebSocket frame as received (RFC 6455 §5.2, server frames are not masked).
+/// One WebSocket frame as received (RFC 6455, section 5.2: server frames are not masked).
 struct Frame {
   int opcode{0};
   std::string payload;
@@ -117,7 +117,7 @@ class FoxgloveServerTest : public ::testing::Test {
     received_.erase(0, header + length);
     return f;
   }
-  // A masked client frame (RFC 6455 §5.3).
+  // A masked client frame (RFC 6455, section 5.3).
   void SendFrame(int opcode, const std::string& payload) {
     std::string frame(1, static_cast<char>(0x80 | opcode));
     const unsigned char mask[4] = {0x12, 0x34, 0x56, 0x78};
