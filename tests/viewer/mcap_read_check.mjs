@@ -43,6 +43,9 @@ function summarize(schemas, channels, messages) {
       jsonErrors += 1;
     }
   }
+  // Topics in name order: the indexed reader yields messages by time, the stream reader in file
+  // order, so their first appearances may differ.
+  const sortedTopics = Object.fromEntries(Object.keys(topics).sort().map((k) => [k, topics[k]]));
   return {
     schemas: [...schemas.values()].map((s) => ({ id: s.id, name: s.name, encoding: s.encoding }))
       .sort((a, b) => a.id - b.id),
@@ -50,7 +53,7 @@ function summarize(schemas, channels, messages) {
       .map((c) => ({ id: c.id, topic: c.topic, encoding: c.messageEncoding,
                      schema: schemas.get(c.schemaId)?.name ?? null }))
       .sort((a, b) => a.id - b.id),
-    topics,
+    topics: sortedTopics,
     jsonErrors,
   };
 }
