@@ -225,8 +225,11 @@ TEST_F(FoxgloveServerTest, AdvertisesSubscribesAndSendsMessageData) {
 }
 
 TEST_F(FoxgloveServerTest, ALateSubscriberGetsTheMapSnapshot) {
-  server_->Publish("/map", "foxglove.SceneUpdate", 5, R"({"entities":["update"]})");
-  server_->SetSnapshotSource("/map", [] { return std::string(R"({"entities":["whole map"]})"); });
+  server_->Advertise("/map", "foxglove.SceneUpdate");
+  EXPECT_FALSE(server_->HasSubscribers("/map"));
+  server_->SetSnapshotSource("/map", [] {
+    return FoxgloveServer::Snapshot{5, R"({"entities":["whole map"]})"};
+  });
   std::map<std::string, json> channels = Open();
   SendFrame(1, json{{"op", "subscribe"},
                     {"subscriptions", {{{"id", 1}, {"channelId", channels["/map"]["id"]}}}}}
@@ -234,6 +237,8 @@ TEST_F(FoxgloveServerTest, ALateSubscriberGetsTheMapSnapshot) {
   const std::optional<Frame> f = NextFrame();
   ASSERT_TRUE(f.has_value());
   ExpectMessageData(*f, 1, 5, R"({"entities":["whole map"]})");
+  EXPECT_TRUE(server_->HasSubscribers("/map"));
+  EXPECT_FALSE(server_->HasSubscribers("/tf"));
   // A subscription to a channel that was never advertised is refused with a Status.
   SendFrame(1, R"({"op":"subscribe","subscriptions":[{"id":2,"channelId":99}]})");
   const json status = NextJson();

@@ -325,7 +325,7 @@ std::string Bridge::MapUpdate(const std::vector<BlockKey>& blocks, bool delete_a
   return R"({"deletions":[)" + deletions + R"(],"entities":[)" + entities + "]}";
 }
 
-std::optional<Message> Bridge::TakeMapUpdate() {
+std::optional<Message> Bridge::TakeMapUpdate(bool render) {
   if (!voxels_.has_snapshot()) return std::nullopt;
   const VoxelChanges changes = voxels_.TakeChanges();
   if (!changes.reset && changes.entries.empty()) return std::nullopt;
@@ -346,6 +346,7 @@ std::optional<Message> Bridge::TakeMapUpdate() {
       blocks_[key][{e.x, e.y, e.z}] = e.q;
     }
   }
+  if (!render) return std::nullopt;
   std::sort(dirty.begin(), dirty.end());
   dirty.erase(std::unique(dirty.begin(), dirty.end()), dirty.end());
   if (changes.reset) {  // every block after a deletion of everything

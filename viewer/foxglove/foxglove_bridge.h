@@ -73,8 +73,9 @@ class Bridge {
 
   /// The blocks whose cells changed since the last call, as one SceneUpdate (all blocks, after
   /// a deletion of everything, when the lattice changed), stamped with the map's time; nothing
-  /// when no cell changed.
-  [[nodiscard]] std::optional<Message> TakeMapUpdate();
+  /// when no cell changed. With `render` false the changes are taken into the blocks but no JSON
+  /// is made (nothing is returned): what the live endpoint does while nobody subscribes to /map.
+  [[nodiscard]] std::optional<Message> TakeMapUpdate(bool render = true);
   /// The whole map as one SceneUpdate (for a client that subscribes late); nothing before the
   /// first snapshot.
   [[nodiscard]] std::optional<Message> MapSnapshot() const;

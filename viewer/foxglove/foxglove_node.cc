@@ -5,6 +5,9 @@
 #include "common/log.h"
 
 namespace kestrel::foxglove {
+namespace {
+const char* const kMapTopic = "/map";
+}  // namespace
 
 FoxgloveNode::FoxgloveNode(lcm::LCM& lcm, const FoxgloveNodeConfig& config, const Clock& clock)
     : lcm_(lcm), config_(config), clock_(clock), bridge_(config.bridge), server_(config.server) {
@@ -14,6 +17,14 @@ FoxgloveNode::FoxgloveNode(lcm::LCM& lcm, const FoxgloveNodeConfig& config, cons
                                b.trajectory_channel + "|" + b.exploration_channel + "|" +
                                b.map2d_prefix + ".*";
   subscription_ = lcm_.subscribe(channels, &FoxgloveNode::Handle, this);
+  // /map is advertised from the start and rendered only while someone subscribes to it (the
+  // cubes' JSON is most of the endpoint's work); a new subscriber gets the whole map.
+  server_.Advertise(kMapTopic, "foxglove.SceneUpdate");
+  server_.SetSnapshotSource(kMapTopic, [this]() {
+    const std::optional<Message> whole = bridge_.MapSnapshot();
+    return whole ? FoxgloveServer::Snapshot{whole->time_ns, whole->json}
+                 : FoxgloveServer::Snapshot{0, ""};
+  });
   Log(LogLevel::kInfo, "Foxglove endpoint: ws://" + config_.server.host + ":" +
                            std::to_string(server_.port()) + " (" + kSubprotocol + ")");
 }
@@ -39,16 +50,9 @@ void FoxgloveNode::PublishDue() {
   const int64_t now = clock_.NowUtime();
   if (now < next_map_utime_) return;
   next_map_utime_ = now + static_cast<int64_t>(1e6 / config_.map_rate_hz);
-  const std::optional<Message> update = bridge_.TakeMapUpdate();
+  const std::optional<Message> update = bridge_.TakeMapUpdate(server_.HasSubscribers(kMapTopic));
   if (!update) return;
   server_.Publish(update->topic, update->schema_name, update->time_ns, update->json);
-  if (!map_snapshot_set_) {  // a late or lagging subscriber of /map gets the whole map
-    server_.SetSnapshotSource(update->topic, [this]() {
-      const std::optional<Message> whole = bridge_.MapSnapshot();
-      return whole ? whole->json : std::string();
-    });
-    map_snapshot_set_ = true;
-  }
 }
 
 }  // namespace kestrel::foxglove

@@ -50,7 +50,6 @@ class FoxgloveNode {
   FoxgloveServer server_;
   lcm::Subscription* subscription_{nullptr};
   int64_t next_map_utime_{0};
-  bool map_snapshot_set_{false};
   int64_t refused_{0};
   std::map<std::string, int64_t> refused_by_channel_;
 };

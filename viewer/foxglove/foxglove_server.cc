@@ -41,7 +41,7 @@ struct FoxgloveServer::Impl {
     std::string latest_json;
     uint64_t latest_time_ns{0};
     bool has_latest{false};
-    std::function<std::string()> snapshot;
+    std::function<Snapshot()> snapshot;
   };
   struct Client {
     std::map<uint32_t, uint32_t> subscriptions;  ///< subscription id -> channel id
@@ -175,9 +175,9 @@ struct FoxgloveServer::Impl {
   // The newest message of a channel (its snapshot for /map) to one subscription.
   void SendLatest(const Handle& hdl, uint32_t subscription_id, const Channel& c) {
     if (c.snapshot) {
-      const std::string snapshot = c.snapshot();
-      if (!snapshot.empty()) {
-        SendBinary(hdl, MessageData(subscription_id, c.latest_time_ns, snapshot));
+      const Snapshot snapshot = c.snapshot();
+      if (!snapshot.second.empty()) {
+        SendBinary(hdl, MessageData(subscription_id, snapshot.first, snapshot.second));
         ++counters.messages_sent;
       }
       return;
@@ -254,8 +254,23 @@ void FoxgloveServer::Poll() {
   impl_->server.poll();
 }
 
+void FoxgloveServer::Advertise(const std::string& topic, const std::string& schema_name) {
+  (void)impl_->ChannelFor(topic, schema_name);
+}
+
+bool FoxgloveServer::HasSubscribers(const std::string& topic) const {
+  const auto found = impl_->channel_of_topic.find(topic);
+  if (found == impl_->channel_of_topic.end()) return false;
+  for (const auto& [hdl, client] : impl_->clients) {
+    for (const auto& [subscription_id, channel_id] : client.subscriptions) {
+      if (channel_id == found->second) return true;
+    }
+  }
+  return false;
+}
+
 void FoxgloveServer::SetSnapshotSource(const std::string& topic,
-                                       std::function<std::string()> snapshot) {
+                                       std::function<Snapshot()> snapshot) {
   const auto found = impl_->channel_of_topic.find(topic);
   if (found == impl_->channel_of_topic.end()) {
     throw std::invalid_argument("foxglove server: no channel " + topic + " to give a snapshot");

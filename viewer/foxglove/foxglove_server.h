@@ -22,6 +22,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace kestrel::foxglove {
@@ -59,8 +60,15 @@ class FoxgloveServer {
   /// first (or the topic's snapshot, SetSnapshotSource).
   void Publish(const std::string& topic, const std::string& schema_name, uint64_t time_ns,
                const std::string& json);
-  /// For /map: what a client that subscribes (or fell behind) gets instead of the newest update.
-  void SetSnapshotSource(const std::string& topic, std::function<std::string()> snapshot);
+  /// Advertises `topic` before its first message (so a client can subscribe to it at once).
+  void Advertise(const std::string& topic, const std::string& schema_name);
+  /// Whether any client subscribes to `topic` now.
+  [[nodiscard]] bool HasSubscribers(const std::string& topic) const;
+  /// For /map: what a client that subscribes (or fell behind) gets instead of the newest update:
+  /// its time (ns) and JSON ("" for nothing yet). @throws std::invalid_argument for a topic not
+  /// advertised.
+  using Snapshot = std::pair<uint64_t, std::string>;
+  void SetSnapshotSource(const std::string& topic, std::function<Snapshot()> snapshot);
 
   [[nodiscard]] int clients() const;
   [[nodiscard]] const Counters& counters() const;
