@@ -21,6 +21,7 @@
 #include "kestrel/grid_map_t.hpp"
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
+#include "kestrel/params_t.hpp"
 #include "kestrel/pose_t.hpp"
 #include "kestrel/trajectory_t.hpp"
 #include "viewer/bridge/voxel_stream.h"
@@ -95,7 +96,7 @@ TEST(FoxgloveBridge, EveryTopicIsTheLoggedMessage) {
   Scene scene;
   lcm::LogFile log(kLog, "r");
   ASSERT_TRUE(log.good()) << kLog;
-  int poses = 0, grids = 0, plans = 0, trajectories = 0, map_updates = 0;
+  int poses = 0, grids = 0, plans = 0, trajectories = 0, map_updates = 0, configurations = 0;
   int64_t next_map_utime = 0;
   std::vector<Message> out;
   while (const lcm::LogEvent* e = log.readNextEvent()) {
@@ -161,6 +162,29 @@ TEST(FoxgloveBridge, EveryTopicIsTheLoggedMessage) {
         EXPECT_NEAR(std::remainder(yaw - plan.candidates[i].yaw_rad, 2 * M_PI), 0.0, 1e-6);
       }
       ++plans;
+    } else if (channel.rfind("PARAMS_", 0) == 0) {
+      params_t params;
+      ASSERT_TRUE(GuardedDecode(e->data, size, &params, &error));
+      ASSERT_EQ(out.size(), 1u);
+      std::string name = channel.substr(7);
+      for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      EXPECT_EQ(out[0].topic, "/params/" + name);
+      EXPECT_EQ(out[0].schema_name, "kestrel.Params");
+      const json p = json::parse(out[0].json);
+      EXPECT_EQ(p["process"], params.process);
+      EXPECT_EQ(p["config_file"], params.config_file);
+      EXPECT_EQ(p["args"].get<std::vector<std::string>>(), params.args);
+      ASSERT_EQ(p["params"].size(), params.params.size());
+      for (size_t i = 0; i < params.params.size(); ++i) {
+        EXPECT_EQ(p["params"][i]["key"], params.params[i].key);
+        EXPECT_EQ(p["params"][i]["value"], params.params[i].value);
+        EXPECT_EQ(p["params"][i]["file"], params.params[i].file);
+        EXPECT_EQ(p["params"][i]["source"],
+                  params.params[i].source == param_t::SOURCE_DEFAULT ? "default"
+                  : params.params[i].source == param_t::SOURCE_FILE  ? "file"
+                                                                     : "override");
+      }
+      ++configurations;
     } else if (channel == "TRAJECTORY") {
       trajectory_t msg;
       ASSERT_TRUE(GuardedDecode(e->data, size, &msg, &error));
@@ -189,6 +213,7 @@ TEST(FoxgloveBridge, EveryTopicIsTheLoggedMessage) {
   EXPECT_GT(plans, 2);
   EXPECT_GT(trajectories, 2);
   EXPECT_GT(map_updates, 10);
+  EXPECT_EQ(configurations, 4);  // the mission's simulator, controller, mapper and explorer
 
   // The scene's cubes are the copy's occupied cells, at their centres.
   std::set<std::tuple<long, long, long>> expected;
@@ -207,7 +232,8 @@ TEST(FoxgloveBridge, EveryTopicIsTheLoggedMessage) {
   EXPECT_EQ(fresh.Cubes(), expected);
   EXPECT_EQ(bridge.occupied_count(), expected.size());
   // Every message's schema is a JSON Schema of that name.
-  for (const char* name : {"foxglove.SceneUpdate", "foxglove.Grid", "foxglove.FrameTransform"}) {
+  for (const char* name :
+       {"foxglove.SceneUpdate", "foxglove.Grid", "foxglove.FrameTransform", "kestrel.Params"}) {
     EXPECT_EQ(json::parse(SchemaOf(name))["title"], name);
   }
 }

@@ -30,6 +30,8 @@ assert read["indexed"]["jsonErrors"] == 0, "a message is not JSON"
 assert int(read["indexed"]["statisticsMessageCount"]) == sum(written.values())
 for topic in ("/map", "/tf", "/trajectory", "/candidates"):
     assert written.get(topic, 0) > 0, f"no {topic} message"
+for process in ("sim", "controller", "mapper", "explorer"):  # the run's configuration
+    assert written.get(f"/params/{process}") == 1, f"no /params/{process}"
 schemas = {c["topic"]: c["schema"] for c in read["indexed"]["channels"]}
 assert schemas["/tf"] == "foxglove.FrameTransform" and schemas["/map"] == "foxglove.SceneUpdate"
 print(f"read back by @mcap/core: {sum(written.values())} messages on {len(written)} topics, "

@@ -12,6 +12,7 @@
 #include "kestrel/grid_map_t.hpp"
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
+#include "kestrel/params_t.hpp"
 #include "kestrel/trajectory_t.hpp"
 #include "viewer/bridge/viewer_scene.h"
 
@@ -85,6 +86,18 @@ std::string SceneUpdateSchema() {
          array_of + deletion + R"(},"entities":)" + array_of + entity + "}}}";
 }
 
+// Kestrel's own schema: params_t as JSON (Foxglove's Raw Messages panel shows it).
+std::string ParamsSchema() {
+  return R"({"title":"kestrel.Params","type":"object","properties":{)"
+         R"("timestamp":{"type":"object","properties":{"sec":{"type":"integer"},)"
+         R"("nsec":{"type":"integer"}}},"process":{"type":"string"},"host":{"type":"string"},)"
+         R"("pid":{"type":"integer"},"epoch":{"type":"integer"},"run_id":{"type":"string"},)"
+         R"("config_file":{"type":"string"},"args":{"type":"array","items":{"type":"string"}},)"
+         R"("params":{"type":"array","items":{"type":"object","properties":{)"
+         R"("key":{"type":"string"},"value":{"type":"string"},"file":{"type":"string"},)"
+         R"("source":{"type":"string","enum":["default","file","override"]}}}}}})";
+}
+
 std::string Number(double v) {
   if (!std::isfinite(v)) return "0";
   char text[32];
@@ -142,7 +155,8 @@ const std::string& SchemaOf(const std::string& schema_name) {
   static const std::map<std::string, std::string> schemas = {
       {"foxglove.SceneUpdate", SceneUpdateSchema()},
       {"foxglove.Grid", GridSchema()},
-      {"foxglove.FrameTransform", FrameTransformSchema()}};
+      {"foxglove.FrameTransform", FrameTransformSchema()},
+      {"kestrel.Params", ParamsSchema()}};
   static const std::string none;
   const auto it = schemas.find(schema_name);
   return it == schemas.end() ? none : it->second;
@@ -230,6 +244,32 @@ bool Bridge::OnLcm(const std::string& channel, const void* data, size_t size,
              std::to_string(4 * grid.width) +
              R"(,"cell_stride":4,"fields":[{"name":"value","offset":0,"type":7}],"data":")" +
              Base64(grid.values.data(), grid.values.size() * sizeof(float)) + "\"}";
+    Keep(m, out);
+    return true;
+  }
+  if (!config_.params_prefix.empty() && channel.rfind(config_.params_prefix, 0) == 0) {
+    params_t params;
+    if (!GuardedDecode(data, size, &params, error)) return false;
+    std::string name = channel.substr(config_.params_prefix.size());
+    std::transform(name.begin(), name.end(), name.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    Message m{"/params/" + name, "kestrel.Params", NanosecondsOf(params.utime), ""};
+    std::string args;
+    for (const std::string& a : params.args) args += (args.empty() ? "" : ",") + JsonString(a);
+    std::string values;
+    for (const param_t& p : params.params) {
+      const char* source = p.source == param_t::SOURCE_DEFAULT    ? "default"
+                           : p.source == param_t::SOURCE_OVERRIDE ? "override"
+                                                                  : "file";
+      values += (values.empty() ? "" : ",") + std::string(R"({"key":)") + JsonString(p.key) +
+                R"(,"value":)" + JsonString(p.value) + R"(,"file":)" + JsonString(p.file) +
+                R"(,"source":")" + source + "\"}";
+    }
+    m.json = R"({"timestamp":)" + Time(m.time_ns) + R"(,"process":)" + JsonString(params.process) +
+             R"(,"host":)" + JsonString(params.host) + R"(,"pid":)" + std::to_string(params.pid) +
+             R"(,"epoch":)" + std::to_string(params.epoch) + R"(,"run_id":)" +
+             JsonString(params.run_id) + R"(,"config_file":)" + JsonString(params.config_file) +
+             R"(,"args":[)" + args + R"(],"params":[)" + values + "]}";
     Keep(m, out);
     return true;
   }

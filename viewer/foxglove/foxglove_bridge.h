@@ -5,17 +5,22 @@
 /// exporter (kestrel-mcap-export). Pure: bytes in, JSON out; no sockets, no files.
 ///
 /// Every topic is JSON-encoded ("json") with a JSON Schema ("jsonschema") named after the
-/// Foxglove schema it follows, so Foxglove's 3D and map panels draw it without a plugin:
+/// Foxglove schema it follows, so Foxglove's 3D and map panels draw it without a plugin (the
+/// configuration has a schema of Kestrel's own, shown by Foxglove's Raw Messages panel).
 ///
-/// | topic | Foxglove schema | from |
-/// |---|---|---|
-/// | `/map` | foxglove.SceneUpdate: one entity per block of 16^3 cells, a cube per cell with P
-/// above the occupied threshold, coloured by P | MAP3D, MAP3D_DELTA (coalesced: TakeMapUpdate) | |
-/// `/tf` | foxglove.FrameTransform: `world` -> `vehicle` | POSE_VICON (valid poses) | |
-/// `/map2d/<name>` | foxglove.Grid: one FLOAT32 field `value` (collision, entropy, combined, ...) |
-/// MAP2D_* | | `/trajectory` | foxglove.SceneUpdate: the planned trajectory as a line strip |
-/// TRAJECTORY | | `/candidates` | foxglove.SceneUpdate: an arrow per candidate pose, the chosen one
-/// orange | EXPLORATION_STATUS |
+/// Topics (schema: what, from which channel):
+///  - `/map` (foxglove.SceneUpdate): one entity per block of 16^3 cells, a cube per cell with P
+///    above the occupied threshold, coloured by P; from MAP3D and MAP3D_DELTA, coalesced
+///    (TakeMapUpdate);
+///  - `/tf` (foxglove.FrameTransform): `world` -> `vehicle`, from valid POSE_VICON poses;
+///  - `/map2d/<name>` (foxglove.Grid): one FLOAT32 field `value`, from MAP2D_<NAME>;
+///  - `/trajectory` (foxglove.SceneUpdate): the planned trajectory as a line strip, from
+///    TRAJECTORY;
+///  - `/candidates` (foxglove.SceneUpdate): an arrow per candidate pose, the chosen one orange,
+///    from EXPLORATION_STATUS;
+///  - `/params/<process>` (kestrel.Params, Kestrel's own schema): a process's configuration
+///    (every key, value, file and source; its command line), from PARAMS_<PROCESS>
+///    (docs/design.md §6).
 ///
 /// Frames: `world` is Kestrel's W (z up), `vehicle` its body frame B.
 
@@ -58,6 +63,7 @@ struct BridgeConfig {
   std::string trajectory_channel{"TRAJECTORY"};
   std::string exploration_channel{"EXPLORATION_STATUS"};
   std::string map2d_prefix{"MAP2D_"};
+  std::string params_prefix{"PARAMS_"};
 };
 
 class Bridge {

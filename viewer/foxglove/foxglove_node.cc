@@ -15,7 +15,7 @@ FoxgloveNode::FoxgloveNode(lcm::LCM& lcm, const FoxgloveNodeConfig& config, cons
   const BridgeConfig& b = config_.bridge;
   const std::string channels = b.map_channel + "|" + b.delta_channel + "|" + b.pose_channel + "|" +
                                b.trajectory_channel + "|" + b.exploration_channel + "|" +
-                               b.map2d_prefix + ".*";
+                               b.map2d_prefix + ".*|" + b.params_prefix + ".*";
   subscription_ = lcm_.subscribe(channels, &FoxgloveNode::Handle, this);
   // /map is advertised from the start and rendered only while someone subscribes to it (the
   // cubes' JSON is most of the endpoint's work); a new subscriber gets the whole map.

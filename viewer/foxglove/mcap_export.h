@@ -2,7 +2,8 @@
 /// @file
 /// kestrel-mcap-export's work: a recorded run (an LCM log from lcm-logger or kestrel-mission
 /// --log) as an MCAP file that Foxglove opens, with the topics of the live endpoint
-/// (foxglove_bridge.h: /map, /tf, /map2d/<name>, /trajectory, /candidates), JSON-encoded with
+/// (foxglove_bridge.h: /map, /tf, /map2d/<name>, /trajectory, /candidates, /params/<process>),
+/// JSON-encoded with
 /// JSON Schemas, in zstd-compressed, indexed chunks (mcap_writer.h). Each message's log time is
 /// the logger's receive time, its publish time the message's own stamp. The map's changed blocks
 /// are written every map_period_s of log time, and once more at the end.

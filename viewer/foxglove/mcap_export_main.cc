@@ -12,7 +12,8 @@ const char* const kUsage =
     "                           [--map-period S] [--threshold P]\n"
     "Writes the run's topics as Foxglove shows them live (kestrel-viewer's ws://127.0.0.1:8765):\n"
     "/map (cubes of the cells with P above the threshold, every S s of the log), /tf,\n"
-    "/map2d/<name>, /trajectory and /candidates, JSON with JSON Schemas, in indexed chunks.\n";
+    "/map2d/<name>, /trajectory, /candidates and /params/<process> (each process's\n"
+    "configuration), JSON with JSON Schemas, in indexed chunks.\n";
 }  // namespace
 
 int main(int argc, char** argv) {
