@@ -30,6 +30,7 @@ declare -A numeric=(
   [tools/flight_check/kestrel-flight-check]="memq:// 10s"
   [drivers/usb/kestrel-devices]="--watch soon"
   [viewer/report/kestrel-report-export]="--log a.lcmlog --out d --threshold x"
+  [viewer/foxglove/kestrel-mcap-export]="--log a.lcmlog --out b.mcap --map-period x"
   [mapping/kestrel-mapper]=""
   [control/kestrel-controller]=""
   [exploration/kestrel-explorer]=""
@@ -62,6 +63,8 @@ done
 # No own positional arguments: a stray word is refused (the mapper once ignored everything).
 expect 2 "unexpected argument .stray." "$build/mapping/kestrel-mapper" stray
 expect 2 "unexpected argument .stray." "$build/sim/kestrel-sim" --set a=1 stray
+# A choice outside its set is named.
+expect 2 "--compression" "$build/viewer/foxglove/kestrel-mcap-export" --log a --out b --compression lz4
 
 echo "$checked processes checked, $failures failures"
 [[ $failures -eq 0 ]]

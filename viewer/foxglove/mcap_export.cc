@@ -82,6 +82,12 @@ McapExportSummary ExportMcap(const McapExportConfig& config) {
     }
   }
   if (const auto update = bridge.TakeMapUpdate()) write(*update, last_ns);
+  if (summary.events == 0 && log_bytes > 0) {  // nothing readable: not an LCM log
+    out.close();
+    std::filesystem::remove(config.out_path, ec);
+    throw std::runtime_error("the log " + config.log_path + " holds no LCM event (" +
+                             std::to_string(log_bytes) + " bytes): not an LCM log?");
+  }
   // lcm::LogFile stops at a torn last event without saying so: compare the position with the size.
   if (end >= 0 && static_cast<std::uintmax_t>(end) < log_bytes) {
     summary.truncated = true;
