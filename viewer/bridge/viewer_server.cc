@@ -3,8 +3,6 @@
 #ifndef ASIO_STANDALONE
 #define ASIO_STANDALONE
 #endif
-#include <websocketpp/config/asio_no_tls.hpp>
-#include <websocketpp/server.hpp>
 
 #include <cctype>
 #include <fstream>
@@ -13,6 +11,7 @@
 #include <stdexcept>
 
 #include "common/log.h"
+#include "viewer/bridge/websocket_server.h"
 
 namespace kestrel {
 
@@ -59,8 +58,7 @@ bool WebSocketOriginAllowed(const std::string& origin, int port) {
 }
 
 namespace {
-using WsServer = websocketpp::server<websocketpp::config::asio>;
-using Handle = websocketpp::connection_hdl;
+using Handle = WsHandle;
 
 bool ReadWholeFile(const std::string& path, std::string* out) {
   std::ifstream in(path, std::ios::binary);
@@ -146,30 +144,14 @@ struct ViewerServer::Impl {
 ViewerServer::ViewerServer(const Options& options) : impl_(std::make_unique<Impl>()) {
   Impl& s = *impl_;
   s.options = options;
-  s.server.clear_access_channels(websocketpp::log::alevel::all);
-  s.server.clear_error_channels(websocketpp::log::elevel::all);
-  s.server.set_error_channels(websocketpp::log::elevel::fatal);
-  websocketpp::lib::error_code ec;
-  s.server.init_asio(ec);
-  if (ec) throw std::runtime_error("viewer server: " + ec.message());
-  s.server.set_reuse_addr(true);
-  s.server.set_max_message_size(kViewerMaxMessageBytes);
+  InitWebSocketServer(s.server, kViewerMaxMessageBytes, "viewer server");
   s.server.set_http_handler([this](const Handle& h) { impl_->OnHttp(h); });
   s.server.set_validate_handler([this](const Handle& h) { return impl_->OnValidate(h); });
   s.server.set_open_handler([this](const Handle& h) { impl_->OnOpen(h); });
   s.server.set_close_handler([this](const Handle& h) { impl_->OnGone(h); });
   s.server.set_fail_handler([this](const Handle& h) { impl_->OnGone(h); });
   s.server.set_message_handler([](const Handle& /*hdl*/, const WsServer::message_ptr& /*msg*/) {});
-  const asio::ip::address address = asio::ip::make_address(
-      options.host == "localhost" ? std::string("127.0.0.1") : options.host, ec);
-  if (ec) throw std::runtime_error("viewer server: bad host '" + options.host + "'");
-  s.server.listen(asio::ip::tcp::endpoint(address, static_cast<uint16_t>(options.port)), ec);
-  if (ec) {
-    throw std::runtime_error("viewer server: cannot listen on " + options.host + ":" +
-                             std::to_string(options.port) + ": " + ec.message());
-  }
-  s.server.start_accept(ec);
-  if (ec) throw std::runtime_error("viewer server: cannot accept: " + ec.message());
+  ListenAndAccept(s.server, options.host, options.port, "viewer server");
 }
 
 ViewerServer::~ViewerServer() {
@@ -180,16 +162,9 @@ ViewerServer::~ViewerServer() {
   }
 }
 
-int ViewerServer::port() const {
-  websocketpp::lib::error_code ec;
-  const asio::ip::tcp::endpoint endpoint = impl_->server.get_local_endpoint(ec);
-  return ec ? -1 : endpoint.port();
-}
+int ViewerServer::port() const { return LocalPort(impl_->server); }
 
-void ViewerServer::Poll() {
-  if (impl_->server.stopped()) impl_->server.reset();
-  impl_->server.poll();
-}
+void ViewerServer::Poll() { PollWebSocketServer(impl_->server); }
 
 void ViewerServer::Broadcast(const std::vector<ViewerFrame>& update,
                              const std::function<std::vector<ViewerFrame>()>& snapshot) {
@@ -248,14 +223,9 @@ void ViewerServer::Stop() {
   Impl& s = *impl_;
   if (s.stopped) return;
   s.stopped = true;
-  websocketpp::lib::error_code ec;
-  s.server.stop_listening(ec);
   std::vector<Handle> handles;
   for (const auto& [hdl, client] : s.clients) handles.push_back(hdl);
-  for (const Handle& hdl : handles) {
-    s.server.close(hdl, websocketpp::close::status::going_away, "kestrel-viewer stopping", ec);
-  }
-  s.server.poll();
+  CloseWebSocketServer(s.server, handles, "kestrel-viewer stopping");
   s.clients.clear();
 }
 

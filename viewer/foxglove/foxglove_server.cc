@@ -1,8 +1,5 @@
 #include "viewer/foxglove/foxglove_server.h"
 
-#include <websocketpp/config/asio_no_tls.hpp>
-#include <websocketpp/server.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cstring>
@@ -14,12 +11,12 @@
 
 #include "common/log.h"
 #include "viewer/bridge/viewer_server.h"
+#include "viewer/bridge/websocket_server.h"
 #include "viewer/foxglove/foxglove_bridge.h"
 
 namespace kestrel::foxglove {
 namespace {
-using WsServer = websocketpp::server<websocketpp::config::asio>;
-using Handle = websocketpp::connection_hdl;
+using Handle = WsHandle;
 using nlohmann::json;
 
 /// Message Data (spec "Binary messages"): opcode 0x01, u32 subscription id, u64 time, payload.
@@ -209,30 +206,14 @@ FoxgloveServer::FoxgloveServer(const Options& options) : impl_(std::make_unique<
   s.session_id = std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(
                                     std::chrono::system_clock::now().time_since_epoch())
                                     .count());
-  s.server.clear_access_channels(websocketpp::log::alevel::all);
-  s.server.clear_error_channels(websocketpp::log::elevel::all);
-  s.server.set_error_channels(websocketpp::log::elevel::fatal);
-  websocketpp::lib::error_code ec;
-  s.server.init_asio(ec);
-  if (ec) throw std::runtime_error("foxglove server: " + ec.message());
-  s.server.set_reuse_addr(true);
-  s.server.set_max_message_size(kViewerMaxMessageBytes);
+  InitWebSocketServer(s.server, kViewerMaxMessageBytes, "foxglove server");
   s.server.set_validate_handler([this](const Handle& h) { return impl_->OnValidate(h); });
   s.server.set_open_handler([this](const Handle& h) { impl_->OnOpen(h); });
   s.server.set_close_handler([this](const Handle& h) { impl_->clients.erase(h); });
   s.server.set_fail_handler([this](const Handle& h) { impl_->clients.erase(h); });
   s.server.set_message_handler(
       [this](const Handle& h, const WsServer::message_ptr& m) { impl_->OnMessage(h, m); });
-  const asio::ip::address address = asio::ip::make_address(
-      options.host == "localhost" ? std::string("127.0.0.1") : options.host, ec);
-  if (ec) throw std::runtime_error("foxglove server: bad host '" + options.host + "'");
-  s.server.listen(asio::ip::tcp::endpoint(address, static_cast<uint16_t>(options.port)), ec);
-  if (ec) {
-    throw std::runtime_error("foxglove server: cannot listen on " + options.host + ":" +
-                             std::to_string(options.port) + ": " + ec.message());
-  }
-  s.server.start_accept(ec);
-  if (ec) throw std::runtime_error("foxglove server: cannot accept: " + ec.message());
+  ListenAndAccept(s.server, options.host, options.port, "foxglove server");
 }
 
 FoxgloveServer::~FoxgloveServer() {
@@ -243,16 +224,9 @@ FoxgloveServer::~FoxgloveServer() {
   }
 }
 
-int FoxgloveServer::port() const {
-  websocketpp::lib::error_code ec;
-  const asio::ip::tcp::endpoint endpoint = impl_->server.get_local_endpoint(ec);
-  return ec ? -1 : endpoint.port();
-}
+int FoxgloveServer::port() const { return LocalPort(impl_->server); }
 
-void FoxgloveServer::Poll() {
-  if (impl_->server.stopped()) impl_->server.reset();
-  impl_->server.poll();
-}
+void FoxgloveServer::Poll() { PollWebSocketServer(impl_->server); }
 
 void FoxgloveServer::Advertise(const std::string& topic, const std::string& schema_name) {
   (void)impl_->ChannelFor(topic, schema_name);
@@ -315,14 +289,9 @@ void FoxgloveServer::Stop() {
   Impl& s = *impl_;
   if (s.stopped) return;
   s.stopped = true;
-  websocketpp::lib::error_code ec;
-  s.server.stop_listening(ec);
   std::vector<Handle> handles;
   for (const auto& [hdl, client] : s.clients) handles.push_back(hdl);
-  for (const Handle& hdl : handles) {
-    s.server.close(hdl, websocketpp::close::status::going_away, "kestrel-viewer stopping", ec);
-  }
-  s.server.poll();
+  CloseWebSocketServer(s.server, handles, "kestrel-viewer stopping");
   s.clients.clear();
 }
 
