@@ -45,6 +45,19 @@ params_t MakeParamsMessage(const std::string& process, const ProcessArgs& args,
   return msg;
 }
 
+const char* ParamSourceName(int8_t source) {
+  switch (source) {
+    case param_t::SOURCE_DEFAULT:
+      return "default";
+    case param_t::SOURCE_FILE:
+      return "file";
+    case param_t::SOURCE_OVERRIDE:
+      return "override";
+    default:
+      return "unknown";
+  }
+}
+
 std::string FormatParams(const params_t& msg) {
   std::string out = msg.process + " on " + msg.host + ", pid " + std::to_string(msg.pid) +
                     (msg.run_id.empty() ? std::string() : ", run " + msg.run_id) + "\n";
@@ -62,7 +75,7 @@ std::string FormatParams(const params_t& msg) {
     std::string line = "    " + p.key + ": " + p.value;
     if (p.source != param_t::SOURCE_FILE) {
       line.resize(std::max<size_t>(line.size() + 2, 44), ' ');
-      line += p.source == param_t::SOURCE_DEFAULT ? "# default" : "# override";
+      line += std::string("# ") + ParamSourceName(p.source);
     }
     out += line + "\n";
   }

@@ -36,6 +36,9 @@ inline constexpr const char* kParamsRequestChannel = "REQUEST_PARAMS";
 [[nodiscard]] params_t MakeParamsMessage(const std::string& process, const ProcessArgs& args,
                                          const ConfigNode& config);
 
+/// The word for a param_t source: "default", "file", "override" ("unknown" for any other value).
+[[nodiscard]] const char* ParamSourceName(int8_t source);
+
 /// A params_t for people: a header line (process, host, pid, run id), the command line, then
 /// every value as "key: value" under the file it came from, "# default" or "# override" after
 /// the values that the file did not set.

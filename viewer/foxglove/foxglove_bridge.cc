@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "common/config_publisher.h"
 #include "common/lcm_decode.h"
 #include "common/trajectory_message.h"
 #include "kestrel/exploration_status_t.hpp"
@@ -189,11 +190,6 @@ Bridge::Bridge(BridgeConfig config)
   }
 }
 
-void Bridge::Keep(const Message& m, std::vector<Message>* out) {
-  latest_[m.topic] = m;
-  out->push_back(m);
-}
-
 bool Bridge::OnLcm(const std::string& channel, const void* data, size_t size,
                    std::vector<Message>* out, std::string* error) {
   if (channel == config_.map_channel) {
@@ -219,7 +215,7 @@ bool Bridge::OnLcm(const std::string& channel, const void* data, size_t size,
              JsonString(config_.world_frame) + R"(,"child_frame_id":)" +
              JsonString(config_.vehicle_frame) + R"(,"translation":)" + Vector3(p[0], p[1], p[2]) +
              R"(,"rotation":)" + Quaternion(q[1], q[2], q[3], q[0]) + "}";
-    Keep(m, out);
+    out->push_back(std::move(m));
     return true;
   }
   if (channel.rfind(config_.map2d_prefix, 0) == 0) {
@@ -244,7 +240,7 @@ bool Bridge::OnLcm(const std::string& channel, const void* data, size_t size,
              std::to_string(4 * grid.width) +
              R"(,"cell_stride":4,"fields":[{"name":"value","offset":0,"type":7}],"data":")" +
              Base64(grid.values.data(), grid.values.size() * sizeof(float)) + "\"}";
-    Keep(m, out);
+    out->push_back(std::move(m));
     return true;
   }
   if (!config_.params_prefix.empty() && channel.rfind(config_.params_prefix, 0) == 0) {
@@ -258,19 +254,16 @@ bool Bridge::OnLcm(const std::string& channel, const void* data, size_t size,
     for (const std::string& a : params.args) args += (args.empty() ? "" : ",") + JsonString(a);
     std::string values;
     for (const param_t& p : params.params) {
-      const char* source = p.source == param_t::SOURCE_DEFAULT    ? "default"
-                           : p.source == param_t::SOURCE_OVERRIDE ? "override"
-                                                                  : "file";
       values += (values.empty() ? "" : ",") + std::string(R"({"key":)") + JsonString(p.key) +
                 R"(,"value":)" + JsonString(p.value) + R"(,"file":)" + JsonString(p.file) +
-                R"(,"source":")" + source + "\"}";
+                R"(,"source":")" + ParamSourceName(p.source) + "\"}";
     }
     m.json = R"({"timestamp":)" + Time(m.time_ns) + R"(,"process":)" + JsonString(params.process) +
              R"(,"host":)" + JsonString(params.host) + R"(,"pid":)" + std::to_string(params.pid) +
              R"(,"epoch":)" + std::to_string(params.epoch) + R"(,"run_id":)" +
              JsonString(params.run_id) + R"(,"config_file":)" + JsonString(params.config_file) +
              R"(,"args":[)" + args + R"(],"params":[)" + values + "]}";
-    Keep(m, out);
+    out->push_back(std::move(m));
     return true;
   }
   if (channel == config_.trajectory_channel) {
@@ -293,7 +286,7 @@ bool Bridge::OnLcm(const std::string& channel, const void* data, size_t size,
                              R"(,"colors":[],"indices":[]}])";
     m.json = R"({"deletions":[],"entities":[)" +
              Entity(config_.world_frame, "trajectory", m.time_ns, "[]", "[]", line) + "]}";
-    Keep(m, out);
+    out->push_back(std::move(m));
     return true;
   }
   if (channel == config_.exploration_channel) {
@@ -317,7 +310,7 @@ bool Bridge::OnLcm(const std::string& channel, const void* data, size_t size,
     m.json = R"({"deletions":[],"entities":[)" +
              Entity(config_.world_frame, "candidates", m.time_ns, "[" + arrows + "]", "[]", "[]") +
              "]}";
-    Keep(m, out);
+    out->push_back(std::move(m));
     return true;
   }
   return true;
@@ -403,12 +396,6 @@ std::optional<Message> Bridge::MapSnapshot() const {
   for (const auto& [key, cells] : blocks_) all.push_back(key);
   const uint64_t time_ns = NanosecondsOf(voxels_.utime());
   return Message{"/map", "foxglove.SceneUpdate", time_ns, MapUpdate(all, true, time_ns)};
-}
-
-std::vector<Message> Bridge::Latest() const {
-  std::vector<Message> out;
-  for (const auto& [topic, m] : latest_) out.push_back(m);
-  return out;
 }
 
 }  // namespace kestrel::foxglove

@@ -85,8 +85,6 @@ class Bridge {
   /// The whole map as one SceneUpdate (for a client that subscribes late); nothing before the
   /// first snapshot.
   [[nodiscard]] std::optional<Message> MapSnapshot() const;
-  /// The newest message of every other topic (for a client that subscribes late).
-  [[nodiscard]] std::vector<Message> Latest() const;
 
   [[nodiscard]] size_t occupied_count() const { return voxels_.occupied_count(); }
   [[nodiscard]] size_t block_count() const { return blocks_.size(); }
@@ -97,13 +95,11 @@ class Bridge {
   [[nodiscard]] std::string BlockEntity(BlockKey key, uint64_t time_ns) const;
   [[nodiscard]] std::string MapUpdate(const std::vector<BlockKey>& blocks, bool delete_all,
                                       uint64_t time_ns) const;
-  void Keep(const Message& m, std::vector<Message>* out);
 
   BridgeConfig config_;
   VoxelStream voxels_;
   /// Occupied cells per block: cell index (x, y, z) -> q (P x 255).
   std::map<BlockKey, std::map<std::tuple<int16_t, int16_t, int16_t>, uint8_t>> blocks_;
-  std::map<std::string, Message> latest_;  ///< by topic (not /map)
 };
 
 }  // namespace kestrel::foxglove

@@ -18,6 +18,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/check.h"
+#include "common/config_publisher.h"
 #include "common/lcm_decode.h"
 #include "common/se3.h"
 #include "kestrel/exploration_status_t.hpp"
@@ -47,19 +48,6 @@ std::string CsvField(const std::string& text) {
     if (c == '"') out += '"';
   }
   return out + "\"";
-}
-
-const char* SourceName(int8_t source) {
-  switch (source) {
-    case param_t::SOURCE_DEFAULT:
-      return "default";
-    case param_t::SOURCE_FILE:
-      return "file";
-    case param_t::SOURCE_OVERRIDE:
-      return "override";
-    default:
-      return "unknown";
-  }
 }
 
 double SecondsBetween(int64_t utime, int64_t origin_utime) {
@@ -588,7 +576,7 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
       for (const param_t& p : m.params) {
         std::fprintf(fv.get(), "%s,%s,%lld,%s,%s,%s,%s\n", CsvField(channel).c_str(),
                      CsvField(m.process).c_str(), static_cast<long long>(m.epoch),
-                     CsvField(p.key).c_str(), CsvField(p.value).c_str(), SourceName(p.source),
+                     CsvField(p.key).c_str(), CsvField(p.value).c_str(), ParamSourceName(p.source),
                      CsvField(p.file).c_str());
       }
     }
