@@ -36,28 +36,25 @@ install(FILES ${config_dir}/mapper.yaml ${config_dir}/viewer.yaml
         DESTINATION ${KESTREL_INSTALL_DATADIR}/config COMPONENT host)
 
 # Process sheets. The installed copies are run from <datadir>/kestrel (their configuration paths
-# are relative to the working folder, as from the repository root), and take the binaries from
-# $KESTREL_BIN, by default <bindir> relative to that folder (../../bin): the build-tree default
-# ${KESTREL_BUILD:-build}/<area> is replaced by it.
+# are relative to the working folder, as from the repository root) and are the build tree's,
+# unchanged; their variables' defaults (sheets/kestrel.env) name <bindir> relative to that folder
+# (../../bin) as $KESTREL_BIN instead of the build tree's build/bin.
 file(RELATIVE_PATH sheet_bindir ${CMAKE_INSTALL_FULL_DATADIR}/kestrel ${CMAKE_INSTALL_FULL_BINDIR})
-foreach(sheet vehicle host sim)
-  set(source ${PROJECT_SOURCE_DIR}/scripts/sheets/${sheet}.procman)
-  set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${source})
-  file(READ ${source} text)
-  string(REGEX REPLACE "\\\${KESTREL_BUILD:-build}/[a-z_/]+}" "${sheet_bindir}}" text "${text}")
-  string(PREPEND text "# Installed copy of scripts/sheets/${sheet}.procman: run from "
-                      "<prefix>/${KESTREL_INSTALL_DATADIR}; binaries from \$KESTREL_BIN, "
-                      "default ${sheet_bindir}.\n")
-  file(CONFIGURE OUTPUT ${PROJECT_BINARY_DIR}/sheets/${sheet}.procman CONTENT "${text}"
-       @ONLY)
-  if(sheet STREQUAL vehicle)
-    set(component vehicle)
-  else()
-    set(component host)
-  endif()
-  install(FILES ${PROJECT_BINARY_DIR}/sheets/${sheet}.procman
-          DESTINATION ${KESTREL_INSTALL_DATADIR}/sheets COMPONENT ${component})
-endforeach()
+set(env_source ${PROJECT_SOURCE_DIR}/scripts/sheets/kestrel.env)
+set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${env_source})
+file(READ ${env_source} text)
+string(REGEX REPLACE "\nKESTREL_BIN=[^\n]*" "\nKESTREL_BIN=${sheet_bindir}" text "${text}")
+string(PREPEND text "# Installed copy of scripts/sheets/kestrel.env: run the sheets from "
+                    "<prefix>/${KESTREL_INSTALL_DATADIR}.\n")
+file(CONFIGURE OUTPUT ${PROJECT_BINARY_DIR}/sheets/kestrel.env CONTENT "${text}" @ONLY)
+# kestrel-procman, which reads it, is in the vehicle package; the host's depends on it.
+install(FILES ${PROJECT_BINARY_DIR}/sheets/kestrel.env
+        DESTINATION ${KESTREL_INSTALL_DATADIR}/sheets COMPONENT vehicle)
+install(FILES ${PROJECT_SOURCE_DIR}/scripts/sheets/vehicle.procman
+        DESTINATION ${KESTREL_INSTALL_DATADIR}/sheets COMPONENT vehicle)
+install(FILES ${PROJECT_SOURCE_DIR}/scripts/sheets/host.procman
+              ${PROJECT_SOURCE_DIR}/scripts/sheets/sim.procman
+        DESTINATION ${KESTREL_INSTALL_DATADIR}/sheets COMPONENT host)
 
 # The licence, as Debian's /usr/share/doc/<package>/copyright of each package.
 foreach(component vehicle host)

@@ -20,7 +20,8 @@
 # kestrel_add_process(NAME <kestrel-x> SOURCES <file>... [DEPS <dep>...] [COMPONENT <component>]
 #                     [NO_INSTALL])
 #   Adds the executable <kestrel-x> with Kestrel's warnings, linked privately to DEPS, installed
-#   into <bindir> as part of COMPONENT (host or vehicle: the two Debian packages).
+#   into <bindir> as part of COMPONENT (host or vehicle: the two Debian packages). Each process is
+#   also linked into <build>/bin, the build tree's one folder of binaries (the sheets' $KESTREL_BIN).
 include_guard(GLOBAL)
 include(GNUInstallDirs)
 
@@ -111,6 +112,12 @@ function(kestrel_add_process)
   add_executable(${P_NAME} ${P_SOURCES})
   target_link_libraries(${P_NAME} PRIVATE ${P_DEPS})
   kestrel_warnings(${P_NAME})
+  # Every process also in <build>/bin (a link), the one folder the sheets' $KESTREL_BIN names.
+  add_custom_command(TARGET ${P_NAME} POST_BUILD
+                     COMMAND ${CMAKE_COMMAND} -E make_directory ${PROJECT_BINARY_DIR}/bin
+                     COMMAND ${CMAKE_COMMAND} -E create_symlink $<TARGET_FILE:${P_NAME}>
+                             ${PROJECT_BINARY_DIR}/bin/${P_NAME}
+                     VERBATIM)
   if(NOT P_NO_INSTALL)
     install(TARGETS ${P_NAME} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT ${P_COMPONENT})
   endif()

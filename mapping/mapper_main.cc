@@ -1,8 +1,11 @@
 // kestrel-mapper: fuses depth images and planar scans into the exact 3D occupancy map.
+#include <cstdlib>
+
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/command_line.h"
 #include "common/config_publisher.h"
+#include "common/identity.h"
 #include "common/log.h"
 #include "common/node_loop.h"
 #include "common/process.h"
@@ -28,8 +31,18 @@ int main(int argc, char** argv) {
         app.add_option("--export-ply", ply_path);
       },
       [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
-        const kestrel::MapperConfig config = kestrel::LoadMapperConfig(node);
+        kestrel::MapperConfig config = kestrel::LoadMapperConfig(node);
         node.CheckNoUnknownKeys();
+        // No run_id set: the run's, from the runner that started it (docs/design.md §3.5).
+        const char* run_id = std::getenv(kestrel::kRunIdEnvironmentVariable);
+        if (config.run_id.empty() && run_id != nullptr && *run_id != '\0') {
+          const std::string problem = kestrel::CheckRunId(run_id);
+          if (!problem.empty()) {
+            throw std::invalid_argument(std::string("$") + kestrel::kRunIdEnvironmentVariable +
+                                        " = '" + run_id + "': " + problem);
+          }
+          config.run_id = run_id;
+        }
         lcm::LCM lcm(args.lcm_url);
         if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");
         const std::unique_ptr<kestrel::Clock> clock =

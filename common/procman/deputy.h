@@ -1,12 +1,17 @@
 #pragma once
 /// @file
-/// A process-sheet runner for one host, like a bot-procman deputy: starts the sheet's commands
-/// for its host as child processes (each in its own process group, output appended to
-/// LOG_DIR/<id>.log), respawns those marked auto_respawn with exponential back-off, stops them
-/// with their stop_signal and then SIGKILL after stop_time_allowed, reports every command's
-/// state (pid, running or exited with code, restarts, CPU, memory) on the status channel, obeys
-/// orders for its host from the orders channel, and runs the sheet's scripts (orders for other
-/// hosts' commands are published for their runners; waits use their status reports).
+/// A process-sheet runner for one host, a bot-procman deputy: starts the sheet's commands for its
+/// host as child processes the way the deputy does (exec_line.h: no shell; each on its own
+/// terminal, in its own session and process group; output appended to LOG_DIR/<id>.log and
+/// published as bot-procman printf_t), respawns those marked auto_respawn with exponential
+/// back-off, stops them with their stop_signal and then SIGKILL after stop_time_allowed.
+/// It speaks two protocols (docs/design.md §7.2):
+///  - libbot2 bot-procman's (docs/protocols.md §5): discovery, info2_t on PMD_INFO2 at 1 Hz and
+///    after every change, orders2_t from a sheriff (bot-procman-sheriff, kestrel-cmd procman),
+///    which is then the authority over what runs, printf_t on PMD_PRINTF;
+///  - Kestrel's own: procman_status_t (state names, restarts, uptime, the script) and
+///    procman_order_t (one verb for one target), which the sheet's scripts use to order other
+///    hosts' runners; waits use their status reports.
 
 #include <cstdint>
 #include <map>
@@ -16,6 +21,9 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "bot_procman/discovery_t.hpp"
+#include "bot_procman/info2_t.hpp"
+#include "bot_procman/orders2_t.hpp"
 #include "common/clock.h"
 #include "common/lcm_decode.h"
 #include "common/procman/sheet.h"
@@ -32,17 +40,25 @@ struct DeputyConfig {
   double respawn_backoff_min_s{0.5};   ///< first respawn delay
   double respawn_backoff_max_s{30.0};  ///< delay doubles per quick exit, up to this
   double stable_run_s{10.0};           ///< a run this long resets the back-off
+  /// bot-procman discovery nonce (the deputy uses its pid); 0 = this process's pid.
+  int64_t discovery_nonce{0};
   /// @throws std::invalid_argument naming the field, value and accepted range.
   void Validate() const;
 };
 
 /// What a runner knows about one of its commands.
 struct CommandState {
-  const Command* command{nullptr};
+  Command command;  ///< from the sheet, or from a sheriff's orders; exec etc. updated by orders
+  int32_t sheriff_id{0};    ///< identity on the bot-procman wire
+  int32_t actual_runid{0};  ///< bot-procman run id: bumped at each ordered start
   bool desired_running{false};
+  bool remove_requested{false};  ///< a sheriff's orders no longer list it: forget once stopped
   int8_t state{procman_command_t::STATE_STOPPED};
   int pid{0};
   int exit_code{0};
+  int wait_status{0};  ///< raw waitpid status of the last exit (bot-procman's exit_code)
+  int pty_fd{-1};      ///< the controlling terminal's master side while its output is read
+  int log_fd{-1};      ///< LOG_DIR/<id>.log while running
   int restarts{0};
   int consecutive_quick_exits{0};
   int64_t started_utime{0};
@@ -50,8 +66,12 @@ struct CommandState {
   int64_t respawn_at_utime{0};
   double cpu_percent{0};
   double rss_mb{0};
+  double machine_cpu_fraction{0};  ///< share of the whole machine (bot-procman's cpu_usage)
+  int64_t vsize_bytes{0};
+  int64_t rss_bytes{0};
   uint64_t last_cpu_ticks{0};
   int64_t last_cpu_utime{0};
+  uint64_t last_machine_jiffies{0};
 };
 
 class Deputy {
@@ -73,13 +93,21 @@ class Deputy {
 
   /// Reaps exited children, escalates stops, respawns, advances the script. Call at >= 10 Hz.
   void Poll();
-  /// Publishes procman_status_t (call at >= 1 Hz).
+  /// Publishes procman_status_t and, once discovery is over, bot-procman's info2_t (call at
+  /// 1 Hz).
   void PublishStatus();
+  /// True once the bot-procman discovery window is over and sheriff orders are taken.
+  [[nodiscard]] bool discovery_done() const { return discovery_done_; }
+  /// Set when another deputy with this host name answered during discovery: the caller must
+  /// exit (as a bot-procman deputy does). Empty otherwise.
+  [[nodiscard]] const std::string& name_conflict() const { return name_conflict_; }
   /// Orders every local command to stop; true once all are stopped.
   void StopAll();
   [[nodiscard]] bool AllStopped() const;
 
   [[nodiscard]] const CommandState* state(const std::string& id) const;
+  /// The info2_t this runner would publish now.
+  [[nodiscard]] bot_procman::info2_t MakeInfo();
   [[nodiscard]] const Sheet& sheet() const { return sheet_; }
   /// The publisher epoch stamped on its status and orders (common/identity.h).
   [[nodiscard]] int64_t epoch() const { return epoch_; }
@@ -89,7 +117,15 @@ class Deputy {
   void SendStop(CommandState* s);
   void Spawn(CommandState* s);
   void Reap();
-  void SampleUsage(CommandState* s);
+  void SampleUsage(CommandState* s, uint64_t machine_jiffies);
+  void ReadOutput(CommandState* s);
+  void CloseOutput(CommandState* s);
+  void Printf(int32_t sheriff_id, const std::string& text);
+  void Discover();
+  void OnOrders2(const bot_procman::orders2_t& orders);
+  void OnDiscovery(const bot_procman::discovery_t& discovery);
+  void OnInfoDuringDiscovery(const bot_procman::info2_t& info);
+  CommandState* FindBySheriffId(int32_t sheriff_id);
   void AdvanceScript();
   [[nodiscard]] bool TargetHasStatus(bool is_group, const std::string& target,
                                      const std::string& status) const;
@@ -106,6 +142,17 @@ class Deputy {
   int64_t epoch_;  // this publisher's epoch (common/identity.h)
   int64_t status_seq_{0};
   int64_t order_seq_{0};
+
+  // bot-procman
+  int64_t nonce_;
+  int64_t started_utime_;
+  int64_t next_discovery_utime_{0};
+  bool discovery_done_{false};
+  bool info_due_{false};  // something changed: publish info2_t at the next Poll
+  std::string name_conflict_;
+  uint64_t last_cpu_busy_{0};
+  uint64_t last_cpu_total_{0};
+  float cpu_load_{0};
 
   struct ScriptFrame {
     const Script* script;

@@ -15,7 +15,13 @@
 
 #include <gtest/gtest.h>
 
+#include "bot_procman/discovery_t.hpp"
+#include "bot_procman/info2_t.hpp"
+#include "bot_procman/orders2_t.hpp"
+#include "bot_procman/printf_t.hpp"
 #include "common/identity.h"
+#include "common/procman/bot_procman.h"
+#include "common/procman/sheriff.h"
 
 namespace kestrel::procman {
 namespace {
@@ -48,6 +54,12 @@ class DeputyTest : public ::testing::Test {
     return done();
   }
 
+  /// Delivers every queued message (memq: handleTimeout delivers one).
+  void Drain() {
+    while (lcm_.handleTimeout(0) > 0) {
+    }
+  }
+
   lcm::LCM lcm_{"memq://"};
   WallClock clock_;
   DeputyConfig config_;
@@ -73,7 +85,7 @@ TEST_F(DeputyTest, StartsOnlyItsHostsCommandsAndStopsWithTheirSignal) {
 }
 
 TEST_F(DeputyTest, EscalatesToSigkillAfterStopTimeAllowed) {
-  auto d = Make(R"(cmd "stubborn" { exec = "trap '' INT; while true; do sleep 0.05; done";
+  auto d = Make(R"(cmd "stubborn" { exec = "sh -c 'trap : INT; while true; do sleep 0.05; done'";
                                     host = "here"; stop_time_allowed = 1; })");
   d->Order(procman_order_t::ACTION_START, false, "stubborn");
   std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the trap install
@@ -88,8 +100,8 @@ TEST_F(DeputyTest, EscalatesToSigkillAfterStopTimeAllowed) {
 }
 
 TEST_F(DeputyTest, RespawnsWithBackoffOnlyWhenAutoRespawn) {
-  auto d = Make(R"(cmd "crasher" { exec = "exit 3"; host = "here"; auto_respawn = "true"; }
-                   cmd "once" { exec = "exit 5"; host = "here"; })");
+  auto d = Make(R"(cmd "crasher" { exec = "sh -c 'exit 3'"; host = "here"; auto_respawn = "true"; }
+                   cmd "once" { exec = "sh -c 'exit 5'"; host = "here"; })");
   d->Order(procman_order_t::ACTION_START, true, "");
   ASSERT_TRUE(PollUntil(
       *d, [&] { return d->state("crasher")->restarts >= 3; }, 5.0));
@@ -114,7 +126,7 @@ TEST_F(DeputyTest, RespawnsWithBackoffOnlyWhenAutoRespawn) {
 TEST_F(DeputyTest, RespawnsSeeTheSameRunId) {
   ASSERT_EQ(unsetenv(kestrel::kRunIdEnvironmentVariable), 0);
   const std::string run_id = kestrel::EnsureRunIdInEnvironment();
-  auto d = Make(R"(cmd "r" { exec = "echo run=$KESTREL_RUN_ID; exit 1"; host = "here";
+  auto d = Make(R"(cmd "r" { exec = "sh -c 'echo run=$KESTREL_RUN_ID; exit 1'"; host = "here";
                               auto_respawn = "true"; })");
   d->Order(procman_order_t::ACTION_START, false, "r");
   const std::string log_path = config_.log_dir + "/r.log";
@@ -136,8 +148,8 @@ TEST_F(DeputyTest, RespawnsSeeTheSameRunId) {
 }
 
 TEST_F(DeputyTest, CapturesOutputInPerCommandLogs) {
-  auto d =
-      Make(R"(cmd "talker" { exec = "echo hello-from-talker; echo oops >&2"; host = "here"; })");
+  auto d = Make(
+      R"(cmd "talker" { exec = "sh -c 'echo hello-from-talker; echo oops >&2'"; host = "here"; })");
   d->Order(procman_order_t::ACTION_START, false, "talker");
   ASSERT_TRUE(PollUntil(
       *d, [&] { return d->AllStopped(); }, 5.0));
@@ -187,7 +199,7 @@ TEST_F(DeputyTest, ObeysOrdersForItsHostAndReportsStatus) {
 }
 
 TEST_F(DeputyTest, RunsScriptsInOrderWithWaits) {
-  auto d = Make(R"(cmd "first" { exec = "exit 0"; host = "here"; }
+  auto d = Make(R"(cmd "first" { exec = "true"; host = "here"; }
                    cmd "second" { exec = "sleep 30"; host = "here"; }
                    script "go" {
                      start cmd "first" wait "stopped";
@@ -203,6 +215,260 @@ TEST_F(DeputyTest, RunsScriptsInOrderWithWaits) {
   EXPECT_EQ(d->state("first")->exit_code, 0);
   EXPECT_EQ(d->state("second")->state, procman_command_t::STATE_STOPPED);
   EXPECT_THROW(d->RunScript("nope"), std::invalid_argument);
+}
+
+// ---- libbot2 bot-procman's protocol (docs/protocols.md §5) ----
+
+/// What a sheriff hears from the deputy.
+struct Heard {
+  explicit Heard(lcm::LCM& lcm) : subs(lcm) {
+    subs.Add<bot_procman::discovery_t>(
+        kDiscoverChannel,
+        [this](const std::string&, const bot_procman::discovery_t& m) { discovery.push_back(m); },
+        nullptr);
+    subs.Add<bot_procman::info2_t>(
+        kInfoChannel,
+        [this](const std::string&, const bot_procman::info2_t& m) { info.push_back(m); }, nullptr);
+    subs.Add<bot_procman::printf_t>(
+        kPrintfChannel,
+        [this](const std::string&, const bot_procman::printf_t& m) { printf.push_back(m); },
+        nullptr);
+  }
+  [[nodiscard]] std::string Output(int32_t sheriff_id) const {
+    std::string text;
+    for (const auto& p : printf) {
+      if (p.sheriff_id == sheriff_id) text += p.text;
+    }
+    return text;
+  }
+  GuardedSubscriptions subs;
+  std::vector<bot_procman::discovery_t> discovery;
+  std::vector<bot_procman::info2_t> info;
+  std::vector<bot_procman::printf_t> printf;
+};
+
+const bot_procman::deputy_cmd2_t* Find(const bot_procman::info2_t& info, const std::string& name) {
+  for (const auto& c : info.cmds) {
+    if (c.cmd.command_name == name) return &c;
+  }
+  return nullptr;
+}
+
+TEST_F(DeputyTest, AnnouncesItselfThenReportsItsSheet) {
+  config_.discovery_nonce = 4242;
+  Heard heard(lcm_);
+  auto d = Make(R"(group "drivers" { cmd "a" { exec = "$BIN/a --x=${RUN}"; host = "here";
+                                               auto_respawn = "true"; stop_signal = 15;
+                                               stop_time_allowed = 3; } }
+                   cmd "b" { exec = "sleep 30"; host = "here"; })");
+  PollUntil(
+      *d, [] { return false; }, 0.7);
+  EXPECT_FALSE(d->discovery_done());
+  EXPECT_GE(heard.discovery.size(), 3U) << "every 200 ms";
+  for (const auto& m : heard.discovery) {
+    EXPECT_EQ(m.host, "here");
+    EXPECT_EQ(m.nonce, 4242);
+  }
+  EXPECT_TRUE(heard.info.empty()) << "no report during discovery";
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return !heard.info.empty(); }, 2.0));
+  EXPECT_TRUE(d->discovery_done());
+  EXPECT_LE(heard.discovery.size(), 9U) << "discovery lasts 1.5 s";
+  const bot_procman::info2_t& info = heard.info.back();
+  EXPECT_EQ(info.host, "here");
+  EXPECT_GT(info.phys_mem_total_bytes, 0);
+  ASSERT_EQ(info.ncmds, 2);
+  const auto* a = Find(info, "a");
+  ASSERT_NE(a, nullptr);
+  EXPECT_EQ(a->cmd.exec_str, "$BIN/a --x=${RUN}") << "the sheet's text, as a deputy reports it";
+  EXPECT_EQ(a->cmd.group, "drivers");
+  EXPECT_TRUE(a->cmd.auto_respawn);
+  EXPECT_EQ(a->cmd.stop_signal, 15);
+  EXPECT_FLOAT_EQ(a->cmd.stop_time_allowed, 3.0F);
+  EXPECT_EQ(a->sheriff_id, SheetSheriffId("here", "a"));
+  EXPECT_EQ(a->pid, 0);
+  EXPECT_EQ(a->actual_runid, 0);
+  // A sheriff's discovery request is answered with a report at once.
+  heard.info.clear();
+  bot_procman::discovery_t ask{};
+  ask.host = "";
+  ask.nonce = 0;
+  lcm_.publish(kDiscoverChannel, &ask);
+  d->Poll();
+  Drain();
+  EXPECT_EQ(heard.info.size(), 1U);
+}
+
+TEST_F(DeputyTest, ASheriffStartsRestartsAndStopsItsCommands) {
+  auto d = Make(R"(group "g" { cmd "a" { exec = "sleep 30"; host = "here"; } }
+                   cmd "b" { exec = "sleep 30"; host = "here"; })");
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return d->discovery_done(); }, 2.0));
+  Sheriff sheriff(lcm_, clock_, "test-sheriff");
+  sheriff.Discover();
+  const auto both = [&](const std::function<bool()>& done, double s) {
+    return PollUntil(
+        *d,
+        [&] {
+          sheriff.Poll();
+          return done();
+        },
+        s);
+  };
+  ASSERT_TRUE(both([&] { return sheriff.deputies().count("here") == 1; }, 2.0));
+
+  EXPECT_EQ(sheriff.Order(SheriffVerb::kStart, {true, "g"}, ""), std::vector<std::string>{"here"});
+  ASSERT_TRUE(both([&] { return sheriff.Pending().empty(); }, 3.0));
+  EXPECT_GT(d->state("a")->pid, 0);
+  EXPECT_EQ(d->state("a")->actual_runid, 1);
+  EXPECT_EQ(d->state("b")->pid, 0) << "not in the group";
+  const int first_pid = d->state("a")->pid;
+
+  // A restart is two orders: the first stops it, the re-sent one starts the new run.
+  sheriff.Order(SheriffVerb::kRestart, {false, "a"}, "here");
+  ASSERT_TRUE(both([&] { return sheriff.Pending().empty(); }, 5.0));
+  EXPECT_GT(d->state("a")->pid, 0);
+  EXPECT_NE(d->state("a")->pid, first_pid);
+  EXPECT_EQ(d->state("a")->actual_runid, 2);
+
+  sheriff.Order(SheriffVerb::kStop, {true, ""}, "");
+  ASSERT_TRUE(both([&] { return sheriff.Pending().empty(); }, 5.0));
+  EXPECT_EQ(d->state("a")->pid, 0);
+  const bot_procman::info2_t& report = sheriff.deputies().at("here");
+  const auto* a = Find(report, "a");
+  ASSERT_NE(a, nullptr);
+  EXPECT_TRUE(WIFSIGNALED(a->exit_code)) << "the raw wait status, as the deputy reports";
+  EXPECT_EQ(WTERMSIG(a->exit_code), SIGINT);
+  EXPECT_EQ(a->actual_runid, 2);
+  EXPECT_NE(FormatDeputies(sheriff.deputies(), clock_.NowUtime()).find("signal 2"),
+            std::string::npos);
+}
+
+TEST_F(DeputyTest, OrdersAddTheSheriffsCommandsAndRemoveTheOthers) {
+  Heard heard(lcm_);
+  auto d = Make(R"(cmd "a" { exec = "sleep 30"; host = "here"; })");
+  d->Order(procman_order_t::ACTION_START, false, "a");
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return d->discovery_done(); }, 2.0));
+  const int a_pid = d->state("a")->pid;
+  ASSERT_GT(a_pid, 0);
+  bot_procman::orders2_t orders{};
+  orders.utime = clock_.NowUtime();
+  orders.host = "here";
+  orders.sheriff_name = "s";
+  bot_procman::sheriff_cmd2_t n{};
+  n.cmd.exec_str = "K_TEST=from-the-sheet sh -c 'echo $K_TEST $(echo sub)'";
+  n.cmd.command_name = "n";
+  n.cmd.group = "new";
+  n.cmd.stop_signal = 15;
+  n.cmd.stop_time_allowed = 2;
+  n.desired_runid = 1;
+  n.sheriff_id = 777;
+  orders.cmds = {n};
+  orders.ncmds = 1;
+  lcm_.publish(kOrdersChannel, &orders);
+  ASSERT_TRUE(PollUntil(
+      *d,
+      [&] {
+        return d->state("a") == nullptr && d->state("n") != nullptr &&
+               d->state("n")->actual_runid == 1 && d->state("n")->pid == 0;
+      },
+      5.0));
+  EXPECT_NE(kill(a_pid, 0), 0) << "the command left out of the orders was stopped";
+  EXPECT_EQ(d->state("n")->command.group, "new");
+  Drain();
+  // Run without a shell: the deputy expands only $NAME from its own environment (K_TEST is
+  // unset there, so "$K_TEST" reaches sh, which sees the child's setting).
+  EXPECT_EQ(heard.Output(777), "from-the-sheet sub\n");
+}
+
+TEST_F(DeputyTest, IgnoresOrdersDuringDiscoveryForOthersAndStale) {
+  Heard heard(lcm_);
+  auto d = Make(R"(cmd "a" { exec = "sleep 30"; host = "here"; })");
+  bot_procman::orders2_t orders{};
+  orders.host = "here";
+  orders.sheriff_name = "s";
+  bot_procman::sheriff_cmd2_t a{};
+  a.cmd.exec_str = "sleep 30";
+  a.cmd.command_name = "a";
+  a.desired_runid = 1;
+  a.sheriff_id = SheetSheriffId("here", "a");
+  orders.cmds = {a};
+  orders.ncmds = 1;
+  const auto send = [&](const std::string& host, int64_t age_utime) {
+    orders.host = host;
+    orders.utime = clock_.NowUtime() - age_utime;
+    lcm_.publish(kOrdersChannel, &orders);
+    d->Poll();
+  };
+  send("here", 0);
+  EXPECT_EQ(d->state("a")->pid, 0) << "orders before the end of discovery";
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return d->discovery_done(); }, 2.0));
+  send("there", 0);
+  send("Here", 0);
+  EXPECT_EQ(d->state("a")->pid, 0) << "another deputy's orders (names match exactly)";
+  send("here", 61'000'000);
+  EXPECT_EQ(d->state("a")->pid, 0) << "orders a minute old";
+  Drain();
+  EXPECT_NE(heard.Output(a.sheriff_id).find("ignoring stale orders"), std::string::npos);
+  send("here", 0);
+  EXPECT_GT(d->state("a")->pid, 0);
+  d->StopAll();
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return d->AllStopped(); }, 5.0));
+}
+
+TEST_F(DeputyTest, PublishesOutputAndExecFailures) {
+  Heard heard(lcm_);
+  auto d = Make(R"(cmd "t" { exec = "sh -c 'echo one; echo two'"; host = "here"; }
+                   cmd "missing" { exec = "/nonexistent/kestrel-prog --x"; host = "here"; })");
+  d->Order(procman_order_t::ACTION_START, true, "");
+  ASSERT_TRUE(PollUntil(
+      *d,
+      [&] {
+        return d->state("t")->state == procman_command_t::STATE_EXITED &&
+               d->state("missing")->state == procman_command_t::STATE_EXITED;
+      },
+      5.0));
+  Drain();
+  EXPECT_EQ(heard.Output(SheetSheriffId("here", "t")), "one\ntwo\n") << "as written: no \\r";
+  for (const auto& p : heard.printf) EXPECT_EQ(p.deputy_name, "here");
+  EXPECT_NE(heard.Output(SheetSheriffId("here", "missing")).find("cannot execute"),
+            std::string::npos);
+  EXPECT_EQ(d->state("missing")->exit_code, 127);
+  std::ifstream log(config_.log_dir + "/t.log");
+  std::stringstream text;
+  text << log.rdbuf();
+  EXPECT_EQ(text.str(), "one\ntwo\n");
+}
+
+TEST_F(DeputyTest, RefusesANamesakeDeputy) {
+  config_.discovery_nonce = 1;
+  auto d = Make(R"(cmd "a" { exec = "sleep 30"; host = "here"; })");
+  bot_procman::discovery_t other{};
+  other.utime = clock_.NowUtime();
+  other.host = "there";
+  other.nonce = 2;
+  lcm_.publish(kDiscoverChannel, &other);
+  d->Poll();
+  EXPECT_TRUE(d->name_conflict().empty()) << "another name";
+  other.host = "here";
+  other.nonce = 1;
+  lcm_.publish(kDiscoverChannel, &other);
+  d->Poll();
+  EXPECT_TRUE(d->name_conflict().empty()) << "its own announcement";
+  other.nonce = 2;
+  lcm_.publish(kDiscoverChannel, &other);
+  d->Poll();
+  EXPECT_NE(d->name_conflict().find("another bot-procman deputy named 'here'"), std::string::npos);
+
+  auto d2 = Make(R"(cmd "a" { exec = "sleep 30"; host = "here"; })");
+  bot_procman::info2_t report{};
+  report.host = "here";
+  lcm_.publish(kInfoChannel, &report);
+  d2->Poll();
+  EXPECT_FALSE(d2->name_conflict().empty()) << "a deputy of the same name reports";
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
-// libFuzzer target: every Kestrel LCM type through the guarded decoder (common/lcm_decode.h),
-// then what consumes the decoded message: the payload codecs (lcmtypes/message_codecs.h), the
-// trajectory conversion, a map replica and the viewer's scene. The first input byte picks the
+// libFuzzer target: every Kestrel LCM type, and libbot2's bot-procman types the runner takes from
+// the network, through the guarded decoder (common/lcm_decode.h), then what consumes the decoded
+// message: the payload codecs (lcmtypes/message_codecs.h), the trajectory conversion, a map
+// replica, the viewer's scene, and a sheriff's orders as the runner reads them (every exec
+// string split and expanded, common/procman/exec_line.h). The first input byte picks the
 // type (docs/design.md §7.7); the rest is the message's bytes. Properties, beyond no crash and no
 // sanitizer report: a message that decodes re-encodes to exactly its bytes; depth pixels and
 // snapshot cells that decode re-encode (raw) and decode to the same values; a trajectory that
@@ -9,10 +11,17 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "bot_procman/discovery_t.hpp"
+#include "bot_procman/info2_t.hpp"
+#include "bot_procman/orders2_t.hpp"
+#include "bot_procman/printf_t.hpp"
 #include "common/lcm_decode.h"
+#include "common/procman/bot_procman.h"
+#include "common/procman/exec_line.h"
 #include "common/trajectory_message.h"
 #include "kestrel/candidate_t.hpp"
 #include "kestrel/command_t.hpp"
@@ -138,6 +147,30 @@ void Consume(const kestrel::map_status_t& msg) {
   (void)scene.TakeUpdateFrames();
 }
 
+// A sheriff's exec strings as the runner reads them. With every variable unset, splitting and
+// expansion only remove characters: every character of a word or setting is in the string.
+void Consume(const bot_procman::orders2_t& msg) {
+  const kestrel::procman::VariableLookup unset =
+      [](const std::string&) -> std::optional<std::string> { return std::nullopt; };
+  const kestrel::procman::VariableLookup named =
+      [](const std::string& name) -> std::optional<std::string> { return "<" + name + ">"; };
+  for (const bot_procman::sheriff_cmd2_t& c : msg.cmds) {
+    const std::string& exec = c.cmd.exec_str;
+    const kestrel::procman::ExecLine line = kestrel::procman::ParseExecLine(exec, unset);
+    const auto from_exec = [&](const std::string& text) {
+      for (const char ch : text) Require(exec.find(ch) != std::string::npos);
+    };
+    for (const auto& [name, value] : line.environment) {
+      from_exec(name);
+      from_exec(value);
+    }
+    for (const std::string& word : line.argv) from_exec(word);
+    (void)kestrel::procman::ParseExecLine(exec, named);
+    (void)kestrel::procman::DecideOrder(true, 1, c);
+    (void)kestrel::procman::DecideOrder(false, 0, c);
+  }
+}
+
 template <typename T>
 void Fuzz(const uint8_t* data, size_t size) {
   T msg;
@@ -182,8 +215,13 @@ constexpr FuzzFn kTypes[] = {
     Fuzz<kestrel::param_t>,
     Fuzz<kestrel::params_t>,
     Fuzz<kestrel::params_request_t>,
+    Fuzz<bot_procman::info2_t>,
+    Fuzz<bot_procman::orders2_t>,
+    Fuzz<bot_procman::printf_t>,
+    Fuzz<bot_procman::discovery_t>,
 };
-static_assert(sizeof(kTypes) / sizeof(kTypes[0]) == 23, "one entry per lcmtypes/*.lcm");
+static_assert(sizeof(kTypes) / sizeof(kTypes[0]) == 27,
+              "one entry per lcmtypes/*.lcm, and the top-level bot_procman types");
 
 }  // namespace
 

@@ -23,7 +23,8 @@ for f in lib/cmake/Kestrel/KestrelConfig.cmake lib/cmake/Kestrel/KestrelConfigVe
          share/kestrel/config/mapper.yaml share/kestrel/config/vehicle/paper.yaml \
          share/kestrel/config/worlds/lasr.yaml share/kestrel/config/sim/sim_ci.yaml \
          share/kestrel/sheets/sim.procman share/kestrel/sheets/host.procman \
-         share/kestrel/sheets/vehicle.procman share/doc/kestrel-host/copyright; do
+         share/kestrel/sheets/vehicle.procman share/kestrel/sheets/kestrel.env \
+         include/kestrel/bot_procman/orders2_t.hpp share/doc/kestrel-host/copyright; do
   need "$f"
 done
 # Optional parts, present when their area was built.
@@ -31,20 +32,24 @@ done
 [[ ! -f "$build/lcmtypes/kestrel_lcmtypes.jar" ]] || need share/java/kestrel_lcmtypes.jar
 [[ ! -d "$build/lcmtypes/python/kestrel" ]] || need lib/python3/dist-packages/kestrel/pose_t.py
 
-# Every command of every installed sheet starts a binary that resolves from share/kestrel with
-# the sheet's own default ($KESTREL_BIN unset), or a program on PATH (lcm-logger).
+# Every command of every installed sheet, run from share/kestrel as a bot-procman deputy runs it
+# (the installed kestrel-procman --dry-run, with the installed sheets/kestrel.env and no
+# $KESTREL_BIN), starts a Kestrel binary from <prefix>/bin, or a program on PATH (lcm-logger).
 cd "$prefix/share/kestrel"
-for sheet in sheets/*.procman; do
+for pair in sim:sim host:base vehicle:jetson; do
+  sheet=sheets/${pair%%:*}.procman
+  if ! out=$(env -u KESTREL_BIN -u KESTREL_RUN "$prefix/bin/kestrel-procman" "$sheet" \
+               --host "${pair##*:}" --dry-run 2>&1); then
+    echo "FAIL: $sheet does not resolve:"; echo "$out"; failures=$((failures + 1)); continue
+  fi
   while read -r program; do
-    resolved=$(env -u KESTREL_BIN -u KESTREL_BUILD sh -c "echo $program")
-    if [[ $resolved == */* ]]; then
-      [[ -x $resolved ]] || { echo "FAIL: $sheet runs $resolved, not installed"; failures=$((failures + 1)); continue; }
-      [[ $(cd "$(dirname "$resolved")" && pwd) == "$prefix/bin" ]] ||
-        { echo "FAIL: $sheet runs $resolved, outside $prefix/bin"; failures=$((failures + 1)); }
-    else
-      command -v "$resolved" >/dev/null || { echo "FAIL: $sheet runs $resolved, not on PATH"; failures=$((failures + 1)); }
+    if [[ $(basename "$program") == kestrel-* ]]; then
+      [[ $(cd "$(dirname "$program")" && pwd) == "$prefix/bin" ]] ||
+        { echo "FAIL: $sheet runs $program, outside $prefix/bin"; failures=$((failures + 1)); }
     fi
-  done < <(sed -nE 's/^ *exec = "([^ ]+).*/\1/p' "$sheet")
+  done < <(sed -n "s/^  program //p" <<<"$out")
+  [[ $(grep -c "^  program " <<<"$out") -ge 3 ]] ||
+    { echo "FAIL: $sheet: fewer than 3 commands resolved"; failures=$((failures + 1)); }
 done
 files=$(find "$prefix" -type f | wc -l)
 echo "installed $files files, $(du -sh "$prefix" | cut -f1) into $prefix"

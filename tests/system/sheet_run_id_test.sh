@@ -9,9 +9,9 @@
 set -euo pipefail
 build=$1; root=$2
 cd "$root"
-export LCM_DEFAULT_URL="memq://" KESTREL_BUILD="$build" KESTREL_RUN
+export LCM_DEFAULT_URL="memq://" KESTREL_BIN="$build/bin" KESTREL_RUN
 KESTREL_RUN=$(mktemp -d)
-unset KESTREL_RUN_ID KESTREL_BIN
+unset KESTREL_RUN_ID
 runner=""
 trap 'if [[ -n $runner ]]; then kill -TERM $runner 2>/dev/null; wait $runner 2>/dev/null; fi; rm -rf "$KESTREL_RUN"' EXIT
 ck=$KESTREL_RUN/mapper.kmap
@@ -43,7 +43,7 @@ stop_runner() {
 run_id_of() {  # run_id_of NAME: the run id the runner NAME announced
   sed -n 's/.* run id \([^ ]*\) .*/\1/p' "$KESTREL_RUN/$1.err" | head -1
 }
-mapper_pid() { pgrep -f "^$build/mapping/kestrel-mapper .*checkpoint_path=$ck" | head -1 || true; }
+mapper_pid() { pgrep -f "^$build/bin/kestrel-mapper .*checkpoint_path=$ck" | head -1 || true; }
 
 # Run 1: a fresh map, checkpointed; kill -9; the runner's respawn resumes it.
 start_runner run1

@@ -14,7 +14,7 @@ exec "$in_netns" bash -c '
   build=$1; root=$2; seconds=$3
   cd "$root"
   export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304"
-  export KESTREL_BUILD="$build" KESTREL_RUN=$(mktemp -d) KESTREL_SPEED=${KESTREL_SPEED:-1}
+  export KESTREL_BIN="$build/bin" KESTREL_RUN=$(mktemp -d) KESTREL_SPEED=${KESTREL_SPEED:-1}
   trap "kill -TERM \$(jobs -p) 2>/dev/null || true; sleep 2; kill -9 \$(jobs -p) 2>/dev/null || true; rm -rf \$KESTREL_RUN" EXIT
   "$build/common/procman/kestrel-procman" scripts/sheets/sim.procman --host sim --script fly \
     --log-dir "$KESTREL_RUN/logs" 2>"$KESTREL_RUN/runner.log" &
@@ -23,7 +23,7 @@ exec "$in_netns" bash -c '
   "$build/tools/flight_check/kestrel-flight-check" "$LCM_DEFAULT_URL" "$seconds" || status=1
   # Fault: kill -9 the mapper; the runner respawns it and it resumes from its checkpoint.
   # The mapper of this run (its checkpoint is in $KESTREL_RUN), not one of another test.
-  mapper_pid=$(pgrep -f "^$build/mapping/kestrel-mapper .*checkpoint_path=$KESTREL_RUN/" | head -1)
+  mapper_pid=$(pgrep -f "^$build/bin/kestrel-mapper .*checkpoint_path=$KESTREL_RUN/" | head -1)
   kill -9 "$mapper_pid"
   for i in $(seq 100); do
     grep -q "resumed from checkpoint .* of this run" "$KESTREL_RUN/logs/mapper.log" 2>/dev/null && break

@@ -17,7 +17,7 @@ exec "$in_netns" bash -c '
   build=$1; root=$2; seconds=$3; world=$4; min_known=$5; request=$6
   cd "$root"
   export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0&recv_buf_size=$request"
-  export KESTREL_BUILD="$build" KESTREL_RUN=$(mktemp -d) KESTREL_WORLD="$world"
+  export KESTREL_BIN="$build/bin" KESTREL_RUN=$(mktemp -d) KESTREL_WORLD="$world"
   export KESTREL_SPEED=${KESTREL_SPEED:-1}
   trap "kill -TERM \$(jobs -p) 2>/dev/null || true; sleep 2; kill -9 \$(jobs -p) 2>/dev/null || true; rm -rf \$KESTREL_RUN" EXIT
   # The world'"'"'s map limits, height and geofence (as scripts/demo).

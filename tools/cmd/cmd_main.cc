@@ -1,11 +1,15 @@
 // kestrel-cmd: the operator tool. Vehicle commands (take off, hold, land, e-stop) on COMMAND,
 // process-sheet orders to the runners on every host, and a one-screen status of every process.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <unistd.h>
 
 #include <lcm/lcm-cpp.hpp>
 
@@ -16,8 +20,8 @@
 #include "common/lcm_decode.h"
 #include "common/process.h"
 #include "common/procman/operator_status.h"
+#include "common/procman/sheriff.h"
 #include "kestrel/command_t.hpp"
-#include "kestrel/procman_order_t.hpp"
 
 namespace {
 const char* const kUsage =
@@ -26,8 +30,13 @@ const char* const kUsage =
     "       kestrel-cmd status [--seconds S]\n"
     "       kestrel-cmd params [PROCESS] [--seconds S]\n"
     "       kestrel-cmd procman list [--seconds S]\n"
-    "       kestrel-cmd procman start|stop|restart TARGET [--host HOST]\n"
-    "  TARGET: all | cmd:ID | group:PATH; HOST: the runner to order (default every runner)\n"
+    "       kestrel-cmd procman start|stop|restart TARGET [--host HOST] [--seconds S]\n"
+    "  procman: a bot-procman sheriff for one order (libbot2's protocol: PMD_INFO2, PMD_ORDERS2),\n"
+    "           for kestrel-procman runners and bot-procman deputies alike. list: every\n"
+    "           deputy's report within S seconds. start|stop|restart: orders every deputy\n"
+    "           holding TARGET (only HOST's if given) and waits up to S seconds (default 10)\n"
+    "           for their reports to show it done; exit 1 if not\n"
+    "  TARGET: all | cmd:ID | group:PATH\n"
     "  --wait S: wait up to S seconds for CONTROLLER_STATUS to show the commanded mode; exit 1\n"
     "            if it does not (the e-stop is always sent at once, and repeated 3 times)\n"
     "  params: asks every process (or PROCESS, e.g. kestrel-mapper) for the configuration it runs\n"
@@ -64,6 +73,7 @@ int main(int argc, char** argv) {
   double height_m = 1.0;
   double wait_s = 0.0;
   double seconds = 2.0;
+  bool seconds_given = false;
   std::string channel = "COMMAND";
   std::string host;
   return kestrel::RunProcess(
@@ -71,7 +81,9 @@ int main(int argc, char** argv) {
       [&](CLI::App& app) {
         app.add_option("--height", height_m)->check(kestrel::cli::Positive());
         app.add_option("--wait", wait_s)->check(kestrel::cli::NonNegative());
-        app.add_option("--seconds", seconds)->check(kestrel::cli::Positive());
+        app.add_option("--seconds", seconds)
+            ->check(kestrel::cli::Positive())
+            ->each([&](const std::string&) { seconds_given = true; });
         app.add_option("--channel", channel);
         app.add_option("--host", host);
         app.add_option("words", p);
@@ -160,41 +172,58 @@ int main(int argc, char** argv) {
           return 0;
         }
         if (verb == "procman" && p.size() >= 2) {
-          if (p[1] == "list") {
-            const auto view = Listen(lcm, seconds);
-            procman::OperatorView runners_only;
-            runners_only.runners = view.runners;
-            std::printf("%s", procman::FormatOperatorView(runners_only, clock.NowUtime()).c_str());
-            return view.runners.empty() ? 1 : 0;
+          char hostname[256] = "";
+          gethostname(hostname, sizeof(hostname) - 1);
+          procman::Sheriff sheriff(lcm, clock,
+                                   std::string(hostname) + ":" + std::to_string(getpid()) + ":" +
+                                       std::to_string(clock.NowUtime()));
+          sheriff.Discover();
+          const auto poll_for = [&](double s, const std::function<bool()>& done) {
+            const int64_t end = clock.NowUtime() + static_cast<int64_t>(s * 1e6);
+            while (clock.NowUtime() < end && !done()) {
+              lcm.handleTimeout(50);
+              sheriff.Poll();
+            }
+          };
+          if (p[1] == "list" && p.size() == 2) {
+            poll_for(seconds, [] { return false; });
+            std::printf("%s",
+                        procman::FormatDeputies(sheriff.deputies(), clock.NowUtime()).c_str());
+            return sheriff.deputies().empty() ? 1 : 0;
           }
-          const std::map<std::string, int8_t> actions = {
-              {"start", procman_order_t::ACTION_START},
-              {"stop", procman_order_t::ACTION_STOP},
-              {"restart", procman_order_t::ACTION_RESTART}};
-          if (actions.count(p[1]) != 0 && p.size() >= 3) {
-            procman_order_t order{};
-            order.utime = clock.NowUtime();
-            order.seq = order.utime;
-            order.epoch = NewPublisherEpoch();
-            order.source = "kestrel-cmd";
-            order.host = host;
-            order.action = actions.at(p[1]);
+          const std::map<std::string, procman::SheriffVerb> verbs = {
+              {"start", procman::SheriffVerb::kStart},
+              {"stop", procman::SheriffVerb::kStop},
+              {"restart", procman::SheriffVerb::kRestart}};
+          if (verbs.count(p[1]) != 0 && p.size() == 3) {
+            procman::CommandTarget target;
             const std::string& t = p[2];
-            if (t == "all") {
-              order.is_group = true;
-            } else if (t.rfind("cmd:", 0) == 0) {
-              order.target = t.substr(4);
+            if (t.rfind("cmd:", 0) == 0) {
+              target = {false, t.substr(4)};
             } else if (t.rfind("group:", 0) == 0) {
-              order.is_group = true;
-              order.target = t.substr(6);
-            } else {
+              target = {true, t.substr(6)};
+            } else if (t != "all") {
               std::fprintf(stderr, "kestrel-cmd: TARGET must be all, cmd:ID or group:PATH\n");
               return 2;
             }
-            lcm.publish("PROCMAN_ORDERS", &order);
-            std::printf("ordered %s %s%s\n", p[1].c_str(), t.c_str(),
-                        order.host.empty() ? " on every host" : (" on " + order.host).c_str());
-            return 0;
+            const double wait_for = seconds_given ? seconds : 10.0;
+            // Every deputy reports within a second of the discovery request (at most 1 s later
+            // by its own timer); ordering one that has not reported would drop its commands.
+            poll_for(std::min(wait_for, 1.2), [] { return false; });
+            const std::vector<std::string> ordered = sheriff.Order(verbs.at(p[1]), target, host);
+            if (ordered.empty()) {
+              std::fprintf(stderr, "kestrel-cmd: no deputy%s reported a command matching %s\n",
+                           host.empty() ? "" : (" named " + host).c_str(), t.c_str());
+              return 1;
+            }
+            poll_for(wait_for, [&] { return sheriff.Pending().empty(); });
+            for (const std::string& deputy : ordered) {
+              const std::vector<std::string> pending = sheriff.Pending();
+              const bool done = std::find(pending.begin(), pending.end(), deputy) == pending.end();
+              std::printf("%s %s on %s: %s\n", p[1].c_str(), t.c_str(), deputy.c_str(),
+                          done ? "done" : "not confirmed");
+            }
+            return sheriff.Pending().empty() ? 0 : 1;
           }
         }
         std::fprintf(stderr, "kestrel-cmd: unknown command\n%s", kUsage);
