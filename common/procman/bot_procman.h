@@ -34,7 +34,7 @@ inline constexpr int kPrintfChunkBytes = 1023;
 /// in [1, 2^31 - 1], so that a runner restarted with the same sheet reports the same ids.
 [[nodiscard]] int32_t SheetSheriffId(const std::string& host, const std::string& command_id);
 
-/// What a deputy does with one sheriff_cmd2_t for a command it runs or knows (§5.2).
+/// What a deputy does with one sheriff_cmd2_t for a command it knows (docs/protocols.md §5.2).
 enum class OrderAction {
   kStart,  ///< stopped, another runid wanted, not force_quit: start, actual_runid = desired
   kStop,   ///< running and force_quit or another runid: stop (a restart's first half)
