@@ -251,10 +251,7 @@ void Deputy::OnOrder(const procman_order_t& order) {
   if (order.source == config_.host) return;  // our own order to others, echoed back
   for (auto& [id, s] : local_) {
     const Command& c = s.command;
-    const bool match = order.is_group ? (order.target.empty() || c.group == order.target ||
-                                         c.group.rfind(order.target + "/", 0) == 0)
-                                      : c.id == order.target;
-    if (!match) continue;
+    if (!CommandTarget{order.is_group != 0, order.target}.Matches(c.id, c.group)) continue;
     if (order.action == procman_order_t::ACTION_START) {
       Start(&s);
     } else if (order.action == procman_order_t::ACTION_STOP) {
@@ -294,10 +291,9 @@ void Deputy::Order(int8_t action, bool is_group, const std::string& target) {
   OnOrder(local);
   bool remote = false;
   for (const Command& c : sheet_.commands) {
-    const bool match =
-        is_group ? (target.empty() || c.group == target || c.group.rfind(target + "/", 0) == 0)
-                 : c.id == target;
-    if (match && c.host != config_.host) remote = true;
+    if (CommandTarget{is_group, target}.Matches(c.id, c.group) && c.host != config_.host) {
+      remote = true;
+    }
   }
   if (remote) lcm_.publish(config_.orders_channel, &order);
 }
