@@ -4,13 +4,17 @@
 /// drivers publish (POSE_VICON pose_t as the motion-capture bridge does, without velocities;
 /// IMU imu_t; DEPTH_XTION depth_image_t raw 16-bit; SCAN_HOKUYO planar_scan_t) plus SIM_TRUTH
 /// (sim_truth_t) and a 1 Hz heartbeat; reads MOTOR_COMMAND (dynamic mode) or TRAJECTORY
-/// (kinematic mode) through the guarded decoder. Lockstep: Step() advances one physics step,
+/// (kinematic mode) through the guarded decoder. With several vehicles, each one's channels carry
+/// its prefix (V2_POSE_VICON, V2_MOTOR_COMMAND, V2_SIM_TRUTH, ...); the heartbeat is the
+/// simulator's, one for all. Lockstep: Step() advances one physics step,
 /// sets the SimClock to the new time and publishes; nodes sharing the lcm and clock in one
 /// process then handle the messages (lcm.handleTimeout(0)) before the next Step().
 
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include <lcm/lcm-cpp.hpp>
 
@@ -50,10 +54,17 @@ class SimNode {
   [[nodiscard]] int64_t epoch() const { return epoch_; }
 
  private:
-  void OnMotorCommand(const motor_command_t& msg);
-  void OnTrajectory(const trajectory_t& msg);
+  /// Per vehicle: its channel names and the sequence numbers of its streams.
+  struct VehicleChannels {
+    std::string pose, imu, depth, scan, truth, motor, trajectory;
+    int64_t pose_seq{0}, imu_seq{0}, depth_seq{0}, scan_seq{0}, truth_seq{0};
+  };
+
+  void OnMotorCommand(size_t k, const motor_command_t& msg);
+  void OnTrajectory(size_t k, const trajectory_t& msg);
   void Reject(const std::string& channel, const std::string& reason);
-  void Publish(const SimFrame& frame);
+  void Publish(size_t k);
+  void PublishHeartbeat();
 
   lcm::LCM& lcm_;
   SimClock& clock_;
@@ -61,7 +72,7 @@ class SimNode {
   GuardedSubscriptions subscriptions_;
   Heartbeat heartbeat_;
   int64_t epoch_;
-  int64_t pose_seq_{0}, imu_seq_{0}, depth_seq_{0}, scan_seq_{0}, truth_seq_{0};
+  std::vector<VehicleChannels> channels_;  // by vehicle
   int64_t rejected_{0};
   int64_t next_heartbeat_utime_;
   std::chrono::steady_clock::time_point wall_at_heartbeat_;

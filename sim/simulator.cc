@@ -1,5 +1,6 @@
 #include "sim/simulator.h"
 
+#include <cctype>
 #include <cmath>
 
 #include "common/check.h"
@@ -84,6 +85,29 @@ void SimConfig::Validate() const {
   KESTREL_THROW_UNLESS(ray_bin_m > 0.0, "sim ray_bin_m = " << ray_bin_m << "; accepted: (0, inf)");
   KESTREL_THROW_UNLESS(truth_rate_hz > 0.0 && truth_rate_hz <= 1000.0,
                        "sim truth_rate_hz = " << truth_rate_hz << "; accepted: (0, 1000]");
+  KESTREL_THROW_UNLESS(!vehicles.empty() && vehicles.size() <= 4,
+                       "sim vehicles: " << vehicles.size() << " listed; accepted: 1 to 4");
+  for (size_t i = 0; i < vehicles.size(); ++i) {
+    const SimVehicleConfig& v = vehicles[i];
+    for (const char c : v.prefix) {
+      KESTREL_THROW_UNLESS(std::isalnum(static_cast<unsigned char>(c)) || c == '_',
+                           "sim vehicles[" << i << "].prefix = \"" << v.prefix
+                                           << "\"; accepted: letters, digits and '_'");
+    }
+    KESTREL_THROW_UNLESS(v.start_offset_m.allFinite(),
+                         "sim vehicles[" << i << "].start_offset_m is not finite");
+    for (size_t j = 0; j < i; ++j) {
+      KESTREL_THROW_UNLESS(vehicles[j].prefix != v.prefix,
+                           "sim vehicles[" << j << "] and [" << i << "] share the prefix \""
+                                           << v.prefix << "\"; each vehicle needs its own");
+      const Eigen::Vector3d d = v.start_offset_m - vehicles[j].start_offset_m;
+      KESTREL_THROW_UNLESS(
+          d.head<2>().norm() > vehicle.diameter_m || std::abs(d.z()) > vehicle_height_m,
+          "sim vehicles[" << j << "] and [" << i << "] start " << d.head<2>().norm()
+                          << " m apart, closer than the " << vehicle.diameter_m
+                          << " m vehicle diameter");
+    }
+  }
   quadrotor.Validate();
   depth.Validate();
   lidar.Validate();
@@ -145,6 +169,15 @@ SimConfig LoadSimConfig(const ConfigNode& root, const std::string& base_dir) {
     i.Read("gyro_bias_walk_radps_sqrt_s", &c.imu.gyro_bias_walk_radps_sqrt_s, Range::NonNegative());
     i.Read("accel_bias_walk_mps2_sqrt_s", &c.imu.accel_bias_walk_mps2_sqrt_s, Range::NonNegative());
   }
+  if (root.Has("vehicles")) {
+    c.vehicles.clear();
+    for (const ConfigNode& v : root.Elements("vehicles")) {
+      SimVehicleConfig vehicle;
+      v.Read("prefix", &vehicle.prefix);
+      v.Read("start_offset_m", &vehicle.start_offset_m);
+      c.vehicles.push_back(vehicle);
+    }
+  }
   if (root.Has("channels")) {
     const ConfigNode ch = root.Child("channels");
     ch.Read("pose", &c.pose_channel);
@@ -166,6 +199,15 @@ SimConfig LoadSimConfig(const ConfigNode& root, const std::string& base_dir) {
   return c;
 }
 
+Simulator::Vehicle::Vehicle(const SimConfig& config, size_t index)
+    : mocap(config.mocap),
+      // The first vehicle's streams are a one-vehicle run's; each other one has its own.
+      depth_rng(MixSeed(static_cast<uint64_t>(config.seed) * 8 + 1 + (uint64_t{index} << 40))),
+      lidar_rng(MixSeed(static_cast<uint64_t>(config.seed) * 8 + 2 + (uint64_t{index} << 40))),
+      mocap_rng(MixSeed(static_cast<uint64_t>(config.seed) * 8 + 3 + (uint64_t{index} << 40))),
+      imu_rng(MixSeed(static_cast<uint64_t>(config.seed) * 8 + 4 + (uint64_t{index} << 40))),
+      imu(config.imu, &imu_rng) {}
+
 Simulator::Simulator(const SimConfig& config, int64_t start_utime)
     : config_((config.Validate(), config)),
       start_utime_(start_utime),
@@ -174,79 +216,117 @@ Simulator::Simulator(const SimConfig& config, int64_t start_utime)
       caster_(config_.world, config_.ray_bin_m),
       bullet_(config_.world, 0.5 * config_.vehicle.diameter_m, config_.vehicle_height_m),
       camera_(config_.depth),
-      lidar_(config_.lidar),
-      mocap_(config_.mocap),
-      depth_rng_(MixSeed(static_cast<uint64_t>(config_.seed) * 8 + 1)),
-      lidar_rng_(MixSeed(static_cast<uint64_t>(config_.seed) * 8 + 2)),
-      mocap_rng_(MixSeed(static_cast<uint64_t>(config_.seed) * 8 + 3)),
-      imu_rng_(MixSeed(static_cast<uint64_t>(config_.seed) * 8 + 4)),
-      imu_(config_.imu, &imu_rng_) {
+      lidar_(config_.lidar) {
   KESTREL_THROW_UNLESS(step_us_ >= 1, "physics step " << config_.physics_step_s << " s");
-  quad_ = std::make_unique<Quadrotor>(config_.vehicle, config_.quadrotor, config_.world, &bullet_);
-  last_imu_utime_ = start_utime;
+  const size_t n = config_.vehicles.size();
+  for (size_t k = 0; k < n; ++k) {
+    auto v = std::make_unique<Vehicle>(config_, k);
+    v->quad =
+        std::make_unique<Quadrotor>(config_.vehicle, config_.quadrotor, config_.world, &bullet_);
+    Pose3 start = config_.world.start_X_WB;
+    start.p += config_.vehicles[k].start_offset_m;
+    v->quad->Reset(start);
+    v->last_imu_utime = start_utime;
+    vehicles_.push_back(std::move(v));
+  }
+  pair_in_contact_.assign(n * n, false);
 }
 
 int64_t Simulator::DueUtime(double rate_hz, int64_t k) const {
   return start_utime_ + std::llround(static_cast<double>(k) * 1e6 / rate_hz);
 }
 
-bool Simulator::SetMotorCommand(const Eigen::Vector4d& thrust_N, bool armed) {
+bool Simulator::SetMotorCommand(const Eigen::Vector4d& thrust_N, bool armed, size_t k) {
   if (!thrust_N.allFinite()) return false;
-  command_N_ = armed ? thrust_N : Eigen::Vector4d::Zero();
-  command_utime_ = utime_;
-  have_command_ = true;
+  Vehicle& v = *vehicles_.at(k);
+  v.command_N = armed ? thrust_N : Eigen::Vector4d::Zero();
+  v.command_utime = utime_;
+  v.have_command = true;
   return true;
 }
 
-void Simulator::SetTrajectory(const PiecewisePolynomialTrajectory& trajectory) {
-  trajectory_ = trajectory;
+void Simulator::SetTrajectory(const PiecewisePolynomialTrajectory& trajectory, size_t k) {
+  vehicles_.at(k)->trajectory = trajectory;
 }
 
 const SimFrame& Simulator::Step() {
-  frame_ = SimFrame{};
   utime_ += step_us_;
+  // Streams due at the new time, each at its own rate from the start time (every vehicle
+  // samples together).
+  const auto due = [this](bool enabled, double rate_hz, int64_t* k) {
+    if (!enabled || utime_ < DueUtime(rate_hz, *k)) return false;
+    while (utime_ >= DueUtime(rate_hz, *k)) ++*k;
+    return true;
+  };
+  const bool imu_due = due(config_.imu_enabled, config_.imu.rate_hz, &imu_k_);
+  const bool mocap_due = due(config_.mocap_enabled, config_.mocap.rate_hz, &mocap_k_);
+  const bool depth_due = due(config_.depth_enabled, config_.depth.rate_hz, &depth_k_);
+  const bool scan_due = due(config_.lidar_enabled, config_.lidar.rate_hz, &scan_k_);
+  const bool truth_due = due(true, config_.truth_rate_hz, &truth_k_);
+  for (const auto& v : vehicles_) {
+    StepVehicle(v.get(), imu_due, mocap_due, depth_due, scan_due);
+    v->frame.truth = truth_due;
+  }
+  if (vehicles_.size() > 1) CountVehicleContacts();
+  return vehicles_.front()->frame;
+}
+
+void Simulator::StepVehicle(Vehicle* v, bool imu_due, bool mocap_due, bool depth_due,
+                            bool scan_due) {
+  v->frame = SimFrame{};
+  Quadrotor& quad = *v->quad;
   const double t_s = UtimeToSeconds(utime_);
   if (config_.mode == "kinematic") {
-    if (trajectory_.has_value()) quad_->FollowTrajectory(*trajectory_, t_s);
+    if (v->trajectory.has_value()) quad.FollowTrajectory(*v->trajectory, t_s);
   } else {
-    const bool fresh =
-        have_command_ && utime_ - command_utime_ <= SecondsToUtime(config_.motor_command_timeout_s);
-    quad_->Step(fresh ? command_N_ : Eigen::Vector4d::Zero(), config_.physics_step_s);
+    const bool fresh = v->have_command &&
+                       utime_ - v->command_utime <= SecondsToUtime(config_.motor_command_timeout_s);
+    quad.Step(fresh ? v->command_N : Eigen::Vector4d::Zero(), config_.physics_step_s);
   }
-  const QuadrotorState& s = quad_->state();
+  const QuadrotorState& s = quad.state();
   const Pose3 X_WB = s.pose();
-  // Sensors due at the new time, each at its own rate from the start time.
-  if (config_.imu_enabled && utime_ >= DueUtime(config_.imu.rate_hz, imu_k_)) {
-    while (utime_ >= DueUtime(config_.imu.rate_hz, imu_k_)) ++imu_k_;
-    frame_.imu = imu_.Measure(utime_, s.q_WB.toRotationMatrix(), s.w_B, quad_->acceleration_W(),
-                              UtimeToSeconds(utime_ - last_imu_utime_), &imu_rng_);
-    last_imu_utime_ = utime_;
+  if (imu_due) {
+    v->frame.imu = v->imu.Measure(utime_, s.q_WB.toRotationMatrix(), s.w_B, quad.acceleration_W(),
+                                  UtimeToSeconds(utime_ - v->last_imu_utime), &v->imu_rng);
+    v->last_imu_utime = utime_;
   }
-  if (config_.mocap_enabled && utime_ >= DueUtime(config_.mocap.rate_hz, mocap_k_)) {
-    while (utime_ >= DueUtime(config_.mocap.rate_hz, mocap_k_)) ++mocap_k_;
-    mocap_queue_.push_back(mocap_.Measure(utime_, X_WB, &mocap_rng_));
+  if (mocap_due) v->mocap_queue.push_back(v->mocap.Measure(utime_, X_WB, &v->mocap_rng));
+  while (!v->mocap_queue.empty() && v->mocap_queue.front().deliver_utime <= utime_) {
+    v->frame.poses.push_back(v->mocap_queue.front());
+    v->mocap_queue.pop_front();
   }
-  while (!mocap_queue_.empty() && mocap_queue_.front().deliver_utime <= utime_) {
-    frame_.poses.push_back(mocap_queue_.front());
-    mocap_queue_.pop_front();
+  if (depth_due) {
+    camera_.Render(caster_, X_WB * config_.vehicle.X_BS_xtion, &v->depth_rng, &v->depth_counts);
+    v->depth_utime = utime_;
+    v->frame.depth = true;
   }
-  if (config_.depth_enabled && utime_ >= DueUtime(config_.depth.rate_hz, depth_k_)) {
-    while (utime_ >= DueUtime(config_.depth.rate_hz, depth_k_)) ++depth_k_;
-    camera_.Render(caster_, X_WB * config_.vehicle.X_BS_xtion, &depth_rng_, &depth_counts_);
-    depth_utime_ = utime_;
-    frame_.depth = true;
+  if (scan_due) {
+    lidar_.Scan(caster_, X_WB * config_.vehicle.X_BS_hokuyo, &v->lidar_rng, &v->scan_ranges);
+    v->scan_utime = utime_;
+    v->frame.scan = true;
   }
-  if (config_.lidar_enabled && utime_ >= DueUtime(config_.lidar.rate_hz, scan_k_)) {
-    while (utime_ >= DueUtime(config_.lidar.rate_hz, scan_k_)) ++scan_k_;
-    lidar_.Scan(caster_, X_WB * config_.vehicle.X_BS_hokuyo, &lidar_rng_, &scan_ranges_);
-    scan_utime_ = utime_;
-    frame_.scan = true;
+}
+
+void Simulator::CountVehicleContacts() {
+  // Each vehicle is the vertical cylinder of the world contacts (diameter, vehicle_height_m)
+  // centred on its body origin: two touch when their axes are at most a diameter apart and
+  // their centres at most a height apart vertically.
+  const size_t n = vehicles_.size();
+  for (const auto& v : vehicles_) v->touching_vehicle = false;
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t j = i + 1; j < n; ++j) {
+      const Eigen::Vector3d d = vehicles_[j]->quad->state().p_W - vehicles_[i]->quad->state().p_W;
+      const bool touch = d.head<2>().norm() <= config_.vehicle.diameter_m &&
+                         std::abs(d.z()) <= config_.vehicle_height_m;
+      if (touch && !pair_in_contact_[i * n + j]) {
+        ++inter_vehicle_collisions_;
+        ++vehicles_[i]->vehicle_collisions;
+        ++vehicles_[j]->vehicle_collisions;
+      }
+      pair_in_contact_[i * n + j] = touch;
+      if (touch) vehicles_[i]->touching_vehicle = vehicles_[j]->touching_vehicle = true;
+    }
   }
-  if (utime_ >= DueUtime(config_.truth_rate_hz, truth_k_)) {
-    while (utime_ >= DueUtime(config_.truth_rate_hz, truth_k_)) ++truth_k_;
-    frame_.truth = true;
-  }
-  return frame_;
 }
 
 }  // namespace kestrel

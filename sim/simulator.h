@@ -1,10 +1,14 @@
 #pragma once
 /// @file
-/// The whole simulation without I/O: world, exact ray caster, Bullet contacts, the quadrotor and
-/// its sensors, advanced in fixed physics steps (lockstep). Each Step() reports what became due
-/// at the new time (motion-capture poses whose latency has passed, IMU samples, depth frames,
-/// scans, truth). sim/sim_node.h puts it on LCM. Deterministic: the same config and seed give the
-/// same outputs bit for bit (each sensor draws from its own stream derived from the seed).
+/// The whole simulation without I/O: world, exact ray caster, Bullet contacts, one to four
+/// quadrotors and their sensors, advanced together in fixed physics steps (lockstep). Each Step()
+/// reports, per vehicle, what became due at the new time (motion-capture poses whose latency has
+/// passed, IMU samples, depth frames, scans, truth). sim/sim_node.h puts it on LCM, each vehicle
+/// on its own channels (its prefix before every channel name). Deterministic: the same config and
+/// seed give the same outputs bit for bit (each sensor of each vehicle draws from its own stream
+/// derived from the seed; the first vehicle's streams are those of a one-vehicle run).
+/// The vehicles do not see each other (their sensors see the world only); their contacts with
+/// each other are counted (docs/design.md §7.10).
 
 #include <cstdint>
 #include <deque>
@@ -22,6 +26,15 @@
 #include "sim/world_ray_caster.h"
 
 namespace kestrel {
+
+/// One simulated vehicle: its channels and where it starts.
+struct SimVehicleConfig {
+  /// Put before every channel name of this vehicle (e.g. "V2_" gives V2_POSE_VICON); "" for a
+  /// single vehicle. Letters, digits and '_'.
+  std::string prefix;
+  /// Start position relative to the world's start pose, W, m (same yaw).
+  Eigen::Vector3d start_offset_m{Eigen::Vector3d::Zero()};
+};
 
 /// Everything a simulation run needs (config/sim/sim.yaml; loaded by LoadSimConfig).
 struct SimConfig {
@@ -54,7 +67,15 @@ struct SimConfig {
   std::string truth_channel{"SIM_TRUTH"};          ///< truth out
   std::string motor_channel{"MOTOR_COMMAND"};      ///< rotor thrusts in (dynamic mode)
   std::string trajectory_channel{"TRAJECTORY"};    ///< trajectory in (kinematic mode)
-  std::string heartbeat_channel{"HEARTBEAT_SIM"};  ///< 1 Hz status out
+  std::string heartbeat_channel{"HEARTBEAT_SIM"};  ///< 1 Hz status out (one for the simulator)
+  /// The vehicles, 1 to 4, all of `vehicle`'s model; each one's channels are its prefix followed
+  /// by the channels above (except the heartbeat).
+  std::vector<SimVehicleConfig> vehicles{SimVehicleConfig{}};
+
+  /// Vehicle k's name for `channel` (its prefix + channel).
+  [[nodiscard]] std::string ChannelOf(size_t k, const std::string& channel) const {
+    return vehicles.at(k).prefix + channel;
+  }
 
   /// Checks every field and the sub-configs. @throws std::invalid_argument naming the field.
   void Validate() const;
@@ -63,11 +84,12 @@ struct SimConfig {
 /// Reads a SimConfig: world_file and vehicle_file are loaded (relative paths against
 /// `base_dir`, e.g. the repository root); absent keys keep their defaults; unknown keys are
 /// errors. Sections: quadrotor, depth (resolution "vga" | "qvga" | "80x60" then overrides),
-/// lidar (model "urg-04lx" | "utm-30lx" then overrides), mocap, imu, channels.
+/// lidar (model "urg-04lx" | "utm-30lx" then overrides), mocap, imu, channels, vehicles (a list of
+/// {prefix, start_offset_m}).
 /// @throws ConfigError naming the file, key, value and accepted range.
 [[nodiscard]] SimConfig LoadSimConfig(const ConfigNode& root, const std::string& base_dir);
 
-/// What became due in one Step.
+/// What became due for one vehicle in one Step.
 struct SimFrame {
   std::vector<MotionCaptureSample> poses;  ///< poses delivered now (stamped at acquisition)
   std::optional<SimulatedImuSample> imu;   ///< an IMU sample taken now
@@ -76,49 +98,98 @@ struct SimFrame {
   bool truth{false};                       ///< a truth sample is due now
 };
 
-/// The lockstep simulation core. Not thread-safe (it uses Bullet).
+/// The lockstep simulation core. Not thread-safe (it uses Bullet). Vehicle-indexed calls take
+/// k in [0, num_vehicles()); k defaults to the first (the only one in a one-vehicle run).
 class Simulator {
  public:
-  /// Builds everything; time starts at start_utime with the vehicle at the world's start pose.
+  /// Builds everything; time starts at start_utime with each vehicle at the world's start pose
+  /// plus its start offset.
   /// @throws std::invalid_argument if config.Validate() throws.
   Simulator(const SimConfig& config, int64_t start_utime);
   Simulator(const Simulator&) = delete;
   Simulator& operator=(const Simulator&) = delete;
 
-  /// Dynamic mode: rotor thrusts (N) to hold from now; `armed` false stops the rotors.
-  /// Non-finite commands are ignored (returns false).
-  bool SetMotorCommand(const Eigen::Vector4d& thrust_N, bool armed);
-  /// Kinematic mode: the trajectory to follow from now (times in seconds = utime / 1e6).
-  void SetTrajectory(const PiecewisePolynomialTrajectory& trajectory);
+  /// Dynamic mode: rotor thrusts (N) of vehicle k to hold from now; `armed` false stops the
+  /// rotors. Non-finite commands are ignored (returns false).
+  bool SetMotorCommand(const Eigen::Vector4d& thrust_N, bool armed, size_t k = 0);
+  /// Kinematic mode: the trajectory of vehicle k to follow from now (times in s = utime / 1e6).
+  void SetTrajectory(const PiecewisePolynomialTrajectory& trajectory, size_t k = 0);
 
-  /// Puts the vehicle in `state` now (tests and scenarios: start in the air, at speed...).
-  void SetVehicleState(const QuadrotorState& state) { quad_->SetState(state); }
+  /// Puts vehicle k in `state` now (tests and scenarios: start in the air, at speed...).
+  void SetVehicleState(const QuadrotorState& state, size_t k = 0) {
+    vehicles_.at(k)->quad->SetState(state);
+  }
 
-  /// Advances one physics step and samples every sensor that is due at the new time.
+  /// Advances one physics step and samples every sensor that is due at the new time. Returns
+  /// the first vehicle's frame; frame(k) has every vehicle's.
   const SimFrame& Step();
 
+  [[nodiscard]] size_t num_vehicles() const { return vehicles_.size(); }
+  /// What became due for vehicle k in the last Step.
+  [[nodiscard]] const SimFrame& frame(size_t k) const { return vehicles_.at(k)->frame; }
   /// Simulated time now, us.
   [[nodiscard]] int64_t utime() const { return utime_; }
   /// The validated configuration.
   [[nodiscard]] const SimConfig& config() const { return config_; }
-  /// The vehicle (true state, collisions).
-  [[nodiscard]] const Quadrotor& vehicle() const { return *quad_; }
+  /// Vehicle k (true state, collisions with the world).
+  [[nodiscard]] const Quadrotor& vehicle(size_t k = 0) const { return *vehicles_.at(k)->quad; }
+  /// Contacts between vehicles so far (onsets, each pair counted once per contact episode), those
+  /// of vehicle k, and whether vehicle k touches another now.
+  [[nodiscard]] int inter_vehicle_collision_count() const { return inter_vehicle_collisions_; }
+  [[nodiscard]] int vehicle_collision_count(size_t k) const {
+    return vehicles_.at(k)->vehicle_collisions;
+  }
+  [[nodiscard]] bool touches_another_vehicle(size_t k) const {
+    return vehicles_.at(k)->touching_vehicle;
+  }
   /// The exact ray caster over the world.
   [[nodiscard]] const WorldRayCaster& caster() const { return caster_; }
   /// The depth camera model (intrinsics).
   [[nodiscard]] const DepthCamera& camera() const { return camera_; }
   /// The LIDAR model.
   [[nodiscard]] const PlanarLidar& lidar() const { return lidar_; }
-  /// The latest depth frame (counts, row-major, 0 = no return) and its time.
-  [[nodiscard]] const std::vector<uint16_t>& depth_counts() const { return depth_counts_; }
-  [[nodiscard]] int64_t depth_utime() const { return depth_utime_; }  ///< us
-  /// The latest scan (ranges as in planar_scan_t) and its time.
-  [[nodiscard]] const std::vector<float>& scan_ranges() const { return scan_ranges_; }
-  [[nodiscard]] int64_t scan_utime() const { return scan_utime_; }  ///< us
+  /// Vehicle k's latest depth frame (counts, row-major, 0 = no return) and its time.
+  [[nodiscard]] const std::vector<uint16_t>& depth_counts(size_t k = 0) const {
+    return vehicles_.at(k)->depth_counts;
+  }
+  [[nodiscard]] int64_t depth_utime(size_t k = 0) const {  ///< us
+    return vehicles_.at(k)->depth_utime;
+  }
+  /// Vehicle k's latest scan (ranges as in planar_scan_t) and its time.
+  [[nodiscard]] const std::vector<float>& scan_ranges(size_t k = 0) const {
+    return vehicles_.at(k)->scan_ranges;
+  }
+  [[nodiscard]] int64_t scan_utime(size_t k = 0) const {  ///< us
+    return vehicles_.at(k)->scan_utime;
+  }
 
  private:
+  /// One vehicle's dynamics, sensor state and latest outputs.
+  struct Vehicle {
+    Vehicle(const SimConfig& config, size_t index);
+    std::unique_ptr<Quadrotor> quad;
+    MotionCapture mocap;
+    SimRandom depth_rng, lidar_rng, mocap_rng, imu_rng;
+    Imu imu;
+    Eigen::Vector4d command_N{Eigen::Vector4d::Zero()};
+    int64_t command_utime{0};
+    bool have_command{false};
+    std::optional<PiecewisePolynomialTrajectory> trajectory;
+    int64_t last_imu_utime{0};
+    std::deque<MotionCaptureSample> mocap_queue;
+    std::vector<uint16_t> depth_counts;
+    int64_t depth_utime{0};
+    std::vector<float> scan_ranges;
+    int64_t scan_utime{0};
+    bool touching_vehicle{false};
+    int vehicle_collisions{0};
+    SimFrame frame;
+  };
+
   // Time of the k-th sample of a stream at rate_hz (no drift: rounded from the exact time).
   [[nodiscard]] int64_t DueUtime(double rate_hz, int64_t k) const;
+  void StepVehicle(Vehicle* v, bool imu_due, bool mocap_due, bool depth_due, bool scan_due);
+  void CountVehicleContacts();
 
   SimConfig config_;
   int64_t start_utime_;
@@ -126,25 +197,14 @@ class Simulator {
   int64_t step_us_;
   WorldRayCaster caster_;
   BulletWorld bullet_;
-  std::unique_ptr<Quadrotor> quad_;
   DepthCamera camera_;
   PlanarLidar lidar_;
-  MotionCapture mocap_;
-  SimRandom depth_rng_, lidar_rng_, mocap_rng_, imu_rng_;
-  Imu imu_;
-  Eigen::Vector4d command_N_{Eigen::Vector4d::Zero()};
-  int64_t command_utime_{0};
-  bool have_command_{false};
-  std::optional<PiecewisePolynomialTrajectory> trajectory_;
-  // Index of the next sample of each stream: the first is one period after the start.
+  std::vector<std::unique_ptr<Vehicle>> vehicles_;
+  // Index of the next sample of each stream (shared by the vehicles: they sample together); the
+  // first is one period after the start.
   int64_t depth_k_{1}, scan_k_{1}, mocap_k_{1}, imu_k_{1}, truth_k_{1};
-  int64_t last_imu_utime_{0};
-  std::deque<MotionCaptureSample> mocap_queue_;
-  std::vector<uint16_t> depth_counts_;
-  int64_t depth_utime_{0};
-  std::vector<float> scan_ranges_;
-  int64_t scan_utime_{0};
-  SimFrame frame_;
+  std::vector<bool> pair_in_contact_;  // by pair (i < j), i * N + j
+  int inter_vehicle_collisions_{0};
 };
 
 }  // namespace kestrel
