@@ -45,8 +45,9 @@ void ControllerConfig::Validate() const {
   KESTREL_THROW_UNLESS(
       status_decimation >= 1 && status_decimation <= 1000,
       "controller.status_decimation = " << status_decimation << ", accepted [1, 1000]");
-  for (const std::string* channel : {&pose_channel, &imu_channel, &trajectory_channel,
-                                     &command_channel, &motor_channel, &status_channel}) {
+  for (const std::string* channel :
+       {&pose_channel, &imu_channel, &trajectory_channel, &command_channel, &motor_channel,
+        &status_channel, &heartbeat_channel}) {
     KESTREL_THROW_UNLESS(!channel->empty(), "controller channels: an empty channel name");
   }
 }
@@ -64,6 +65,7 @@ ControllerConfig LoadControllerConfig(const ConfigNode& node, const VehicleConfi
     channels.Read("command", &config.command_channel);
     channels.Read("motor", &config.motor_channel);
     channels.Read("status", &config.status_channel);
+    channels.Read("heartbeat", &config.heartbeat_channel);
   }
   if (node.Has("controller")) {
     const ConfigNode c = node.Child("controller");

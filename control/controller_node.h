@@ -53,26 +53,26 @@ class LcmMotorOutput final : public MotorOutput {
 
 /// The process configuration: the flight logic and the wiring.
 struct ControllerConfig {
-  FlightControllerConfig flight;                    ///< vehicle, gains, estimator, safety
-  double rate_hz{400.0};                            ///< control rate, Hz (issue: 200-500)
-  int status_decimation{4};                         ///< status every N control steps (>= 1)
-  std::string pose_channel{"POSE_VICON"};           ///< motion-capture poses (pose_t)
-  std::string imu_channel{"IMU"};                   ///< IMU samples (imu_t)
-  std::string trajectory_channel{"TRAJECTORY"};     ///< trajectories (trajectory_t)
-  std::string command_channel{"COMMAND"};           ///< operator commands (command_t)
-  std::string motor_channel{"MOTOR_COMMAND"};       ///< rotor commands (motor_command_t)
-  std::string status_channel{"CONTROLLER_STATUS"};  ///< status (controller_status_t)
+  FlightControllerConfig flight;                          ///< vehicle, gains, estimator, safety
+  double rate_hz{400.0};                                  ///< control rate, Hz (issue: 200-500)
+  int status_decimation{4};                               ///< status every N control steps (>= 1)
+  std::string pose_channel{"POSE_VICON"};                 ///< motion-capture poses (pose_t)
+  std::string imu_channel{"IMU"};                         ///< IMU samples (imu_t)
+  std::string trajectory_channel{"TRAJECTORY"};           ///< trajectories (trajectory_t)
+  std::string command_channel{"COMMAND"};                 ///< operator commands (command_t)
+  std::string motor_channel{"MOTOR_COMMAND"};             ///< rotor commands (motor_command_t)
+  std::string status_channel{"CONTROLLER_STATUS"};        ///< status (controller_status_t)
+  std::string heartbeat_channel{"HEARTBEAT_CONTROLLER"};  ///< kestrel-controller's heartbeat
 
   /// Throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
 };
 
 /// Reads a ControllerConfig from YAML: keys rate_hz, status_decimation, channels.{pose, imu,
-/// trajectory, command, motor, status}, controller.{attitude_error ("large_angle" | "cdc2010"),
-/// k_x_per_s2, ...}, estimator.{...},
-/// safety.{..., takeoff_track_min_rise_m, geofence_min_m, geofence_max_m}; absent keys keep their
-/// defaults. The vehicle comes from its own file (LoadVehicleConfigFile). @throws ConfigError
-/// naming file, key, range.
+/// trajectory, command, motor, status, heartbeat}, controller.{attitude_error ("large_angle" |
+/// "cdc2010"), k_x_per_s2, ...}, estimator.{...}, safety.{..., takeoff_track_min_rise_m,
+/// geofence_min_m, geofence_max_m}; absent keys keep their defaults. The vehicle comes from its own
+/// file (LoadVehicleConfigFile). @throws ConfigError naming file, key, range.
 [[nodiscard]] ControllerConfig LoadControllerConfig(const ConfigNode& node,
                                                     const VehicleConfig& vehicle);
 

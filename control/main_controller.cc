@@ -36,7 +36,7 @@ int main(int argc, char** argv) {
         const std::unique_ptr<kestrel::Clock> clock =
             kestrel::MakeProcessClock(lcm, args.sim_clock_channel);
         kestrel::ControllerNode controller(lcm, config, *clock);
-        kestrel::Heartbeat heartbeat(lcm, *clock, "kestrel-controller", "HEARTBEAT_CONTROLLER");
+        kestrel::Heartbeat heartbeat(lcm, *clock, "kestrel-controller", config.heartbeat_channel);
         const kestrel::ConfigPublisher params(lcm, *clock, "kestrel-controller",
                                               kestrel::ParamsChannelFor(heartbeat.channel()), args,
                                               node);
