@@ -32,7 +32,11 @@ struct MapperConfig {
   LogOddsConfig log_odds;      ///< baseline parameters (model = log_odds)
   std::vector<MapperSensorConfig> sensors;  ///< default: the paper's Xtion and Hokuyo
   std::string pose_channel{"POSE_VICON"};   ///< pose_t of the vehicle body
-  PoseHistoryConfig pose_history;           ///< interpolation limits (docs/design.md §5.2)
+  /// The vehicles whose scans are fused into the one map (docs/design.md §7.10): each one's
+  /// prefix goes before every sensor channel and the pose channel, and its scans are paired with
+  /// its own poses. One vehicle without a prefix by default.
+  std::vector<std::string> vehicle_prefixes{""};
+  PoseHistoryConfig pose_history;  ///< interpolation limits (docs/design.md §5.2)
 
   std::string map_channel{"MAP3D"};          ///< full snapshots, in chunks
   std::string delta_channel{"MAP3D_DELTA"};  ///< changed cells between snapshots

@@ -70,7 +70,7 @@ MapperNode::MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& c
       config_(config),
       clock_(clock),
       epoch_(NewPublisherEpoch()),
-      poses_(config.pose_history),
+      poses_(config.vehicle_prefixes.size(), PoseHistory(config.pose_history)),
       skipped_(clock),
       bad_poses_(clock),
       heartbeat_(lcm, clock, "kestrel-mapper", config.heartbeat_channel),
@@ -92,22 +92,28 @@ MapperNode::MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& c
   auto on_error = [this](const std::string& channel, const std::string& reason) {
     skipped_.Count("malformed", channel + ": " + reason);
   };
-  subscriptions_.Add<pose_t>(
-      config_.pose_channel, [this](const std::string&, const pose_t& m) { OnPose(m); },
-      [this](const std::string& channel, const std::string& reason) {
-        bad_poses_.Count("malformed_pose", channel + ": " + reason);
-      });
-  for (size_t i = 0; i < config_.sensors.size(); ++i) {
-    const auto& s = config_.sensors[i];
-    if (s.kind == "depth") {
-      subscriptions_.Add<depth_image_t>(
-          s.channel,
-          [this, i](const std::string& ch, const depth_image_t& m) { OnDepth(i, ch, m); },
-          on_error);
-    } else {
-      subscriptions_.Add<planar_scan_t>(
-          s.channel, [this, i](const std::string& ch, const planar_scan_t& m) { OnScan(i, ch, m); },
-          on_error);
+  // Every vehicle's poses and sensors, on its prefixed channels (docs/design.md §7.10).
+  for (size_t v = 0; v < config_.vehicle_prefixes.size(); ++v) {
+    const std::string& prefix = config_.vehicle_prefixes[v];
+    subscriptions_.Add<pose_t>(
+        prefix + config_.pose_channel,
+        [this, v](const std::string&, const pose_t& m) { OnPose(v, m); },
+        [this](const std::string& channel, const std::string& reason) {
+          bad_poses_.Count("malformed_pose", channel + ": " + reason);
+        });
+    for (size_t i = 0; i < config_.sensors.size(); ++i) {
+      const auto& s = config_.sensors[i];
+      if (s.kind == "depth") {
+        subscriptions_.Add<depth_image_t>(
+            prefix + s.channel,
+            [this, i, v](const std::string& ch, const depth_image_t& m) { OnDepth(i, v, ch, m); },
+            on_error);
+      } else {
+        subscriptions_.Add<planar_scan_t>(
+            prefix + s.channel,
+            [this, i, v](const std::string& ch, const planar_scan_t& m) { OnScan(i, v, ch, m); },
+            on_error);
+      }
     }
   }
   heartbeat_.SetState(heartbeat_t::STATE_OK);
@@ -231,7 +237,7 @@ void MapperNode::Record(const Pending& p) {
   epochs.push_back(EpochSequence{p.epoch, p.seq});
 }
 
-void MapperNode::OnPose(const pose_t& msg) {
+void MapperNode::OnPose(size_t vehicle, const pose_t& msg) {
   if (!msg.valid) return;  // motion capture lost the body: the gap check skips scans across it
   Pose3 X_WB;
   bool finite = true;
@@ -242,14 +248,15 @@ void MapperNode::OnPose(const pose_t& msg) {
     return;
   }
   X_WB.p = Eigen::Vector3d(msg.position_m[0], msg.position_m[1], msg.position_m[2]);
-  if (!poses_.Add(msg.utime, X_WB)) {
+  if (!poses_[vehicle].Add(msg.utime, X_WB)) {
     bad_poses_.Count("pose_out_of_order",
                      "pose at " + std::to_string(msg.utime) + " us is not newer than the latest");
   }
   latest_input_utime_ = std::max(latest_input_utime_, msg.utime);
 }
 
-void MapperNode::OnDepth(size_t sensor, const std::string& channel, const depth_image_t& msg) {
+void MapperNode::OnDepth(size_t sensor, size_t vehicle, const std::string& channel,
+                         const depth_image_t& msg) {
   if (AlreadyApplied(channel, msg.epoch, msg.seq)) return;
   auto bad = [&](const std::string& why) {
     skipped_.Count("malformed", channel + " seq " + std::to_string(msg.seq) + ": " + why);
@@ -266,11 +273,12 @@ void MapperNode::OnDepth(size_t sensor, const std::string& channel, const depth_
   auto metadata = std::make_shared<depth_image_t>(msg);
   metadata->data.clear();  // the pixels travel decoded, in counts
   metadata->data_size = 0;
-  Enqueue(Pending{msg.utime, msg.seq, msg.epoch, sensor, channel, std::move(metadata),
+  Enqueue(Pending{msg.utime, msg.seq, msg.epoch, sensor, vehicle, channel, std::move(metadata),
                   std::move(counts), nullptr});
 }
 
-void MapperNode::OnScan(size_t sensor, const std::string& channel, const planar_scan_t& msg) {
+void MapperNode::OnScan(size_t sensor, size_t vehicle, const std::string& channel,
+                        const planar_scan_t& msg) {
   if (AlreadyApplied(channel, msg.epoch, msg.seq)) return;
   auto bad = [&](const std::string& why) {
     skipped_.Count("malformed", channel + " seq " + std::to_string(msg.seq) + ": " + why);
@@ -286,8 +294,8 @@ void MapperNode::OnScan(size_t sensor, const std::string& channel, const planar_
     if (r < 0 || std::isinf(r)) return bad("negative or infinite range " + std::to_string(r));
     if (r == 0.0f) r = std::numeric_limits<float>::infinity();  // "no return"
   }
-  Enqueue(
-      Pending{msg.utime, msg.seq, msg.epoch, sensor, channel, nullptr, nullptr, std::move(scan)});
+  Enqueue(Pending{msg.utime, msg.seq, msg.epoch, sensor, vehicle, channel, nullptr, nullptr,
+                  std::move(scan)});
 }
 
 void MapperNode::Enqueue(Pending p) {
@@ -316,7 +324,8 @@ int MapperNode::ProcessPending(int max_scans) {
     Pose3 X_WB;
     // The wait for a newer pose is bounded in message time (the newest input stamp), not wall
     // time, so a log replayed at any speed pairs exactly as it did live.
-    const PoseLookupResult r = poses_.Lookup(front.utime, latest_input_utime_, &X_WB);
+    const PoseLookupResult r =
+        poses_[front.vehicle].Lookup(front.utime, latest_input_utime_, &X_WB);
     if (r == PoseLookupResult::kWait) break;
     if (r != PoseLookupResult::kOk) {
       Skip(front, ToString(r), "no pose to pair it with");

@@ -2,17 +2,19 @@
 /// @file
 /// The mapper node (kestrel-mapper): fuses depth images and planar scans into the 3D occupancy
 /// map, ray by ray, at the pose interpolated at each scan's stamp (mapping/pose_history.h).
+/// Several vehicles feed one map (config.vehicle_prefixes, docs/design.md §7.10): each vehicle's
+/// scans are paired with its own poses, and all go through the one queue below.
 ///
 /// Order and determinism: handlers only queue; ProcessPending() applies queued scans in
-/// time-stamp order as soon as their pose is known, so the same message sequence gives the same
-/// map bit for bit. A scan newer than the latest pose waits, until a pose after it arrives or the
-/// newest input stamp passes it by pose_history.max_wait_s (message time, so that a replayed log
-/// pairs exactly as live); scans older than the
-/// history, across a pose gap, malformed, or already applied (the same publisher epoch and a
-/// sequence number not above the last one applied from it: docs/design.md §3.4) are counted by
-/// reason and skipped; a restarted publisher (a new epoch) is applied at once. Outputs: full
-/// snapshots in chunks (MAP3D) at a low rate, deltas of the changed cells in between (MAP3D_DELTA:
-/// the cells the map tracked as changed since the last delta or snapshot,
+/// time-stamp order (equal stamps, of several vehicles for instance, in arrival order) as soon as
+/// their pose is known, so the same message sequence gives the same map bit for bit. A scan newer
+/// than the latest pose waits, until a pose after it arrives or the newest input stamp passes it by
+/// pose_history.max_wait_s (message time, so that a replayed log pairs exactly as live); scans
+/// older than the history, across a pose gap, malformed, or already applied (the same publisher
+/// epoch and a sequence number not above the last one applied from it: docs/design.md §3.4) are
+/// counted by reason and skipped; a restarted publisher (a new epoch) is applied at once. Outputs:
+/// full snapshots in chunks (MAP3D) at a low rate, deltas of the changed cells in between
+/// (MAP3D_DELTA: the cells the map tracked as changed since the last delta or snapshot,
 /// OccupancyMap::ForEachChangedCell), MAP_STATUS and a heartbeat. Map messages are sized and
 /// paced for small receive buffers (docs/design.md §7.6): no chunk or delta is larger than
 /// map_message_max_bytes, a snapshot's chunks go out at snapshot_bytes_per_s, and a delta goes
@@ -114,7 +116,8 @@ class MapperNode {
     int64_t utime;
     int64_t seq;
     int64_t epoch;
-    size_t sensor;  // index into config_.sensors
+    size_t sensor;   // index into config_.sensors
+    size_t vehicle;  // index into config_.vehicle_prefixes (and poses_)
     std::string channel;
     std::shared_ptr<const depth_image_t> depth;  // metadata; its pixels decoded in `counts`
     std::shared_ptr<const std::vector<uint16_t>> counts;
@@ -123,9 +126,9 @@ class MapperNode {
   using MapPtr =
       std::variant<std::unique_ptr<DenseOccupancyMap>, std::unique_ptr<GrowingOccupancyMap>>;
 
-  void OnPose(const pose_t& msg);
-  void OnDepth(size_t sensor, const std::string& channel, const depth_image_t& msg);
-  void OnScan(size_t sensor, const std::string& channel, const planar_scan_t& msg);
+  void OnPose(size_t vehicle, const pose_t& msg);
+  void OnDepth(size_t sensor, size_t vehicle, const std::string& channel, const depth_image_t& msg);
+  void OnScan(size_t sensor, size_t vehicle, const std::string& channel, const planar_scan_t& msg);
   void Enqueue(Pending p);
   bool AlreadyApplied(const std::string& channel, int64_t epoch, int64_t seq);
   // Records (channel, epoch, seq) as applied or skipped for good; logs a new epoch once.
@@ -157,7 +160,7 @@ class MapperNode {
   std::vector<SensorModel> models_;
   MapPtr map_;
   std::unique_ptr<ScanIntegrator> integrator_;  // into map_
-  PoseHistory poses_;
+  std::vector<PoseHistory> poses_;              // by vehicle
   std::deque<Pending> queue_;
   StreamSequences sequences_;
   DropCounter skipped_;
