@@ -1,4 +1,5 @@
 # kestrel_lcm_types(TARGET <name> PACKAGE <pkg> FILES <a.lcm>...)
+# FILES must list every .lcm file of the calling folder.
 # Runs lcm-gen in the build tree (never the source tree) for C++ headers and Java sources, compiles
 # the Java into a jar for lcm-spy, and makes an INTERFACE library <name> carrying the include path.
 # Also generates the Python types (<build>/lcmtypes/python/<pkg>/, pure Python: struct only),
@@ -12,6 +13,16 @@ set(KESTREL_INSTALL_PYTHONDIR lib/python3/dist-packages CACHE STRING
 
 function(kestrel_lcm_types)
   cmake_parse_arguments(L "" "TARGET;PACKAGE" "FILES" ${ARGN})
+  # Every .lcm file of the folder must be listed (a forgotten file is an error, as in Drake's
+  # lcmtypes build).
+  file(GLOB present RELATIVE ${CMAKE_CURRENT_SOURCE_DIR} CONFIGURE_DEPENDS
+       ${CMAKE_CURRENT_SOURCE_DIR}/*.lcm)
+  foreach(f ${present})
+    if(NOT f IN_LIST L_FILES)
+      file(RELATIVE_PATH folder ${PROJECT_SOURCE_DIR} ${CMAKE_CURRENT_SOURCE_DIR})
+      message(FATAL_ERROR "${folder}/${f} is not listed in ${folder}/CMakeLists.txt")
+    endif()
+  endforeach()
   set(cpp_dir ${CMAKE_CURRENT_BINARY_DIR}/cpp)
   set(java_dir ${CMAKE_CURRENT_BINARY_DIR}/java)
   set(headers)
