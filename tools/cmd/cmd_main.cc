@@ -26,7 +26,7 @@
 namespace {
 const char* const kUsage =
     "usage: kestrel-cmd takeoff [--height M] | hold | land | estop | idle | track\n"
-    "                   [--channel COMMAND] [--wait SECONDS]\n"
+    "                   [--vehicle PREFIX|all | --channel COMMAND] [--wait SECONDS]\n"
     "       kestrel-cmd status [--seconds S]\n"
     "       kestrel-cmd params [PROCESS] [--seconds S]\n"
     "       kestrel-cmd procman list [--seconds S]\n"
@@ -39,6 +39,9 @@ const char* const kUsage =
     "  TARGET: all | cmd:ID | group:PATH\n"
     "  --wait S: wait up to S seconds for CONTROLLER_STATUS to show the commanded mode; exit 1\n"
     "            if it does not (the e-stop is always sent at once, and repeated 3 times)\n"
+    "  --vehicle PREFIX: command the vehicle whose channels carry PREFIX (PREFIXCOMMAND, its\n"
+    "            status on PREFIXCONTROLLER_STATUS); all: every controller that reports a\n"
+    "            status within 0.3 s (each *CONTROLLER_STATUS channel), each on its own channel\n"
     "  params: asks every process (or PROCESS, e.g. kestrel-mapper) for the configuration it runs\n"
     "          with and prints each answer that comes within S seconds; exit 1 if none does\n";
 
@@ -75,6 +78,8 @@ int main(int argc, char** argv) {
   double seconds = 2.0;
   bool seconds_given = false;
   std::string channel = "COMMAND";
+  std::string vehicle_prefix;
+  bool vehicle_given = false;
   std::string host;
   return kestrel::RunProcess(
       "kestrel-cmd", argc, argv, kUsage,
@@ -84,7 +89,10 @@ int main(int argc, char** argv) {
         app.add_option("--seconds", seconds)
             ->check(kestrel::cli::Positive())
             ->each([&](const std::string&) { seconds_given = true; });
-        app.add_option("--channel", channel);
+        CLI::Option* channel_option = app.add_option("--channel", channel);
+        app.add_option("--vehicle", vehicle_prefix)
+            ->each([&](const std::string&) { vehicle_given = true; })
+            ->excludes(channel_option);
         app.add_option("--host", host);
         app.add_option("words", p);
       },
@@ -106,6 +114,29 @@ int main(int argc, char** argv) {
             {"land", {command_t::COMMAND_LAND, controller_status_t::MODE_LAND}},
             {"estop", {command_t::COMMAND_ESTOP, controller_status_t::MODE_ESTOP}}};
         if (vehicle.count(verb) != 0) {
+          // The vehicles to command: one channel, one prefix, or every reporting controller.
+          std::vector<std::string> prefixes;
+          if (vehicle_given && vehicle_prefix == "all") {
+            GuardedSubscriptions subs(lcm);
+            subs.Add<controller_status_t>(
+                "(.*)CONTROLLER_STATUS",
+                [&](const std::string& ch, const controller_status_t&) {
+                  const std::string prefix = ch.substr(0, ch.size() - 17);
+                  if (std::find(prefixes.begin(), prefixes.end(), prefix) == prefixes.end()) {
+                    prefixes.push_back(prefix);
+                  }
+                },
+                nullptr);
+            const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(300);
+            while (std::chrono::steady_clock::now() < end) lcm.handleTimeout(20);
+            if (prefixes.empty()) {
+              std::fprintf(stderr, "kestrel-cmd: no controller reported on *CONTROLLER_STATUS\n");
+              return 1;
+            }
+            std::sort(prefixes.begin(), prefixes.end());
+          } else {
+            prefixes.push_back(vehicle_given ? vehicle_prefix : "");
+          }
           command_t cmd{};
           cmd.utime = clock.NowUtime();
           cmd.seq = cmd.utime;  // unique per invocation (the e-stop is sent three times)
@@ -114,22 +145,41 @@ int main(int argc, char** argv) {
           cmd.command = vehicle.at(verb).first;
           cmd.height_m = height_m;
           const int repeats = verb == "estop" ? 3 : 1;
-          for (int i = 0; i < repeats; ++i) lcm.publish(channel, &cmd);
-          std::printf("sent %s on %s\n", verb.c_str(), channel.c_str());
+          for (int i = 0; i < repeats; ++i) {
+            for (const std::string& prefix : prefixes) {
+              lcm.publish(vehicle_given ? prefix + "COMMAND" : channel, &cmd);
+            }
+          }
+          for (const std::string& prefix : prefixes) {
+            std::printf("sent %s on %s\n", verb.c_str(),
+                        (vehicle_given ? prefix + "COMMAND" : channel).c_str());
+          }
           if (wait_s <= 0) return 0;
           const auto end = std::chrono::steady_clock::now() +
                            std::chrono::milliseconds(static_cast<int64_t>(wait_s * 1000));
-          bool reached = false;
+          std::map<std::string, bool> reached;  // by status channel
+          for (const std::string& prefix : prefixes) reached[prefix + "CONTROLLER_STATUS"] = false;
+          const auto all_reached = [&] {
+            for (const auto& [ch, r] : reached) {
+              if (!r) return false;
+            }
+            return true;
+          };
           GuardedSubscriptions subs(lcm);
-          subs.Add<controller_status_t>(
-              "CONTROLLER_STATUS",
-              [&](const std::string&, const controller_status_t& m) {
-                reached = reached || m.mode == vehicle.at(verb).second;
-              },
-              nullptr);
-          while (!reached && std::chrono::steady_clock::now() < end) lcm.handleTimeout(50);
-          std::printf("%s\n", reached ? "controller confirmed" : "controller did NOT confirm");
-          return reached ? 0 : 1;
+          for (const auto& [status_channel, r] : reached) {
+            subs.Add<controller_status_t>(
+                status_channel,
+                [&](const std::string& ch, const controller_status_t& m) {
+                  if (m.mode == vehicle.at(verb).second) reached[ch] = true;
+                },
+                nullptr);
+          }
+          while (!all_reached() && std::chrono::steady_clock::now() < end) lcm.handleTimeout(50);
+          for (const auto& [ch, r] : reached) {
+            std::printf("%s%s\n", r ? "controller confirmed" : "controller did NOT confirm",
+                        prefixes.size() > 1 || vehicle_given ? (" (" + ch + ")").c_str() : "");
+          }
+          return all_reached() ? 0 : 1;
         }
         if (verb == "status") {
           const auto view = Listen(lcm, seconds);
