@@ -289,13 +289,61 @@ void Deputy::Order(int8_t action, bool is_group, const std::string& target) {
   procman_order_t local = order;
   local.source = "";
   OnOrder(local);
-  bool remote = false;
+  std::vector<std::string> remote;
   for (const Command& c : sheet_.commands) {
     if (CommandTarget{is_group, target}.Matches(c.id, c.group) && c.host != config_.host) {
-      remote = true;
+      remote.push_back(c.id);
     }
   }
-  if (remote) lcm_.publish(config_.orders_channel, &order);
+  if (remote.empty()) return;
+  lcm_.publish(config_.orders_channel, &order);
+  // A later order for a command replaces an earlier one still being re-sent.
+  for (RemoteOrder& r : remote_orders_) {
+    r.commands.erase(std::remove_if(r.commands.begin(), r.commands.end(),
+                                    [&](const std::string& id) {
+                                      return std::find(remote.begin(), remote.end(), id) !=
+                                             remote.end();
+                                    }),
+                     r.commands.end());
+  }
+  if (action != procman_order_t::ACTION_RESTART) {
+    remote_orders_.push_back(
+        RemoteOrder{order, remote, order.utime + 1'000'000, order.utime + 30'000'000});
+  }
+}
+
+void Deputy::ResendRemoteOrders() {
+  const int64_t now = clock_.NowUtime();
+  for (auto it = remote_orders_.begin(); it != remote_orders_.end();) {
+    RemoteOrder& r = *it;
+    const bool want_running = r.order.action == procman_order_t::ACTION_START;
+    r.commands.erase(std::remove_if(r.commands.begin(), r.commands.end(),
+                                    [&](const std::string& id) {
+                                      const auto reported = remote_.find(id);
+                                      return reported != remote_.end() &&
+                                             (reported->second.desired_running != 0) ==
+                                                 want_running;
+                                    }),
+                     r.commands.end());
+    if (r.commands.empty()) {
+      it = remote_orders_.erase(it);
+      continue;
+    }
+    if (now >= r.give_up_utime) {
+      Log(LogLevel::kWarning, "no runner reported " + r.commands.front() + " (and " +
+                                  std::to_string(r.commands.size() - 1) +
+                                  " more) as ordered within 30 s; no longer re-sending");
+      it = remote_orders_.erase(it);
+      continue;
+    }
+    if (now >= r.next_send_utime) {
+      r.order.utime = now;
+      r.order.seq = order_seq_++;
+      lcm_.publish(config_.orders_channel, &r.order);
+      r.next_send_utime = now + 1'000'000;
+    }
+    ++it;
+  }
 }
 
 void Deputy::Start(CommandState* s) {
@@ -602,6 +650,7 @@ void Deputy::Poll() {
   for (auto& [id, s] : local_) ReadOutput(&s);
   Reap();
   AdvanceScript();
+  ResendRemoteOrders();
   if (info_due_ && discovery_done_) {
     bot_procman::info2_t info = MakeInfo();
     lcm_.publish(kInfoChannel, &info);

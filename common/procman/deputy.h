@@ -84,7 +84,9 @@ class Deputy {
   ~Deputy();
 
   /// Orders for a command id or group path ("" group = every command). Commands of other hosts
-  /// are ordered through the orders channel.
+  /// are ordered through the orders channel; a start or stop is sent again every second until
+  /// their runners' status shows it (or for 30 s), so a lost datagram does not lose the order
+  /// (a restart is sent once: resending it would restart again).
   void Order(int8_t action, bool is_group, const std::string& target);
   /// Starts running script `name` (advanced by Poll). @throws std::invalid_argument if unknown.
   void RunScript(const std::string& name);
@@ -130,6 +132,7 @@ class Deputy {
   [[nodiscard]] bool TargetHasStatus(bool is_group, const std::string& target,
                                      const std::string& status) const;
   void OnOrder(const procman_order_t& order);
+  void ResendRemoteOrders();
   void OnRemoteStatus(const procman_status_t& status);
 
   lcm::LCM& lcm_;
@@ -161,6 +164,15 @@ class Deputy {
     const ScriptAction* waiting_on;  // for wait status / start ... wait
   };
   std::vector<ScriptFrame> script_stack_;
+
+  /// A start or stop for other hosts' commands, re-sent until their status shows it.
+  struct RemoteOrder {
+    procman_order_t order;
+    std::vector<std::string> commands;  // not yet reported in the ordered state
+    int64_t next_send_utime;
+    int64_t give_up_utime;
+  };
+  std::vector<RemoteOrder> remote_orders_;
 };
 
 }  // namespace kestrel::procman

@@ -217,6 +217,56 @@ TEST_F(DeputyTest, RunsScriptsInOrderWithWaits) {
   EXPECT_THROW(d->RunScript("nope"), std::invalid_argument);
 }
 
+// A start for another host's command is re-sent until that host's runner reports it: the first
+// datagram is lost here (no runner for "there" listens yet), the re-sent one is obeyed, and
+// then the re-sending stops.
+TEST_F(DeputyTest, ResendsOtherHostsOrdersUntilTheirRunnerReportsThem) {
+  const std::string sheet = R"(cmd "x" { exec = "sleep 30"; host = "there"; }
+                               cmd "y" { exec = "sleep 30"; host = "here"; })";
+  int orders_sent = 0;
+  GuardedSubscriptions subs(lcm_);
+  subs.Add<procman_order_t>(
+      "PROCMAN_ORDERS", [&](const std::string&, const procman_order_t&) { ++orders_sent; },
+      nullptr);
+  auto here = Make(sheet);
+  here->Order(procman_order_t::ACTION_START, false, "x");
+  Drain();
+  EXPECT_EQ(orders_sent, 1);
+  DeputyConfig there_config = config_;
+  there_config.host = "there";
+  Deputy there(lcm_, ParseSheet(sheet, "t.procman"), there_config, clock_);
+  EXPECT_EQ(there.state("x")->pid, 0) << "the first order was lost";
+  const auto both = [&] {
+    there.Poll();
+    there.PublishStatus();
+    return there.state("x")->pid > 0;
+  };
+  ASSERT_TRUE(PollUntil(*here, both, 3.0)) << "the order came again";
+  // Once "there" reports x wanted running, "here" stops re-sending.
+  PollUntil(
+      *here,
+      [&] {
+        there.Poll();
+        there.PublishStatus();
+        return false;
+      },
+      0.3);
+  const int after = orders_sent;
+  PollUntil(
+      *here,
+      [&] {
+        there.Poll();
+        there.PublishStatus();
+        return false;
+      },
+      2.5);
+  EXPECT_EQ(orders_sent, after) << "no more re-sends once reported";
+  EXPECT_LE(after, 4);
+  there.StopAll();
+  ASSERT_TRUE(PollUntil(
+      there, [&] { return there.AllStopped(); }, 5.0));
+}
+
 // ---- libbot2 bot-procman's protocol (docs/protocols.md §5) ----
 
 /// What a sheriff hears from the deputy.
