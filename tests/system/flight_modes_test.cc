@@ -18,6 +18,7 @@
 #include "control/controller_node.h"
 #include "kestrel/command_t.hpp"
 #include "sim/sim_node.h"
+#include "tests/system/flight_sim_config.h"
 
 namespace kestrel {
 namespace {
@@ -49,12 +50,7 @@ class SimFlight {
  public:
   explicit SimFlight(AttitudeErrorForm form = AttitudeErrorForm::kLargeAngle,
                      double geofence_top_m = 3.0, bool sensor_noise = true) {
-    ConfigNode sim_cfg =
-        ConfigNode::LoadFile(std::string(KESTREL_SOURCE_DIR) + "/config/sim/sim_ci.yaml");
-    sim_cfg.ApplyOverride("world_file=" + std::string(KESTREL_SOURCE_DIR) +
-                          "/config/worlds/lasr.yaml");
-    sim_cfg.ApplyOverride("depth.enabled=false");
-    sim_cfg.ApplyOverride("lidar.enabled=false");
+    ConfigNode sim_cfg = testing::FlightSimConfig();
     sim_cfg.ApplyOverride("channels.pose=POSE_SIM");
     if (!sensor_noise) {  // no noise, no bias, no latency: the law and the motor lag alone
       for (const char* o :

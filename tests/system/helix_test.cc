@@ -12,6 +12,7 @@
 #include "control/controller_node.h"
 #include "kestrel/command_t.hpp"
 #include "sim/sim_node.h"
+#include "tests/system/flight_sim_config.h"
 
 namespace kestrel {
 namespace {
@@ -45,12 +46,7 @@ PiecewisePolynomialTrajectory Helix(double start_s, const Eigen::Vector3d& base,
 }
 
 double FlyHelix(bool sensor_noise, double* max_error_m) {
-  ConfigNode sim_cfg =
-      ConfigNode::LoadFile(std::string(KESTREL_SOURCE_DIR) + "/config/sim/sim_ci.yaml");
-  sim_cfg.ApplyOverride("world_file=" + std::string(KESTREL_SOURCE_DIR) +
-                        "/config/worlds/lasr.yaml");
-  sim_cfg.ApplyOverride("depth.enabled=false");
-  sim_cfg.ApplyOverride("lidar.enabled=false");
+  ConfigNode sim_cfg = testing::FlightSimConfig();
   if (!sensor_noise) {  // no noise, no bias, no latency: the law and the motor lag alone
     for (const char* o :
          {"mocap.position_sigma_m=0", "mocap.orientation_sigma_rad=0", "mocap.latency_s=0",

@@ -14,6 +14,7 @@
 #include "control/controller_node.h"
 #include "kestrel/command_t.hpp"
 #include "sim/sim_node.h"
+#include "tests/system/flight_sim_config.h"
 
 namespace kestrel {
 namespace {
@@ -23,12 +24,7 @@ constexpr int kVehicles = 2;
 class TwoVehicles {
  public:
   TwoVehicles() {
-    ConfigNode sim_cfg =
-        ConfigNode::LoadFile(std::string(KESTREL_SOURCE_DIR) + "/config/sim/sim_ci.yaml");
-    sim_cfg.ApplyOverride("world_file=" + std::string(KESTREL_SOURCE_DIR) +
-                          "/config/worlds/lasr.yaml");
-    sim_cfg.ApplyOverride("depth.enabled=false");
-    sim_cfg.ApplyOverride("lidar.enabled=false");
+    ConfigNode sim_cfg = testing::FlightSimConfig();
     sim_cfg.ApplyOverride(
         "vehicles=[{prefix: V1_, start_offset_m: [0, 0, 0]}, {prefix: V2_, start_offset_m: "
         "[1.5, 0, 0]}]");
