@@ -190,12 +190,28 @@ void Deputy::OnOrders2(const bot_procman::orders2_t& orders) {
       Log(LogLevel::kInfo, "bot-procman: " + orders.sheriff_name + " adds command " + id);
       changed = true;
     }
-    // Takes effect at the next start, as with the deputy.
+    s->remove_requested = false;  // listed again
+    // Takes effect at the next start, as with the deputy. A stop signal or time a stop could not
+    // use keeps the sheet's (or procman's default) and is reported.
     s->command.exec = order.cmd.exec_str;
     s->command.group = order.cmd.group;
     s->command.auto_respawn = order.cmd.auto_respawn;
-    s->command.stop_signal = order.cmd.stop_signal;
-    s->command.stop_time_allowed_s = order.cmd.stop_time_allowed;
+    if (order.cmd.stop_signal >= 1 && order.cmd.stop_signal <= SIGRTMAX) {
+      s->command.stop_signal = order.cmd.stop_signal;
+    } else {
+      Printf(order.sheriff_id, "ignoring stop_signal " + std::to_string(order.cmd.stop_signal) +
+                                   " (not a signal); keeping " +
+                                   std::to_string(s->command.stop_signal) + "\n");
+    }
+    if (std::isfinite(order.cmd.stop_time_allowed) && order.cmd.stop_time_allowed >= 0 &&
+        order.cmd.stop_time_allowed <= 3600) {
+      s->command.stop_time_allowed_s = order.cmd.stop_time_allowed;
+    } else {
+      Printf(order.sheriff_id, "ignoring stop_time_allowed " +
+                                   std::to_string(order.cmd.stop_time_allowed) +
+                                   " s (accepted: 0 to 3600); keeping " +
+                                   std::to_string(s->command.stop_time_allowed_s) + " s\n");
+    }
     if (order.force_quit != 0 && s->pid == 0 && s->desired_running) {
       s->desired_running = false;  // no respawn
       s->state = procman_command_t::STATE_STOPPED;

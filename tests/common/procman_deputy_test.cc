@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <functional>
 #include <sstream>
@@ -430,6 +431,39 @@ TEST_F(DeputyTest, OrdersAddTheSheriffsCommandsAndRemoveTheOthers) {
   // Run without a shell: the deputy expands only $NAME from its own environment (K_TEST is
   // unset there, so "$K_TEST" reaches sh, which sees the child's setting).
   EXPECT_EQ(heard.Output(777), "from-the-sheet sub\n");
+}
+
+TEST_F(DeputyTest, KeepsUsableStopSettingsAgainstBadOrders) {
+  Heard heard(lcm_);
+  auto d = Make(R"(cmd "a" { exec = "sleep 30"; host = "here"; stop_signal = 15;
+                             stop_time_allowed = 2; })");
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return d->discovery_done(); }, 2.0));
+  bot_procman::orders2_t orders{};
+  orders.host = "here";
+  orders.sheriff_name = "s";
+  bot_procman::sheriff_cmd2_t a{};
+  a.cmd.exec_str = "sleep 30";
+  a.cmd.command_name = "a";
+  a.cmd.stop_signal = 0;  // no signal
+  a.cmd.stop_time_allowed = std::nanf("");
+  a.desired_runid = 1;
+  a.sheriff_id = SheetSheriffId("here", "a");
+  orders.cmds = {a};
+  orders.ncmds = 1;
+  orders.utime = clock_.NowUtime();
+  lcm_.publish(kOrdersChannel, &orders);
+  d->Poll();
+  Drain();
+  ASSERT_GT(d->state("a")->pid, 0) << "started all the same";
+  EXPECT_EQ(d->state("a")->command.stop_signal, 15);
+  EXPECT_DOUBLE_EQ(d->state("a")->command.stop_time_allowed_s, 2.0);
+  EXPECT_NE(heard.Output(a.sheriff_id).find("ignoring stop_signal 0"), std::string::npos);
+  EXPECT_NE(heard.Output(a.sheriff_id).find("ignoring stop_time_allowed nan"), std::string::npos);
+  d->StopAll();
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return d->AllStopped(); }, 5.0));
+  EXPECT_EQ(d->state("a")->exit_code, -15) << "stopped with the kept signal";
 }
 
 TEST_F(DeputyTest, IgnoresOrdersDuringDiscoveryForOthersAndStale) {
