@@ -305,6 +305,28 @@ const bot_procman::deputy_cmd2_t* Find(const bot_procman::info2_t& info, const s
   return nullptr;
 }
 
+/// The order that command `name` (its exec string `exec`) be in run `desired_runid`.
+bot_procman::sheriff_cmd2_t CommandOrder(const std::string& name, const std::string& exec,
+                                         int32_t desired_runid, int32_t sheriff_id) {
+  bot_procman::sheriff_cmd2_t c{};
+  c.cmd.exec_str = exec;
+  c.cmd.command_name = name;
+  c.desired_runid = desired_runid;
+  c.sheriff_id = sheriff_id;
+  return c;
+}
+
+/// A sheriff's orders to deputy "here" holding the one command `c`.
+bot_procman::orders2_t OrdersHolding(const bot_procman::sheriff_cmd2_t& c, int64_t utime) {
+  bot_procman::orders2_t orders{};
+  orders.utime = utime;
+  orders.host = "here";
+  orders.sheriff_name = "s";
+  orders.cmds = {c};
+  orders.ncmds = 1;
+  return orders;
+}
+
 TEST_F(DeputyTest, AnnouncesItselfThenReportsItsSheet) {
   config_.discovery_nonce = 4242;
   Heard heard(lcm_);
@@ -403,20 +425,12 @@ TEST_F(DeputyTest, OrdersAddTheSheriffsCommandsAndRemoveTheOthers) {
       *d, [&] { return d->discovery_done(); }, 2.0));
   const int a_pid = d->state("a")->pid;
   ASSERT_GT(a_pid, 0);
-  bot_procman::orders2_t orders{};
-  orders.utime = clock_.NowUtime();
-  orders.host = "here";
-  orders.sheriff_name = "s";
-  bot_procman::sheriff_cmd2_t n{};
-  n.cmd.exec_str = "K_TEST=from-the-sheet sh -c 'echo $K_TEST $(echo sub)'";
-  n.cmd.command_name = "n";
+  bot_procman::sheriff_cmd2_t n =
+      CommandOrder("n", "K_TEST=from-the-sheet sh -c 'echo $K_TEST $(echo sub)'", 1, 777);
   n.cmd.group = "new";
   n.cmd.stop_signal = 15;
   n.cmd.stop_time_allowed = 2;
-  n.desired_runid = 1;
-  n.sheriff_id = 777;
-  orders.cmds = {n};
-  orders.ncmds = 1;
+  const bot_procman::orders2_t orders = OrdersHolding(n, clock_.NowUtime());
   lcm_.publish(kOrdersChannel, &orders);
   ASSERT_TRUE(PollUntil(
       *d,
@@ -439,19 +453,10 @@ TEST_F(DeputyTest, KeepsUsableStopSettingsAgainstBadOrders) {
                              stop_time_allowed = 2; })");
   ASSERT_TRUE(PollUntil(
       *d, [&] { return d->discovery_done(); }, 2.0));
-  bot_procman::orders2_t orders{};
-  orders.host = "here";
-  orders.sheriff_name = "s";
-  bot_procman::sheriff_cmd2_t a{};
-  a.cmd.exec_str = "sleep 30";
-  a.cmd.command_name = "a";
+  bot_procman::sheriff_cmd2_t a = CommandOrder("a", "sleep 30", 1, SheetSheriffId("here", "a"));
   a.cmd.stop_signal = 0;  // no signal
   a.cmd.stop_time_allowed = std::nanf("");
-  a.desired_runid = 1;
-  a.sheriff_id = SheetSheriffId("here", "a");
-  orders.cmds = {a};
-  orders.ncmds = 1;
-  orders.utime = clock_.NowUtime();
+  const bot_procman::orders2_t orders = OrdersHolding(a, clock_.NowUtime());
   lcm_.publish(kOrdersChannel, &orders);
   d->Poll();
   Drain();
@@ -469,16 +474,9 @@ TEST_F(DeputyTest, KeepsUsableStopSettingsAgainstBadOrders) {
 TEST_F(DeputyTest, IgnoresOrdersDuringDiscoveryForOthersAndStale) {
   Heard heard(lcm_);
   auto d = Make(R"(cmd "a" { exec = "sleep 30"; host = "here"; })");
-  bot_procman::orders2_t orders{};
-  orders.host = "here";
-  orders.sheriff_name = "s";
-  bot_procman::sheriff_cmd2_t a{};
-  a.cmd.exec_str = "sleep 30";
-  a.cmd.command_name = "a";
-  a.desired_runid = 1;
-  a.sheriff_id = SheetSheriffId("here", "a");
-  orders.cmds = {a};
-  orders.ncmds = 1;
+  const bot_procman::sheriff_cmd2_t a =
+      CommandOrder("a", "sleep 30", 1, SheetSheriffId("here", "a"));
+  bot_procman::orders2_t orders = OrdersHolding(a, 0);
   const auto send = [&](const std::string& host, int64_t age_utime) {
     orders.host = host;
     orders.utime = clock_.NowUtime() - age_utime;
