@@ -66,8 +66,11 @@ struct Candidate {
   double gain_nats{0.0};                                ///< I(X_c), eq. (10), nats
   double distance_m{0.0};                               ///< d_cell, m
   double bump{0.0};                                     ///< bump(d_cell), eq. (17)
-  /// I(X_c) * bump(d_cell), eq. (9)'s objective.
-  [[nodiscard]] double objective() const { return gain_nats * bump; }
+  /// Several vehicles (docs/exploration.md, "Several vehicles"): the share of the gain left to
+  /// this vehicle by the poses the others fly to, in [0, 1]; 1 with one vehicle.
+  double discount{1.0};
+  /// I(X_c) * bump(d_cell) (eq. (9)'s objective), times the discount.
+  [[nodiscard]] double objective() const { return gain_nats * bump * discount; }
 };
 
 /// bump(d) = exp(1 - 1/(1 - (d/d_max)^2)) for |d| < d_max, else 0 (eq. 17). bump(0) = 1.

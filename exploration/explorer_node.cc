@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <ctime>
 #include <numeric>
 
@@ -49,6 +50,21 @@ void ExplorerConfig::Validate() const {
                        "explorer.max_end_deferrals = " << max_end_deferrals << " must be >= 0");
   KESTREL_THROW_UNLESS(max_failed_plans >= 1,
                        "explorer.max_failed_plans = " << max_failed_plans << " must be >= 1");
+  KESTREL_THROW_UNLESS(min_separation_m > 0 && min_vertical_separation_m > 0 && max_yield_s > 0,
+                       "explorer.min_separation_m = "
+                           << min_separation_m
+                           << ", min_vertical_separation_m = " << min_vertical_separation_m
+                           << ", max_yield_s = " << max_yield_s << ": accepted > 0");
+  for (size_t i = 0; i < peer_prefixes.size(); ++i) {
+    KESTREL_THROW_UNLESS(peer_prefixes[i] != vehicle_prefix,
+                         "explorer.peers[" << i << "].prefix = '" << peer_prefixes[i]
+                                           << "' is this vehicle's own prefix");
+    for (size_t j = 0; j < i; ++j) {
+      KESTREL_THROW_UNLESS(peer_prefixes[i] != peer_prefixes[j],
+                           "explorer.peers[" << j << "] and [" << i << "] share the prefix '"
+                                             << peer_prefixes[i] << "'");
+    }
+  }
   KESTREL_THROW_UNLESS(max_status_candidates >= 1, "explorer.max_status_candidates = "
                                                        << max_status_candidates << " must be >= 1");
 }
@@ -98,6 +114,17 @@ ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
     e.Read("land_at_end", &c.land_at_end);
     e.Read("max_status_candidates", &c.max_status_candidates, Range::Closed(1, 100000));
     e.Read("map2d_period_s", &c.map2d_period_s, Range::NonNegative());
+    e.Read("vehicle_prefix", &c.vehicle_prefix);
+    if (e.Has("peers")) {
+      for (const ConfigNode& v : e.Elements("peers")) {
+        std::string prefix;
+        v.ReadRequired("prefix", &prefix);
+        c.peer_prefixes.push_back(prefix);
+      }
+    }
+    e.Read("min_separation_m", &c.min_separation_m, Range::Positive());
+    e.Read("min_vertical_separation_m", &c.min_vertical_separation_m, Range::Positive());
+    e.Read("max_yield_s", &c.max_yield_s, Range::Positive());
   }
   // Last: the planner's reader also checks that no key of the file is left unread.
   c.planner = LoadPlannerConfig(node);
@@ -122,13 +149,53 @@ ExplorerNode::ExplorerNode(lcm::LCM& lcm, const ExplorerConfig& config, const Cl
                    : Eigen::Vector3i(1, 1, 1),
                config.p_init),
       drops_(clock),
-      heartbeat_(lcm, clock, "kestrel-explorer", config.heartbeat_channel),
+      heartbeat_(lcm, clock, "kestrel-explorer", config.vehicle_prefix + config.heartbeat_channel),
       subscriptions_(lcm),
       epoch_(NewPublisherEpoch()) {
   config_.Validate();
   auto on_error = [this](const std::string& channel, const std::string& reason) {
     drops_.Count("malformed", channel + ": " + reason);
   };
+  // The other vehicles read their channels by their prefixes and the unprefixed names; ours get
+  // our prefix (docs/exploration.md, "Several vehicles").
+  const ExplorerConfig base = config_;
+  for (std::string* channel :
+       {&config_.pose_channel, &config_.controller_channel, &config_.trajectory_channel,
+        &config_.status_channel, &config_.command_channel, &config_.map2d_prefix,
+        &config_.heartbeat_channel}) {
+    *channel = config_.vehicle_prefix + *channel;
+  }
+  peers_.resize(config_.peer_prefixes.size());
+  for (size_t k = 0; k < peers_.size(); ++k) {
+    PeerMotion* peer = &peers_[k];
+    peer->name = config_.peer_prefixes[k];
+    subscriptions_.Add<pose_t>(
+        peer->name + base.pose_channel,
+        [this, peer](const std::string&, const pose_t& m) {
+          const Eigen::Vector3d p(m.position_m[0], m.position_m[1], m.position_m[2]);
+          if (!m.valid) return;
+          if (!p.allFinite()) {
+            drops_.Count("nan_pose", peer->name + ": non-finite position");
+            return;
+          }
+          peer->position_m = p;
+          peer->seen = true;
+          peer->position_time_s = now_s();
+        },
+        on_error);
+    subscriptions_.Add<trajectory_t>(
+        peer->name + base.trajectory_channel,
+        [this, peer](const std::string& channel, const trajectory_t& m) {
+          std::string error;
+          std::optional<PiecewisePolynomialTrajectory> t = FromMessage(m, &error);
+          if (!t) {
+            drops_.Count("malformed", channel + ": " + error);
+            return;
+          }
+          peer->trajectory = std::move(t);
+        },
+        on_error);
+  }
   subscriptions_.Add<map3d_chunk_t>(
       config_.map_channel,
       [this](const std::string&, const map3d_chunk_t& m) {
@@ -209,6 +276,12 @@ PlannerInput ExplorerNode::Input() const {
   in.reached_views = reached_views_;
   in.flown_path = flown_path_;
   in.flown_views = flown_views_;
+  if (!peers_.empty()) {
+    in.peer_goals = PeerGoals(peers_);
+    in.trajectory_check = [this](const PiecewisePolynomialTrajectory& t) {
+      return SeparationRefusal(t);
+    };
+  }
   // The goal being flown to (its trajectory has not ended): hysteresis for period replans.
   if (state_ == exploration_status_t::STATE_EXPLORING && trajectory_.has_value() &&
       now_s() < trajectory_->end_time_s() && last_plan_ &&
@@ -317,7 +390,22 @@ void ExplorerNode::Plan(const std::string& reason) {
   plan_gain_stats_.push_back(result.volumetric_stats);
   last_plan_s_ = now_s();
   ++plan_seq_;
+  // Every mode's trajectory is checked against the other vehicles (the volumetric planner has
+  // already tried its next candidates).
   if (result.status == PlanStatus::kGoal && result.trajectory.trajectory.has_value()) {
+    const std::string refusal = SeparationRefusal(*result.trajectory.trajectory);
+    if (!refusal.empty()) {
+      result.status = PlanStatus::kFailed;
+      result.reason = "the trajectory is refused by the separation check: " + refusal;
+      result.refused_trajectories = 1;
+    }
+  }
+  const bool yielded = result.status == PlanStatus::kFailed && result.refused_trajectories > 0 &&
+                       Yield(result.reason);
+  if (yielded) {
+    // Neither a goal nor a failure: plan again after retry_period_s.
+  } else if (result.status == PlanStatus::kGoal && result.trajectory.trajectory.has_value()) {
+    yielding_since_s_ = -1.0;
     failed_plans_ = 0;
     end_deferrals_ = 0;
     const bool matched = result.trajectory.start_matched;
@@ -448,8 +536,23 @@ void ExplorerNode::PlanHome(const std::string& reason) {
   }
   PlanResult home = PlanToPoint(planner, PlanningInput(), home_xy_, home_yaw_rad_);
   ++plan_seq_;
+  if (home.status == PlanStatus::kGoal && home.trajectory.trajectory.has_value()) {
+    // Home in turn (docs/exploration.md, "Several vehicles"): a flight home that would come too
+    // near another vehicle waits for it.
+    const std::string refusal = SeparationRefusal(*home.trajectory.trajectory);
+    if (!refusal.empty()) {
+      home.status = PlanStatus::kFailed;
+      home.reason = "the flight home is refused by the separation check: " + refusal;
+      if (Yield(home.reason)) {
+        next_attempt_s_ = now_s() + config_.retry_period_s;
+        PublishStatus(home, reason + " (" + end_rule_ + "): waiting for another vehicle");
+        return;
+      }
+    }
+  }
   ++home_attempts_;
   if (home.status == PlanStatus::kGoal && home.trajectory.trajectory.has_value()) {
+    yielding_since_s_ = -1.0;
     home_trajectory_ = true;
     if (squeeze) {
       Log(LogLevel::kWarning, "path home found without the clearance margin (attempt " +
@@ -487,7 +590,8 @@ void ExplorerNode::PlanHome(const std::string& reason) {
     if (!own || grid.IndexOf(*own) != *spot) {
       PlanResult to_spot = PlanToPoint(planner, input, xy, YawOf(pose_.q));
       ++plan_seq_;
-      if (to_spot.status == PlanStatus::kGoal && to_spot.trajectory.trajectory.has_value()) {
+      if (to_spot.status == PlanStatus::kGoal && to_spot.trajectory.trajectory.has_value() &&
+          SeparationRefusal(*to_spot.trajectory.trajectory).empty()) {
         landing_ += std::to_string((xy - home_xy_).norm()) +
                     " m from the take-off point, on known-free ground " +
                     std::to_string((xy - pose_.p.head<2>()).norm()) + " m from where it stopped";
@@ -525,6 +629,41 @@ bool ExplorerNode::RemainingPathSafe() {
   if (t >= trajectory_->end_time_s()) return true;
   // The planner's own rule for the mode (exploration/planner.h, TrajectoryStillClear).
   return TrajectoryStillClear(config_.planner, Input(), *trajectory_, t);
+}
+
+std::string ExplorerNode::SeparationRefusal(const PiecewisePolynomialTrajectory& trajectory,
+                                            double from_s) const {
+  const double from = std::max(from_s, trajectory.start_time_s());
+  for (const PeerMotion& peer : peers_) {
+    const std::vector<PeerMotion> one{peer};
+    const Separation s = ClosestApproach(trajectory, from, one, config_.min_vertical_separation_m);
+    if (s.distance_m >= config_.min_separation_m) continue;
+    // Already nearer than the minimum (tracking error, a take-off beside another): not nearer.
+    const double start_m = SeparationAt(trajectory.Evaluate(from).position_m, peer, from,
+                                        config_.min_vertical_separation_m);
+    if (s.distance_m >= start_m - 0.02) continue;
+    char text[160];
+    std::snprintf(text, sizeof(text),
+                  "%.2f m from vehicle %s %.1f s after its start (minimum %.2f m)", s.distance_m,
+                  peer.name.c_str(), s.time_s - from, config_.min_separation_m);
+    return text;
+  }
+  return "";
+}
+
+bool ExplorerNode::Yield(const std::string& why) {
+  const double t = now_s();
+  if (yielding_since_s_ < 0.0) yielding_since_s_ = t;
+  if (t - yielding_since_s_ > config_.max_yield_s) return false;  // a failure from now on
+  ++yields_;
+  drops_.Count("yielded", why);
+  // Keep flying what was checked, if it is still clear of the map and of the others; else stop.
+  if (trajectory_ && Splicing(t) &&
+      (!RemainingPathSafe() || !SeparationRefusal(*trajectory_, t).empty())) {
+    Stop();
+  }
+  next_attempt_s_ = t + config_.retry_period_s;
+  return true;
 }
 
 void ExplorerNode::Step() {
@@ -605,6 +744,10 @@ void ExplorerNode::Step() {
         last_safety_check_s_ = t;
         safety_checked_map_seq_ = replica_.seq();
         if (!RemainingPathSafe()) Plan("remaining path unsafe");
+      } else if (!peers_.empty() && !ended &&
+                 t - last_separation_check_s_ >= config_.safety_check_period_s) {
+        last_separation_check_s_ = t;
+        if (!SeparationRefusal(*trajectory_, t).empty()) Plan("too near another vehicle ahead");
       }
       break;
     }
@@ -651,8 +794,7 @@ void ExplorerNode::PublishStatus(const PlanResult& result, const std::string& re
   std::vector<int> order(result.candidates.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    return result.candidates[a].gain_nats * result.candidates[a].bump >
-           result.candidates[b].gain_nats * result.candidates[b].bump;
+    return result.candidates[a].objective() > result.candidates[b].objective();
   });
   if (static_cast<int>(order.size()) > config_.max_status_candidates)
     order.resize(config_.max_status_candidates);
@@ -667,7 +809,7 @@ void ExplorerNode::PublishStatus(const PlanResult& result, const std::string& re
     m.gain_nats = c.gain_nats;
     m.distance_m = c.distance_m;
     m.bump = c.bump;
-    m.objective = c.gain_nats * c.bump;
+    m.objective = c.objective();
     msg.candidates.push_back(m);
     if (order[i] == result.chosen) msg.chosen_index = static_cast<int32_t>(i);
   }

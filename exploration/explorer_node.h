@@ -34,6 +34,7 @@
 #include "common/se3.h"
 #include "common/trajectory.h"
 #include "exploration/planner.h"
+#include "exploration/separation.h"
 #include "exploration/startup_turn.h"
 #include "kestrel/controller_status_t.hpp"
 #include "kestrel/exploration_status_t.hpp"
@@ -61,6 +62,26 @@ struct ExplorerConfig {
   std::string command_channel{"COMMAND"};
   std::string map2d_prefix{"MAP2D_"};  ///< + COLLISION, COMBINED, ENTROPY
   std::string heartbeat_channel{"HEARTBEAT_EXPLORER"};
+
+  /// Several vehicles (docs/exploration.md, "Several vehicles"): this vehicle's prefix, put
+  /// before the pose, controller, trajectory, status, command, 2D map and heartbeat channels above
+  /// ("" for one vehicle; the map channels are shared).
+  std::string vehicle_prefix;
+  /// The other vehicles' prefixes: the explorer reads each one's pose and trajectory (prefix +
+  /// pose_channel, prefix + trajectory_channel), discounts the candidates in view of its goal
+  /// (VolumetricConfig::peer_view_radius_m) and publishes no trajectory that comes nearer to it
+  /// than min_separation_m (a vehicle yields: it keeps or stops its flight and plans again).
+  std::vector<std::string> peer_prefixes;
+  /// Smallest horizontal distance to another vehicle a published trajectory may plan, m
+  /// (> 0; docs/exploration.md, "Several vehicles"). Where two vehicles are already nearer, a
+  /// trajectory may not bring them nearer still.
+  double min_separation_m{1.2};
+  /// Two vehicles whose heights differ by this much are clear of each other whatever their
+  /// horizontal distance (one flies over a landed one), m (> 0).
+  double min_vertical_separation_m{0.6};
+  /// Yielding to another vehicle is not a failed plan for this long in a row, s (> 0); after it,
+  /// each refused plan counts as a failure (max_failed_plans, max_home_attempts).
+  double max_yield_s{60.0};
 
   double startup_yaw_rate_radps{0.8};  ///< peak yaw rate of the start-up full circle, rad/s
   double height_tolerance_m{0.25};     ///< hovering within this of h counts as "at height", m
@@ -182,9 +203,19 @@ class ExplorerNode {
   [[nodiscard]] const std::string& end_rule() const { return end_rule_; }
   /// How the flight ended ("" until the land command): "returned home" or "landed elsewhere: ...".
   [[nodiscard]] const std::string& landing() const { return landing_; }
+  /// Plans whose trajectory the separation check refused (the vehicle yielded).
+  [[nodiscard]] int64_t yields() const { return yields_; }
+  /// "" if `trajectory` keeps min_separation_m from every other vehicle from from_s (or its start,
+  /// if later) on, or does not come nearer to one that is already nearer; else which vehicle, how
+  /// near and when.
+  [[nodiscard]] std::string SeparationRefusal(const PiecewisePolynomialTrajectory& trajectory,
+                                              double from_s = -1e300) const;
 
  private:
   void OnPose(const pose_t& msg);
+  // A refused plan (the separation check): true if it is still a yield (max_yield_s), false once
+  // it counts as a failure. Keeps or stops the flight.
+  bool Yield(const std::string& why);
   void Plan(const std::string& reason);
   void PlanHome(const std::string& reason);
   // Publishes the start-up trajectory from the current state; false (counted) if none is found.
@@ -255,7 +286,11 @@ class ExplorerNode {
   std::string end_rule_;
   std::string landing_;
   int home_attempts_{0};
-  bool home_trajectory_{false};  // the trajectory being flown goes home
+  bool home_trajectory_{false};    // the trajectory being flown goes home
+  std::vector<PeerMotion> peers_;  // the other vehicles (peer_prefixes order)
+  int64_t yields_{0};
+  double yielding_since_s_{-1.0};  // start of the current run of yields (-1: not yielding)
+  double last_separation_check_s_{-1e300};
   // Starts a spliced replan from `trajectory_` at now + lookahead, if one is being flown.
   [[nodiscard]] bool Splicing(double now) const;
   // True when the known cells grew by less than end_stall_min_growth over the stall window.

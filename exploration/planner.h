@@ -7,6 +7,7 @@
 /// Pure: no LCM, no clock (timings are measured with std::chrono::steady_clock for the status).
 
 #include <Eigen/Core>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -95,6 +96,11 @@ struct VolumetricConfig {
   /// within candidate_spacing_m / 2, its heading in the candidate heading's half-step window):
   /// the camera looked from there on the way, not only at goals.
   bool skip_flown_poses{true};
+  /// Several vehicles (docs/exploration.md, "Several vehicles"): a candidate position within this
+  /// of another vehicle's goal (PlannerInput::peer_goals), in sight of it over the band, has its
+  /// objective discounted by 1 - d / peer_view_radius_m for each such goal (Burgard et al. 2005's
+  /// linear visibility discount; at most to 0), m (> 0). The end rule ignores the discount.
+  double peer_view_radius_m{3.0};
   VolumetricGainConfig gain;  ///< sensors' 3D rays (gain.sensors' vertical keys), azimuth bins
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
@@ -151,6 +157,14 @@ struct PlannerInput {
   /// flown_path_spacing_m or turned kFlownViewYawStepRad since the last: where it has looked from
   /// (the volumetric mode's skip_flown_poses).
   std::vector<Eigen::Vector3d> flown_views;
+  /// Several vehicles (docs/exploration.md, "Several vehicles"): the goals (x m, y m, yaw rad; W)
+  /// the other vehicles fly to; the volumetric mode discounts candidates in their view
+  /// (VolumetricConfig::peer_view_radius_m).
+  std::vector<Eigen::Vector3d> peer_goals;
+  /// Several vehicles: "" if a trajectory keeps its separation from the other vehicles, else why
+  /// not. The volumetric mode tries its next candidates (at most 10 refused) when it refuses the
+  /// best one's trajectory, and fails with the reason when every one is refused. Unset: no check.
+  std::function<std::string(const PiecewisePolynomialTrajectory&)> trajectory_check;
 
   /// The start state this input describes (position, velocity, acceleration, yaw, yaw rate, time).
   [[nodiscard]] TrajectoryStart Start() const;
@@ -196,6 +210,9 @@ struct PlanResult {
   /// What ended exploration (status kExplorationDone): "gain rule", "no reachable candidate",
   /// "no reachable frontier".
   std::string end_rule;
+  /// Several vehicles: trajectories PlannerInput::trajectory_check refused in this plan; a plan
+  /// that fails with some refused failed because of the other vehicles (the explorer yields).
+  int refused_trajectories{0};
   TrajectoryPlan trajectory;             ///< to the chosen candidate (status kGoal)
   GainStats gain_stats;                  ///< rays evaluated, rays per candidate
   VolumetricGainStats volumetric_stats;  ///< volumetric mode: 3D rays cast and evaluated

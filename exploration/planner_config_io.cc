@@ -149,6 +149,7 @@ PlannerConfig LoadPlannerConfig(const ConfigNode& node) {
     v.Read("local_horizon_m", &q.local_horizon_m, Range::NonNegative());
     v.Read("skip_viewed_poses", &q.skip_viewed_poses);
     v.Read("skip_flown_poses", &q.skip_flown_poses);
+    v.Read("peer_view_radius_m", &q.peer_view_radius_m, Range::Positive());
     v.Read("azimuth_bins", &q.gain.azimuth_bins, Range::Closed(4, 36000));
   }
   node.CheckNoUnknownKeys();

@@ -36,6 +36,7 @@ struct Position {
   int cell{-1};
   Eigen::Vector2d xy{Eigen::Vector2d::Zero()};
   double bump{0.0};
+  double discount{1.0};  // the other vehicles' goals in view (PlannerInput::peer_goals)
   double distance_m{0.0};
   double max_bound{0.0};
   bool evaluated{false};
@@ -162,18 +163,66 @@ void TrajectoryToBest(const PlannerConfig& config, const PlannerInput& input,
   });
   std::swap(*std::find(order.begin(), order.end(), chosen), order.front());
   constexpr int kMaxTrajectoryAttempts = 5;
+  // Several vehicles: trajectories the separation check refuses do not count as attempts.
+  constexpr int kMaxRefused = 10;
   std::vector<int> tried_cells;
+  int failed = 0;
+  int refused = 0;
+  std::string refusal;
   for (int index : order) {
     const Candidate& goal = result->candidates[static_cast<size_t>(index)];
     if (goal.gain_nats < min_goal_gain) continue;  // not a goal (Plan)
     if (std::find(tried_cells.begin(), tried_cells.end(), goal.cell) != tried_cells.end()) continue;
-    if (static_cast<int>(tried_cells.size()) == kMaxTrajectoryAttempts) break;
+    if (failed == kMaxTrajectoryAttempts || refused == kMaxRefused) break;
     tried_cells.push_back(goal.cell);
     result->chosen = index;
     FineTrajectoryTo(config, input, traversable, goal.cell, goal.yaw_rad, result);
-    if (result->status == PlanStatus::kGoal) return;
+    if (result->status != PlanStatus::kGoal) {
+      ++failed;
+      continue;
+    }
+    if (!input.trajectory_check) return;
+    refusal = input.trajectory_check(*result->trajectory.trajectory);
+    if (refusal.empty()) {
+      result->refused_trajectories = refused;
+      return;
+    }
+    ++refused;
+    result->trajectory = TrajectoryPlan{};
   }
   result->chosen = -1;
+  result->refused_trajectories = refused;
+  if (refused > 0) {
+    result->status = PlanStatus::kFailed;
+    result->end_rule.clear();
+    result->reason = "every trajectory tried is refused by the separation check (" +
+                     std::to_string(refused) + " refused; last: " + refusal + ")";
+  }
+}
+
+// Whether the segment from a to b stays off the band's occupied cells (P > 0.5), sampled every
+// half cell: a wall between two places hides one from the other.
+bool InSight(const GridMap2D& band, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  const double length = (b - a).norm();
+  const int steps = std::max(1, static_cast<int>(std::ceil(length / (0.5 * band.resolution_m))));
+  for (int i = 0; i <= steps; ++i) {
+    const std::optional<Cell2> c = band.CellOf(a + (b - a) * (static_cast<double>(i) / steps));
+    if (c && band.at(c->x, c->y) > 0.5) return false;
+  }
+  return true;
+}
+
+// Burgard et al. (2005)'s linear visibility discount (VolumetricConfig::peer_view_radius_m): 1
+// minus, for each other vehicle's goal within the radius and in sight, 1 - d / radius; at least 0.
+double PeerDiscount(const GridMap2D& band, const Eigen::Vector2d& xy,
+                    const std::vector<Eigen::Vector3d>& peer_goals, double radius_m) {
+  double discount = 1.0;
+  for (const Eigen::Vector3d& g : peer_goals) {
+    const double d = (g.head<2>() - xy).norm();
+    if (d >= radius_m || !InSight(band, xy, g.head<2>())) continue;
+    discount -= 1.0 - d / radius_m;
+  }
+  return std::max(0.0, discount);
 }
 
 // The height at which poses' gains are predicted: h, or h + 1 mm when a sensor's origin would lie
@@ -222,6 +271,9 @@ void VolumetricConfig::Validate() const {
   KESTREL_THROW_UNLESS(
       std::isfinite(local_horizon_m) && local_horizon_m >= 0.0,
       "volumetric.local_horizon_m = " << local_horizon_m << ", accepted [0, inf) (0: off)");
+  KESTREL_THROW_UNLESS(
+      std::isfinite(peer_view_radius_m) && peer_view_radius_m > 0.0,
+      "volumetric.peer_view_radius_m = " << peer_view_radius_m << ", accepted (0, inf)");
   KESTREL_THROW_UNLESS(std::isfinite(preferred_clearance_m) && preferred_clearance_m >= 0.0,
                        "volumetric.preferred_clearance_m = " << preferred_clearance_m
                                                              << ", accepted [0, inf) (0: off)");
@@ -360,6 +412,10 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
     p.xy = grid.CenterOf(grid.CellAt(cell));
     p.distance_m = result.field.distance_m[static_cast<size_t>(cell)];
     p.bump = Bump(p.distance_m, d_max);
+    if (!input.peer_goals.empty()) {
+      p.discount =
+          PeerDiscount(grid, p.xy, input.peer_goals, config_.volumetric.peer_view_radius_m);
+    }
     // Exact reuse: nothing changed within the rays' reach since the cache entry was made (a new
     // entry has no bounds).
     CachedPose& c = cache_[cell];
@@ -419,23 +475,25 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
   std::vector<size_t> order(positions.size());
   double best_gain = 0.0;
   auto choose = [&](double bump_d_max, double min_goal_gain) {
+    // The weight of each position's gains: the bump (eq. 17) times the other vehicles' discount.
     for (Position& p : positions) p.bump = Bump(p.distance_m, bump_d_max);
+    auto weight = [](const Position& p) { return p.bump * p.discount; };
     std::iota(order.begin(), order.end(), size_t{0});
     std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-      return positions[a].max_bound * positions[a].bump >
-             positions[b].max_bound * positions[b].bump;
+      return positions[a].max_bound * weight(positions[a]) >
+             positions[b].max_bound * weight(positions[b]);
     });
     double best_objective = -1.0;
     double best_weighted_gain = 0.0;  // best gain among poses with a positive bump
     for (size_t i : order) {
       Position& p = positions[i];
-      if (p.max_bound * p.bump <= best_objective) break;
+      if (p.max_bound * weight(p) <= best_objective) break;
       if (p.max_bound < min_goal_gain) continue;  // no heading here can be a goal
       evaluate(&p);
       for (double g : p.gains) {
-        if (g >= min_goal_gain) best_objective = std::max(best_objective, g * p.bump);
+        if (g >= min_goal_gain) best_objective = std::max(best_objective, g * weight(p));
         best_gain = std::max(best_gain, g);
-        if (p.bump > 0.0) best_weighted_gain = std::max(best_weighted_gain, g);
+        if (weight(p) > 0.0) best_weighted_gain = std::max(best_weighted_gain, g);
       }
     }
     return best_weighted_gain;
@@ -472,6 +530,7 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
       c.gain_nats = p.gains[static_cast<size_t>(m)];
       c.distance_m = p.distance_m;
       c.bump = p.bump;
+      c.discount = p.discount;
       result.candidates.push_back(c);
     }
   }
@@ -498,7 +557,7 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
       const int mm = (m + n_yaw) % n_yaw;
       const bool was_evaluated = p.evaluated;
       evaluate(&p);
-      const double objective = p.gains[static_cast<size_t>(mm)] * p.bump;
+      const double objective = p.gains[static_cast<size_t>(mm)] * p.bump * p.discount;
       const double best = result.candidates[static_cast<size_t>(chosen)].objective();
       if (objective > 0.0 && p.gains[static_cast<size_t>(mm)] >= min_goal_gain &&
           best <= (1.0 + config_.candidates.switch_margin) * objective) {
@@ -511,6 +570,7 @@ PlanResult VolumetricPlanner::Plan(const PlannerInput& input) {
             c.gain_nats = p.gains[static_cast<size_t>(k)];
             c.distance_m = p.distance_m;
             c.bump = p.bump;
+            c.discount = p.discount;
             result.candidates.push_back(c);
           }
         }

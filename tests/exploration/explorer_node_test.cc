@@ -7,7 +7,9 @@
 
 #include <gtest/gtest.h>
 
+#include "common/config.h"
 #include "common/lcm_decode.h"
+#include "common/trajectory_message.h"
 #include "kestrel/controller_status_t.hpp"
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/pose_t.hpp"
@@ -143,6 +145,85 @@ TEST(ExplorerReplan, NeverStepsTheSetPointInFlight) {
   EXPECT_EQ(ChooseReplanUse(false, true, true, false), ReplanUse::kStop);
   EXPECT_EQ(ChooseReplanUse(false, true, false, true), ReplanUse::kStop);
   EXPECT_EQ(ChooseReplanUse(false, true, false, false), ReplanUse::kStop);
+}
+
+}  // namespace
+}  // namespace kestrel
+
+namespace kestrel {
+namespace {
+
+// A straight flight from a to b in duration_s from start_s.
+PiecewisePolynomialTrajectory Straight(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                       double start_s, double duration_s) {
+  PolynomialSegment s;
+  s.duration_s = duration_s;
+  for (int i = 0; i < 3; ++i) s.coefficients[i] = {a[i], (b[i] - a[i]) / duration_s};
+  s.coefficients[3] = {0.0};
+  return *PiecewisePolynomialTrajectory::Create(start_s, {s}, nullptr);
+}
+
+// Several vehicles (docs/exploration.md, "Several vehicles"): the explorer of V1_ reads V2_'s
+// pose and trajectory and refuses a trajectory that comes nearer than min_separation_m to it, in
+// space and time; where the two are already nearer, only a trajectory that comes nearer still.
+TEST_F(ExplorerNodeTest, RefusesTrajectoriesThatComeTooNearAnotherVehicle) {
+  config_.vehicle_prefix = "V1_";
+  config_.peer_prefixes = {"V2_"};
+  config_.min_separation_m = 1.2;
+  ExplorerNode node(lcm_, config_, clock_);
+  const double t0 = UtimeToSeconds(clock_.NowUtime());
+  const PiecewisePolynomialTrajectory through = Straight({-1, 0, 1}, {2, 0, 1}, t0, 3.0);
+  const PiecewisePolynomialTrajectory beside = Straight({-1, -1.5, 1}, {2, -1.5, 1}, t0, 3.0);
+  EXPECT_EQ(node.SeparationRefusal(through), "") << "nothing known of V2_ yet";
+  pose_t pose{};
+  pose.utime = clock_.NowUtime();
+  pose.valid = true;
+  pose.position_m[0] = 1.0;
+  pose.position_m[2] = 1.0;
+  pose.orientation_wxyz[0] = 1.0;
+  lcm_.publish("V2_POSE_VICON", &pose);
+  lcm_.publish("POSE_VICON", &pose);  // no vehicle's: V1_'s is V1_POSE_VICON
+  Dispatch();
+  const std::string refusal = node.SeparationRefusal(through);
+  EXPECT_NE(refusal.find("V2_"), std::string::npos) << refusal;
+  EXPECT_NE(refusal.find("0.00 m"), std::string::npos) << refusal;
+  EXPECT_EQ(node.SeparationRefusal(beside), "");
+  // V2_ leaves along y before V1_ gets there: the same line keeps 2 m (at the start).
+  const trajectory_t away = ToMessage(Straight({1, 0, 1}, {1, 3, 1}, t0, 1.0), 0, 1, 5);
+  lcm_.publish("V2_TRAJECTORY", &away);
+  Dispatch();
+  EXPECT_EQ(node.SeparationRefusal(through), "");
+  // ...but not from where V2_ holds at its end.
+  EXPECT_NE(node.SeparationRefusal(Straight({-1, 3, 1}, {2, 3, 1}, t0 + 5.0, 3.0)), "");
+  // Already 0.5 m apart: moving away is allowed, nearer is not.
+  const trajectory_t hold = ToMessage(Straight({1, 0, 1}, {1, 0, 1}, t0, 1.0), 0, 2, 5);
+  lcm_.publish("V2_TRAJECTORY", &hold);
+  Dispatch();
+  EXPECT_EQ(node.SeparationRefusal(Straight({1, 0.5, 1}, {1, 3, 1}, t0, 3.0)), "");
+  EXPECT_NE(node.SeparationRefusal(Straight({1, 0.5, 1}, {1, 0.2, 1}, t0, 3.0)), "");
+  // A malformed trajectory from V2_ is counted and changes nothing.
+  trajectory_t bad = hold;
+  bad.durations_s[0] = -1.0;
+  lcm_.publish("V2_TRAJECTORY", &bad);
+  Dispatch();
+  EXPECT_EQ(node.drops().count("malformed"), 1);
+  EXPECT_NE(node.SeparationRefusal(Straight({1, 0.5, 1}, {1, 0.2, 1}, t0, 3.0)), "");
+}
+
+TEST(ExplorerConfig, ReadsTheVehiclesAndRefusesBadOnes) {
+  const ExplorerConfig c = LoadExplorerConfig(ConfigNode::FromString(
+      "explorer: {vehicle_prefix: V2_, peers: [{prefix: V1_}, {prefix: V3_}], "
+      "min_separation_m: 1.5, max_yield_s: 30}",
+      "test"));
+  EXPECT_EQ(c.vehicle_prefix, "V2_");
+  EXPECT_EQ(c.peer_prefixes, (std::vector<std::string>{"V1_", "V3_"}));
+  EXPECT_EQ(c.min_separation_m, 1.5);
+  EXPECT_EQ(c.max_yield_s, 30.0);
+  for (const char* bad :
+       {"explorer: {vehicle_prefix: V1_, peers: [{prefix: V1_}]}",
+        "explorer: {peers: [{prefix: V2_}, {prefix: V2_}]}", "explorer: {min_separation_m: 0}"}) {
+    EXPECT_THROW(LoadExplorerConfig(ConfigNode::FromString(bad, "test")), ConfigError) << bad;
+  }
 }
 
 }  // namespace

@@ -700,3 +700,111 @@ TEST(Planner, VolumetricEscapesFromNearAWall) {
 
 }  // namespace
 }  // namespace kestrel
+
+namespace kestrel {
+namespace {
+
+// Whether the segment a-b crosses RoomMap's inner wall (x in 0.6 +- 0.1, y < 0.9), and whether it
+// passes within `margin_m` of its end (where half-cell sampling may decide either way).
+bool CrossesInnerWall(const Eigen::Vector2d& a, const Eigen::Vector2d& b, double margin_m,
+                      bool* near_end) {
+  bool crosses = false;
+  *near_end = false;
+  for (int i = 0; i <= 1000; ++i) {
+    const Eigen::Vector2d p = a + (b - a) * (i / 1000.0);
+    if (std::abs(p.x() - 0.6) < 0.1 && p.y() < 0.9) crosses = true;
+    if ((p - Eigen::Vector2d(0.6, 0.9)).norm() < margin_m) *near_end = true;
+  }
+  return crosses;
+}
+
+// Several vehicles: another vehicle's goal discounts the objective of every candidate within
+// peer_view_radius_m in sight of it by 1 - d / radius (none behind a wall), the choice maximises
+// the discounted objective, and the chosen pose is no longer the peer's.
+TEST(Planner, VolumetricPeerGoalDiscountsThePosesInItsView) {
+  const RoomMap map(2.2);
+  PlannerConfig config;
+  config.mode = ExplorationMode::kVolumetric;
+  VolumetricPlanner planner(config);
+  PlannerInput in = InputAt(map, {-1.0, -1.0});
+  PlanResult first;
+  ASSERT_NO_FATAL_FAILURE(FirstGoalPlan(&planner, in, config, &first));
+  const Candidate goal = first.candidates[static_cast<size_t>(first.chosen)];
+  for (const Candidate& c : first.candidates) EXPECT_EQ(c.discount, 1.0) << "no other vehicle";
+  // Two other vehicles: one flies to this goal, one to a place behind the inner wall.
+  const Eigen::Vector2d hidden(1.5, -0.5);
+  in.peer_goals = {Eigen::Vector3d(goal.position_m.x(), goal.position_m.y(), goal.yaw_rad),
+                   Eigen::Vector3d(hidden.x(), hidden.y(), 0.0)};
+  const PlanResult shared = VolumetricPlanner(config).Plan(in);
+  ASSERT_EQ(shared.status, PlanStatus::kGoal) << shared.reason;
+  const double radius = config.volumetric.peer_view_radius_m;
+  int discounted = 0, behind_wall = 0;
+  for (const Candidate& c : shared.candidates) {
+    double expected = 1.0;
+    bool undecided = false;
+    for (const Eigen::Vector2d& g : {goal.position_m, hidden}) {
+      const double d = (c.position_m - g).norm();
+      bool near_end = false;
+      const bool wall = CrossesInnerWall(c.position_m, g, 0.15, &near_end);
+      undecided = undecided || near_end;
+      if (d < radius && !wall) expected -= 1.0 - d / radius;
+      behind_wall += d < radius && wall && !near_end ? 1 : 0;
+    }
+    if (undecided) continue;
+    EXPECT_NEAR(c.discount, std::max(0.0, expected), 1e-12) << c.position_m.transpose();
+    EXPECT_DOUBLE_EQ(c.objective(), c.gain_nats * c.bump * c.discount);
+    discounted += c.discount < 1.0 ? 1 : 0;
+  }
+  EXPECT_GT(discounted, 0);
+  EXPECT_GT(behind_wall, 0) << "the test must see a pose hidden from the goal by the wall";
+  const Candidate& chosen = shared.candidates[static_cast<size_t>(shared.chosen)];
+  EXPECT_NE(chosen.cell, goal.cell) << "the other vehicle's goal is not chosen again";
+  for (const Candidate& c : shared.candidates) EXPECT_LE(c.objective(), chosen.objective());
+}
+
+// Several vehicles: a trajectory the separation check refuses makes the planner try its next
+// candidates; when it refuses every one, the plan fails and says so.
+TEST(Planner, VolumetricTrajectoryCheckTriesTheNextCandidates) {
+  const RoomMap map(2.2);
+  PlannerConfig config;
+  config.mode = ExplorationMode::kVolumetric;
+  PlannerInput in = InputAt(map, {-1.0, -1.0});
+  PlanResult first;
+  {
+    VolumetricPlanner planner(config);
+    ASSERT_NO_FATAL_FAILURE(FirstGoalPlan(&planner, in, config, &first));
+  }
+  const Candidate goal = first.candidates[static_cast<size_t>(first.chosen)];
+  int asked = 0;
+  in.trajectory_check = [&](const PiecewisePolynomialTrajectory& t) -> std::string {
+    ++asked;
+    const Eigen::Vector3d end = t.Evaluate(t.end_time_s()).position_m;
+    return (end.head<2>() - goal.position_m).norm() < 0.5 ? "near the first goal" : "";
+  };
+  const PlanResult next = VolumetricPlanner(config).Plan(in);
+  ASSERT_EQ(next.status, PlanStatus::kGoal) << next.reason;
+  EXPECT_EQ(next.refused_trajectories, 1);
+  EXPECT_EQ(asked, 2);
+  const Candidate& chosen = next.candidates[static_cast<size_t>(next.chosen)];
+  EXPECT_GE((chosen.position_m - goal.position_m).norm(), 0.5);
+  const Eigen::Vector3d end =
+      next.trajectory.trajectory->Evaluate(next.trajectory.trajectory->end_time_s()).position_m;
+  EXPECT_NEAR((end.head<2>() - chosen.position_m).norm(), 0.0, 1e-6);
+
+  asked = 0;
+  in.trajectory_check = [&](const PiecewisePolynomialTrajectory&) -> std::string {
+    ++asked;
+    return "another vehicle";
+  };
+  const PlanResult none = VolumetricPlanner(config).Plan(in);
+  EXPECT_EQ(none.status, PlanStatus::kFailed);
+  EXPECT_EQ(none.chosen, -1);
+  EXPECT_EQ(none.refused_trajectories, asked);
+  EXPECT_GE(asked, 2);
+  EXPECT_LE(asked, 10);
+  EXPECT_NE(none.reason.find("separation check"), std::string::npos) << none.reason;
+  EXPECT_NE(none.reason.find("another vehicle"), std::string::npos) << none.reason;
+}
+
+}  // namespace
+}  // namespace kestrel
