@@ -11,9 +11,11 @@
 namespace kestrel {
 
 std::string ParamsChannelFor(const std::string& heartbeat_channel) {
-  const std::string prefix = "HEARTBEAT_";
-  if (heartbeat_channel.compare(0, prefix.size(), prefix) == 0) {
-    return "PARAMS_" + heartbeat_channel.substr(prefix.size());
+  const std::string word = "HEARTBEAT_";
+  // HEARTBEAT_<PROCESS>, or a vehicle's <PREFIX>HEARTBEAT_<PROCESS> (docs/design.md §7.10).
+  const size_t at = heartbeat_channel.find(word);
+  if (at != std::string::npos) {
+    return "PARAMS_" + heartbeat_channel.substr(0, at) + heartbeat_channel.substr(at + word.size());
   }
   return "PARAMS_" + heartbeat_channel;
 }

@@ -29,7 +29,9 @@ namespace kestrel {
 inline constexpr const char* kParamsRequestChannel = "REQUEST_PARAMS";
 
 /// PARAMS_<PROCESS> for a process whose heartbeat is on HEARTBEAT_<PROCESS> ("HEARTBEAT_MAPPER"
-/// -> "PARAMS_MAPPER"); a channel without that prefix gets "PARAMS_" in front of it whole.
+/// -> "PARAMS_MAPPER"), PARAMS_<PREFIX><PROCESS> for a vehicle's <PREFIX>HEARTBEAT_<PROCESS>
+/// ("V2_HEARTBEAT_CONTROLLER" -> "PARAMS_V2_CONTROLLER"); a channel without HEARTBEAT_ gets
+/// "PARAMS_" in front of it whole.
 [[nodiscard]] std::string ParamsChannelFor(const std::string& heartbeat_channel);
 
 /// The params_t of `config` (its EffectiveValues() at the time of the call) for `process`.

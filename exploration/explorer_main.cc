@@ -27,9 +27,10 @@ int main(int argc, char** argv) {
         const std::unique_ptr<kestrel::Clock> clock =
             kestrel::MakeProcessClock(lcm, args.sim_clock_channel);
         kestrel::ExplorerNode explorer(lcm, config, *clock);
-        const kestrel::ConfigPublisher params(lcm, *clock, "kestrel-explorer",
-                                              kestrel::ParamsChannelFor(config.heartbeat_channel),
-                                              args, node);
+        const kestrel::ConfigPublisher params(
+            lcm, *clock, "kestrel-explorer",
+            kestrel::ParamsChannelFor(config.vehicle_prefix + config.heartbeat_channel), args,
+            node);
         kestrel::NodeLoop loop(lcm, *clock);
         loop.AddTimer("step", 50000, [&](int64_t) { explorer.Step(); });
         return loop.Run();

@@ -149,6 +149,7 @@ TEST(ParamsChannel, FollowsTheHeartbeatChannel) {
   EXPECT_EQ(ParamsChannelFor("HEARTBEAT_MAPPER"), "PARAMS_MAPPER");
   EXPECT_EQ(ParamsChannelFor("HEARTBEAT_VICON_EMITTER"), "PARAMS_VICON_EMITTER");
   EXPECT_EQ(ParamsChannelFor("MY_STATUS"), "PARAMS_MY_STATUS");
+  EXPECT_EQ(ParamsChannelFor("V2_HEARTBEAT_CONTROLLER"), "PARAMS_V2_CONTROLLER");
 }
 
 }  // namespace
