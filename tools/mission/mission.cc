@@ -76,7 +76,61 @@ double Median(std::vector<double> v) {
   return *middle;
 }
 
+// Whether a vehicle disc of radius_m at xy is clear of obstacles between z_low_m and z_high_m
+// (points every 5 cm in the disc, every 10 cm in height).
+bool DiscClear(const World& world, const Eigen::Vector2d& xy, double radius_m, double z_low_m,
+               double z_high_m) {
+  const int n = static_cast<int>(std::ceil(radius_m / 0.05));
+  for (double z = z_low_m; z <= z_high_m + 1e-9; z += 0.1) {
+    for (int i = -n; i <= n; ++i) {
+      for (int j = -n; j <= n; ++j) {
+        const Eigen::Vector2d d(0.05 * i, 0.05 * j);
+        if (d.norm() > radius_m) continue;
+        if (IsInsideObstacle(world, Eigen::Vector3d(xy.x() + d.x(), xy.y() + d.y(), z)))
+          return false;
+      }
+    }
+  }
+  return true;
+}
+
 }  // namespace
+
+std::vector<Eigen::Vector3d> VehicleStartOffsets(const World& world, int vehicles, double spacing_m,
+                                                 double diameter_m, double height_m) {
+  KESTREL_THROW_UNLESS(vehicles >= 1 && vehicles <= 4,
+                       "vehicles = " << vehicles << ": accepted 1 to 4");
+  KESTREL_THROW_UNLESS(spacing_m > diameter_m,
+                       "vehicle spacing " << spacing_m << " m must exceed the vehicle diameter "
+                                          << diameter_m << " m");
+  std::vector<Eigen::Vector3d> offsets{Eigen::Vector3d::Zero()};
+  const Eigen::Vector2d start = world.start_X_WB.p.head<2>();
+  const double radius = 0.5 * diameter_m + 0.2;
+  const double z_low = world.start_X_WB.p.z() + 0.05;
+  const double z_high = height_m + 0.3;
+  const Eigen::Vector2d directions[] = {{0, 1}, {0, -1}, {1, 0},  {-1, 0},
+                                        {1, 1}, {-1, 1}, {1, -1}, {-1, -1}};
+  for (int scale = 1; scale <= 2 && static_cast<int>(offsets.size()) < vehicles; ++scale) {
+    for (const Eigen::Vector2d& d : directions) {
+      if (static_cast<int>(offsets.size()) == vehicles) break;
+      const Eigen::Vector2d offset = scale * spacing_m * d;
+      const Eigen::Vector2d xy = start + offset;
+      bool ok = (xy.array() - radius > world.map_min_m.head<2>().array()).all() &&
+                (xy.array() + radius < world.map_max_m.head<2>().array()).all();
+      for (const Eigen::Vector3d& o : offsets) {
+        ok = ok && (o.head<2>() - offset).norm() >= spacing_m - 1e-9;
+      }
+      if (ok && DiscClear(world, xy, radius, z_low, z_high)) {
+        offsets.emplace_back(offset.x(), offset.y(), 0.0);
+      }
+    }
+  }
+  KESTREL_THROW_UNLESS(static_cast<int>(offsets.size()) == vehicles,
+                       "no clear start for vehicle " << offsets.size() + 1 << " within "
+                                                     << 2 * spacing_m << " m of the start in "
+                                                     << world.name);
+  return offsets;
+}
 
 MissionResult RunMission(const MissionConfig& mc) {
   const auto wall_start = std::chrono::steady_clock::now();
@@ -95,8 +149,31 @@ MissionResult RunMission(const MissionConfig& mc) {
   sim_overrides.push_back("world_file=" + Resolve(mc.root, mc.world_file));
   sim_overrides.push_back("seed=" + std::to_string(mc.seed));
   ConfigNode sim_node_cfg = Load(mc.root, mc.sim_file, sim_overrides);
-  const SimConfig sim_config = LoadSimConfig(sim_node_cfg, mc.root);
+  SimConfig sim_config = LoadSimConfig(sim_node_cfg, mc.root);
+  KESTREL_THROW_UNLESS(mc.vehicles == 1 || !faults,
+                       "the fault injection applies to one vehicle only (--vehicles 1)");
+  std::vector<std::string> prefixes{""};
+  std::vector<Eigen::Vector3d> offsets{Eigen::Vector3d::Zero()};
+  if (mc.vehicles != 1) {
+    // Several vehicles: V1_, V2_, ... at clear places around the world's start.
+    offsets =
+        VehicleStartOffsets(sim_config.world, mc.vehicles, mc.vehicle_spacing_m,
+                            sim_config.vehicle.diameter_m, sim_config.world.exploration_height_m);
+    prefixes.clear();
+    std::ostringstream list;
+    list << "vehicles=[";
+    for (int k = 0; k < mc.vehicles; ++k) {
+      prefixes.push_back("V" + std::to_string(k + 1) + "_");
+      const Eigen::Vector3d& o = offsets[static_cast<size_t>(k)];
+      list << (k > 0 ? ", " : "") << "{prefix: " << prefixes.back() << ", start_offset_m: ["
+           << o.x() << ", " << o.y() << ", " << o.z() << "]}";
+    }
+    list << "]";
+    sim_node_cfg.ApplyOverride(list.str());
+    sim_config = LoadSimConfig(sim_node_cfg, mc.root);
+  }
   sim_node_cfg.CheckNoUnknownKeys();
+  const size_t num_vehicles = prefixes.size();
   const World& world = sim_config.world;
 
   ConfigNode mapper_cfg = Load(mc.root, mc.mapper_file, mc.mapper_overrides);
@@ -105,6 +182,7 @@ MissionResult RunMission(const MissionConfig& mc) {
   mapper_config.limits.min_m = world.map_min_m;
   mapper_config.limits.max_m = world.map_max_m;
   mapper_config.checkpoint_path.clear();
+  mapper_config.vehicle_prefixes = prefixes;
   // memq:// has no receive buffer to protect (docs/design.md §7.6): snapshots go out whole at
   // their instant, as before pacing, unless snapshot_bytes_per_s is set on the command line.
   if (std::none_of(mc.mapper_overrides.begin(), mc.mapper_overrides.end(),
@@ -138,14 +216,33 @@ MissionResult RunMission(const MissionConfig& mc) {
 
   int64_t r_sensor_dropped_ = 0;
   int64_t r_poses_dropped_ = 0;
-  // --- The nodes, in one process.
+  // --- The nodes, in one process: a controller and an explorer per vehicle, one mapper.
   lcm::LCM lcm("memq://");
   KESTREL_THROW_UNLESS(lcm.good(), "memq:// LCM unavailable");
   SimClock clock(1700000000000000);  // a fixed, plausible epoch: stamps are the same every run
   SimNode sim(lcm, sim_config, clock);
-  ControllerNode controller(lcm, controller_config, clock);
+  std::vector<std::unique_ptr<ControllerNode>> controllers;
+  for (const std::string& p : prefixes) {
+    ControllerConfig c = controller_config;
+    for (std::string* channel :
+         {&c.pose_channel, &c.imu_channel, &c.trajectory_channel, &c.command_channel,
+          &c.motor_channel, &c.status_channel, &c.heartbeat_channel}) {
+      *channel = p + *channel;
+    }
+    controllers.push_back(std::make_unique<ControllerNode>(lcm, c, clock));
+  }
   MapperNode mapper(lcm, mapper_config, clock);
-  ExplorerNode explorer(lcm, explorer_config, clock);
+  std::vector<std::unique_ptr<ExplorerNode>> explorers;
+  for (const std::string& p : prefixes) {
+    ExplorerConfig e = explorer_config;
+    e.vehicle_prefix = p;
+    for (const std::string& q : prefixes) {
+      if (q != p) e.peer_prefixes.push_back(q);
+    }
+    explorers.push_back(std::make_unique<ExplorerNode>(lcm, e, clock));
+  }
+  ControllerNode& controller = *controllers.front();
+  ExplorerNode& explorer = *explorers.front();
 
   // Every message in publication order, as lcm-logger would record it (stamped with the
   // simulated time), so the run can be replayed into fresh processes.
@@ -197,7 +294,7 @@ MissionResult RunMission(const MissionConfig& mc) {
   GuardedSubscriptions watch(lcm);
   bool first_plan_seen = false;
   watch.Add<exploration_status_t>(
-      explorer_config.status_channel,
+      prefixes.front() + explorer_config.status_channel,
       [&](const std::string&, const exploration_status_t& m) {
         if (m.state == exploration_status_t::STATE_DONE) r.done_status_published = true;
         if (first_plan_seen || m.state == exploration_status_t::STATE_STARTUP ||
@@ -211,7 +308,7 @@ MissionResult RunMission(const MissionConfig& mc) {
       nullptr);
   if (mc.verbose) {
     watch.Add<exploration_status_t>(
-        explorer_config.status_channel,
+        prefixes.front() + explorer_config.status_channel,
         [&](const std::string&, const exploration_status_t& m) {
           std::fprintf(stderr,
                        "  plan %lld state %d: %s (best gain %.1f nats, %d candidates, goal %.2f "
@@ -228,7 +325,7 @@ MissionResult RunMission(const MissionConfig& mc) {
     // The collision map around the vehicle at each plan: '.' traversable, '#' occupied (P > 0.5),
     // '?' neither, 'V' the vehicle's cell.
     watch.Add<grid_map_t>(
-        explorer_config.map2d_prefix + "COLLISION",
+        prefixes.front() + explorer_config.map2d_prefix + "COLLISION",
         [&](const std::string&, const grid_map_t& m) {
           const int vx =
               static_cast<int>(std::floor((vehicle_position.x() - m.origin_m[0]) / m.resolution_m));
@@ -319,6 +416,17 @@ MissionResult RunMission(const MissionConfig& mc) {
   const Eigen::Vector2d start_cell =
       ((world.start_X_WB.p.head<2>() - world.map_min_m.head<2>()) / alpha_c).array().floor();
   Eigen::Vector3d last_position = world.start_X_WB.p;
+  r.vehicles.resize(num_vehicles);
+  std::vector<Eigen::Vector3d> last_positions;
+  for (size_t k = 0; k < num_vehicles; ++k) {
+    r.vehicles[k].prefix = prefixes[k];
+    r.vehicles[k].start_offset_m = offsets[k];
+    last_positions.push_back(sim.simulator().vehicle(k).state().p_W);
+  }
+  auto all_explorers = [&](int8_t state) {
+    return std::all_of(explorers.begin(), explorers.end(),
+                       [state](const auto& e) { return e->state() == state; });
+  };
   auto drain = [&] {
     while (lcm.handleTimeout(0) > 0) {
     }
@@ -336,13 +444,14 @@ MissionResult RunMission(const MissionConfig& mc) {
       cmd.source = "mission";
       cmd.command = command_t::COMMAND_TAKEOFF;
       cmd.height_m = world.exploration_height_m - world.start_X_WB.p.z();
-      lcm.publish(controller_config.command_channel, &cmd);
+      for (const std::string& p : prefixes)
+        lcm.publish(p + controller_config.command_channel, &cmd);
       takeoff_sent = true;
       takeoff_utime = now;
       drain();
     }
     while (now >= next_control) {
-      controller.Tick(next_control);
+      for (auto& c : controllers) c->Tick(next_control);
       next_control += control_period_us;
     }
     drain();
@@ -351,9 +460,12 @@ MissionResult RunMission(const MissionConfig& mc) {
     mapper.PublishDue();
     drain();
     if (now >= next_explore) {
-      explorer.Step();
+      // In vehicle order, each one's messages delivered before the next plans (deterministic).
+      for (auto& e : explorers) {
+        e->Step();
+        drain();
+      }
       next_explore += 50000;
-      drain();
     }
     if (outage_begin >= 0 && now > outage_end + SecondsToUtime(1.0) &&
         controller.flight().supervisor().mode() == FlightMode::kTrack) {
@@ -385,7 +497,22 @@ MissionResult RunMission(const MissionConfig& mc) {
     }
     r.path_length_m += (p - last_position).norm();
     last_position = p;
-    if (land_utime < 0 && explorer.state() == exploration_status_t::STATE_DONE) {
+    for (size_t k = 1; k < num_vehicles; ++k) {
+      const Eigen::Vector3d q = sim.simulator().vehicle(k).state().p_W;
+      r.path_length_m += (q - last_positions[k]).norm();
+      r.vehicles[k].path_length_m += (q - last_positions[k]).norm();
+      last_positions[k] = q;
+      for (size_t j = 0; j < k; ++j) {
+        const Eigen::Vector3d d = q - sim.simulator().vehicle(j).state().p_W;
+        r.min_distance_3d_m = std::min(r.min_distance_3d_m, d.norm());
+        if (std::abs(d.z()) < explorer_config.min_vertical_separation_m) {
+          r.min_separation_m = std::min(r.min_separation_m, d.head<2>().norm());
+        }
+      }
+    }
+    r.vehicles[0].path_length_m += (p - last_positions[0]).norm();
+    last_positions[0] = p;
+    if (land_utime < 0 && all_explorers(exploration_status_t::STATE_DONE)) {
       land_utime = now;
       r.exploration_time_s = UtimeToSeconds(now - takeoff_utime);
     }
@@ -400,7 +527,11 @@ MissionResult RunMission(const MissionConfig& mc) {
         const MapQuality q = quality();
         s.known_fraction = q.known_fraction;
         s.accuracy = q.accuracy;
-        if (r.time_to_95_s < 0 && q.known_fraction >= 0.95) r.time_to_95_s = t;
+        if (r.time_to_95_s < 0 && q.known_fraction >= 0.95) {
+          r.time_to_95_s = t;
+          r.path_to_95_m = r.path_length_m;
+          for (MissionVehicle& v : r.vehicles) v.path_to_95_m = v.path_length_m;
+        }
       }
       r.samples.push_back(s);
       if (mc.progress_period_s > 0.0 && t >= next_progress_s) {
@@ -420,10 +551,18 @@ MissionResult RunMission(const MissionConfig& mc) {
             sim.simulator().vehicle().collision_count());
       }
     }
-    if (land_utime >= 0 && controller.flight().supervisor().mode() == FlightMode::kIdle) {
+    if (land_utime >= 0 && std::all_of(controllers.begin(), controllers.end(), [](const auto& c) {
+          return c->flight().supervisor().mode() == FlightMode::kIdle;
+        })) {
       r.landed = true;
       r.end_reason = "exploration ended by the " + explorer.end_rule() + "; " + explorer.landing() +
                      "; landed";
+      if (num_vehicles > 1) r.end_reason = "every vehicle landed (" + r.end_reason + ")";
+      break;
+    }
+    if (mc.stop_at_known > 0 && !r.samples.empty() &&
+        r.samples.back().known_fraction >= mc.stop_at_known) {
+      r.end_reason = "known fraction " + Fixed3(r.samples.back().known_fraction) + " reached";
       break;
     }
     if (t >= mc.max_time_s) {
@@ -434,9 +573,22 @@ MissionResult RunMission(const MissionConfig& mc) {
   r.sim_time_s = UtimeToSeconds(clock.NowUtime() - t0);
   r.sensor_messages_dropped = r_sensor_dropped_;
   r.poses_dropped = r_poses_dropped_;
-  r.collisions = sim.simulator().vehicle().collision_count();
-  r.last_collision = sim.simulator().vehicle().last_collision();
-  r.plans = static_cast<int>(explorer.plans());
+  r.collisions = 0;
+  for (size_t k = 0; k < num_vehicles; ++k) {
+    MissionVehicle& v = r.vehicles[k];
+    v.collisions = sim.simulator().vehicle(k).collision_count();
+    r.collisions += v.collisions;
+    if (v.collisions > 0) r.last_collision = sim.simulator().vehicle(k).last_collision();
+    v.end_rule = explorers[k]->end_rule();
+    v.landing = explorers[k]->landing();
+    v.yields = explorers[k]->yields();
+    v.plans = static_cast<int>(explorers[k]->plans());
+    v.landed = r.landed;
+  }
+  r.inter_vehicle_contacts = sim.simulator().inter_vehicle_collision_count();
+  r.vertical_separation_m = explorer_config.min_vertical_separation_m;
+  r.plans = 0;
+  for (const auto& e : explorers) r.plans += static_cast<int>(e->plans());
   r.planning_wall_s = explorer.total_planning_s();
   r.end_rule = explorer.end_rule();
   r.landing = explorer.landing();
@@ -548,6 +700,20 @@ std::string MissionSummary(const MissionResult& r) {
     << "faults: " << r.sensor_messages_dropped << " sensor messages and " << r.poses_dropped
     << " poses dropped; tracking after the outage: " << (r.tracked_after_outage ? "yes" : "no")
     << "\n";
+  s << "path length when 95% known: " << r.path_to_95_m << " m (all vehicles)\n";
+  if (r.vehicles.size() > 1) {
+    s << "vehicles: " << r.vehicles.size() << ", smallest separation " << r.min_separation_m
+      << " m (horizontal, heights within " << r.vertical_separation_m
+      << " m), smallest 3D distance " << r.min_distance_3d_m << " m, contacts between vehicles "
+      << r.inter_vehicle_contacts << "\n";
+    for (const MissionVehicle& v : r.vehicles) {
+      s << "vehicle " << v.prefix << ": start offset (" << v.start_offset_m.x() << ", "
+        << v.start_offset_m.y() << ") m, path " << v.path_length_m << " m (" << v.path_to_95_m
+        << " m when 95% known), collisions " << v.collisions << ", plans " << v.plans << ", yields "
+        << v.yields << ", ended by: " << (v.end_rule.empty() ? "-" : v.end_rule)
+        << ", landing: " << (v.landing.empty() ? "-" : v.landing) << "\n";
+    }
+  }
   return s.str();
 }
 

@@ -6,11 +6,13 @@
 /// regression (tests/system/mission_test.cc), scripts/regress and scripts/demo's summary.
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
 #include "exploration/planner.h"
 #include "mapping/map_quality.h"
+#include "sim/world.h"
 
 namespace kestrel {
 
@@ -46,6 +48,40 @@ struct MissionConfig {
   double sensor_drop_fraction{0.0};  ///< drop this fraction of depth images and scans (seeded)
   double mocap_outage_at_s{-1.0};    ///< motion capture lost from this time (s after start)...
   double mocap_outage_s{0.0};        ///< ...for this long (poses not delivered)
+  /// Several vehicles (docs/exploration.md, "Several vehicles"), 1 to 4: vehicle k has the
+  /// channel prefix V<k+1>_, its own controller and explorer; one mapper fuses them all. With 1,
+  /// the run is the one-vehicle run (no prefixes).
+  int vehicles{1};
+  /// Each further vehicle starts this far from the others (and from the world's start), at the
+  /// first of a fixed list of offsets whose vehicle disc is clear of obstacles up to above the
+  /// flight height (VehicleStartOffsets), m.
+  double vehicle_spacing_m{1.5};
+  /// > 0: stop the run once the known fraction reaches this (time and path to 95% need no more).
+  double stop_at_known{0.0};
+};
+
+/// Start offsets (x, y, 0) from the world's start for `vehicles` vehicles of `diameter_m`: the
+/// first is 0; each further one the first of the offsets spacing_m x (0, 1), (0, -1), (1, 0),
+/// (-1, 0), (1, 1), (-1, 1), (1, -1), (-1, -1), then twice those, that is at least spacing_m from
+/// the ones before, inside the map, and whose disc (radius diameter_m / 2 + 0.2 m) is free of
+/// obstacles from 5 cm above the start's floor to 0.3 m above height_m. @throws
+/// std::invalid_argument if no such place is found.
+[[nodiscard]] std::vector<Eigen::Vector3d> VehicleStartOffsets(const World& world, int vehicles,
+                                                               double spacing_m, double diameter_m,
+                                                               double height_m);
+
+/// One vehicle's part of a mission.
+struct MissionVehicle {
+  std::string prefix;  ///< its channel prefix ("" with one vehicle)
+  Eigen::Vector3d start_offset_m{Eigen::Vector3d::Zero()};
+  double path_length_m{0};  ///< flown distance (true state)
+  double path_to_95_m{-1};  ///< flown when the map first reached 95% known (-1: never)
+  int collisions{0};        ///< with obstacles and the floor
+  std::string end_rule;     ///< ExplorerNode::end_rule
+  std::string landing;      ///< ExplorerNode::landing
+  int64_t yields{0};        ///< plans refused by the separation check
+  int plans{0};
+  bool landed{false};
 };
 
 /// One row of the time series.
@@ -103,6 +139,18 @@ struct MissionResult {
   bool left_start_collision_cell{false};
   /// An EXPLORATION_STATUS message said DONE (what processes watching the explorer rely on).
   bool done_status_published{false};
+  /// Every vehicle, in order (one with one vehicle).
+  std::vector<MissionVehicle> vehicles;
+  double path_to_95_m{-1};  ///< all vehicles' flown distance when the map reached 95% known
+  /// Smallest horizontal distance between two vehicles' true centres over the run while their
+  /// heights differ by less than the explorers' min_vertical_separation_m (the separation the
+  /// explorers keep), m (infinite with one vehicle, or if never).
+  double min_separation_m{std::numeric_limits<double>::infinity()};
+  /// Smallest 3D distance between two vehicles' true centres (one flying over a landed one
+  /// included), m (infinite with one vehicle).
+  double min_distance_3d_m{std::numeric_limits<double>::infinity()};
+  double vertical_separation_m{0.0};  ///< the explorers' min_vertical_separation_m, m
+  int inter_vehicle_contacts{0};      ///< contacts between vehicles (the simulator's count)
 };
 
 /// Runs a mission. @throws ConfigError / std::invalid_argument on bad configuration.

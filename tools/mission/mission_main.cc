@@ -18,14 +18,18 @@ const char* const kUsage =
     "                       [--mocap-outage-at S --mocap-outage DURATION_S]\n"
     "                       [--sim-set k=v]... [--mapper-set k=v]...\n"
     "                       [--explorer-set k=v]... [--no-quality] [--verbose] [--soak S]\n"
-    "                       [--progress S]\n"
+    "                       [--progress S] [--vehicles N [--vehicle-spacing M]]\n"
+    "                       [--stop-at-known FRACTION]\n"
     "Runs simulator, controller, mapper and explorer in lockstep over memq:// and prints a\n"
     "summary (known fraction, accuracy, Brier score against the simulator's ground truth).\n"
     "--soak S flies missions back to back in this one process (seeds N, N+1, ...) until S\n"
     "simulated seconds in all, and prints after each one the process's resident memory, open\n"
     "files and threads (docs/design.md section 7.9); the summary is the last flight's.\n"
     "--progress S prints a line on stderr every S simulated seconds (time, explorer state, known\n"
-    "fraction, entropy, path, collisions); default 10, 0 for none, and none when CI=true.\n";
+    "fraction, entropy, path, collisions); default 10, 0 for none, and none when CI=true.\n"
+    "--vehicles N (1 to 4) flies N vehicles (V1_, V2_, ...), each with its controller and\n"
+    "explorer, into one mapper; they start --vehicle-spacing M (default 1.5) apart.\n"
+    "--stop-at-known F ends the run once the map is F known (time and path to it).\n";
 
 // One soak line: the flight, its outcome and what the process holds after it.
 void PrintSoakLine(int flight, const kestrel::MissionConfig& mc, const kestrel::MissionResult& r,
@@ -74,6 +78,9 @@ int main(int argc, char** argv) {
         app.add_flag("--verbose", mc.verbose);
         app.add_option("--progress", mc.progress_period_s)->check(kestrel::cli::NonNegative());
         app.add_option("--soak", soak_s)->check(kestrel::cli::NonNegative());
+        app.add_option("--vehicles", mc.vehicles)->check(CLI::Range(1, 4));
+        app.add_option("--vehicle-spacing", mc.vehicle_spacing_m)->check(kestrel::cli::Positive());
+        app.add_option("--stop-at-known", mc.stop_at_known)->check(kestrel::cli::Within(0.0, 1.0));
       },
       [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
         mc.command_line = args.command_line;
