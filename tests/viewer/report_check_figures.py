@@ -6,7 +6,9 @@ the data says there is some, found through the transforms in the figure's .json 
   fig1  the map panel's coloured pixels lie where the world's ground truth projects (coarse
         blocks of the truth's occupied cells rendered here in the same projection), and cover
         where the map's occupied cells project; the truth panel matches the truth both ways;
-  fig2  occupied 2D-map cells are dark, the trajectory is red, candidates have arrows;
+  fig2  occupied 2D-map cells are dark, the trajectory is red (with several vehicles: each
+        vehicle's samples lie on a line of its colour, named in the sidecar), candidates have
+        arrows;
   fig3  each run's entropy and known-fraction samples lie on a line of that run's colour.
 Exits 1 and lists what failed; an empty or displaced map must fail.
 
@@ -172,11 +174,8 @@ def check_map2d(fig_dir, data_dir, c):
         by_k.setdefault(int(k), []).append({name: index[name][i] for name in index})
     if not c.expect(len(by_k) > 0, "the run has 2D maps"):
         return
-    trajectory = table(os.path.join(data_dir, "trajectory.csv"))
-    tt, tx, ty = column(trajectory, "time_s"), column(trajectory, "x_m"), column(trajectory, "y_m")
     cand = table(os.path.join(data_dir, "candidates.csv"))
     plan = column(cand, "plan").astype(int)
-    red = matplotlib.colors.to_rgb("tab:red")
     blue = matplotlib.colors.to_rgb("tab:blue")
     orange = matplotlib.colors.to_rgb("tab:orange")
     for k, entries in sorted(by_k.items()):
@@ -191,6 +190,12 @@ def check_map2d(fig_dir, data_dir, c):
             continue
         h = image.shape[0]
         gray = image.mean(axis=2)
+        # Each vehicle's path and colour (an older sidecar: one vehicle, trajectory.csv, red).
+        vehicles = side.get("vehicles") or [{"prefix": "", "file": "trajectory.csv",
+                                             "color": matplotlib.colors.to_hex("tab:red")}]
+        c.expect(len(vehicles) == len(table(os.path.join(data_dir, "vehicles.csv"))["prefix"])
+                 if os.path.exists(os.path.join(data_dir, "vehicles.csv")) else True,
+                 f"{name}: every vehicle of vehicles.csv is drawn")
         for e, panel in zip(entries, side["panels"]):
             values = np.loadtxt(os.path.join(data_dir, e["file"]), delimiter=",", ndmin=2)
             ox, oy, r = float(e["origin_x_m"]), float(e["origin_y_m"]), float(e["resolution_m"])
@@ -200,12 +205,18 @@ def check_map2d(fig_dir, data_dir, c):
             c.expect(len(dark) > 0 and np.mean(dark) >= 0.8,
                      f"{name} {e['name']}: {np.mean(dark) if dark else 0:.2f} of {len(dark)} "
                      "occupied cells drawn dark (>= 0.8)")
-            upto = tt <= t
-            cols, rows = to_pixels_2d(panel, tx[upto][::10], ty[upto][::10], h)
-            on_path = near_colour(image, cols, rows, red, 3, 0.2)
-            c.expect(len(on_path) > 0 and on_path.mean() >= 0.9,
-                     f"{name} {e['name']}: {on_path.mean() if len(on_path) else 0:.2f} of the "
-                     "trajectory samples are on a red line (>= 0.9)")
+            for v in vehicles:
+                trajectory = table(os.path.join(data_dir, v["file"]))
+                tt, tx, ty = (column(trajectory, "time_s"), column(trajectory, "x_m"),
+                              column(trajectory, "y_m"))
+                upto = tt <= t
+                cols, rows = to_pixels_2d(panel, tx[upto][::10], ty[upto][::10], h)
+                colour = matplotlib.colors.to_rgb(v["color"])
+                on_path = near_colour(image, cols, rows, colour, 3, 0.2)
+                what = "red" if len(vehicles) == 1 else f"{v['prefix']}'s {v['color']}"
+                c.expect(len(on_path) > 0 and on_path.mean() >= 0.9,
+                         f"{name} {e['name']}: {on_path.mean() if len(on_path) else 0:.2f} of "
+                         f"the trajectory samples are on a {what} line (>= 0.9)")
             sel = plan == int(e["plan"])
             cols, rows = to_pixels_2d(panel, column(cand, "x_m")[sel], column(cand, "y_m")[sel], h)
             arrows = near_colour(image, cols, rows, blue, 4, 0.2) | near_colour(

@@ -309,6 +309,31 @@ TEST(ReportExport, CandidatesAndMap2dAreTheLoggedMessages) {
   EXPECT_EQ(checked, 2);
 }
 
+// A one-vehicle run is one vehicle without a prefix (docs/design.md §7.10): its path in
+// trajectory.csv, its length along those poses, its plans those of EXPLORATION_STATUS.
+TEST(ReportExport, OneVehicleRunIsOneVehicleWithoutPrefix) {
+  std::string dir;
+  const Csv meta = ExportFixture(&dir);
+  EXPECT_EQ(Meta(meta, "vehicles"), 1.0);
+  const Csv v = ReadCsv(dir + "/vehicles.csv");
+  ASSERT_EQ(v.rows.size(), 1u);
+  EXPECT_EQ(v.rows[0][v.Column("prefix")], "");
+  EXPECT_EQ(v.rows[0][v.Column("trajectory_file")], "trajectory.csv");
+  const auto plans = ReadChannel<exploration_status_t>(kLog, "EXPLORATION_STATUS");
+  EXPECT_EQ(v.Number(0, "plans"), static_cast<double>(plans.size()));
+  const Csv t = ReadCsv(dir + "/trajectory.csv");
+  ASSERT_GT(t.rows.size(), 10u);
+  double length = 0.0;
+  for (size_t i = 1; i < t.rows.size(); ++i) {
+    const Eigen::Vector3d a(t.Number(i - 1, "x_m"), t.Number(i - 1, "y_m"), t.Number(i - 1, "z_m"));
+    const Eigen::Vector3d b(t.Number(i, "x_m"), t.Number(i, "y_m"), t.Number(i, "z_m"));
+    length += (b - a).norm();
+  }
+  // trajectory.csv rounds to 0.1 mm.
+  EXPECT_NEAR(v.Number(0, "path_length_m"), length, 1e-4 * static_cast<double>(t.rows.size()));
+  EXPECT_GT(length, 2.0);
+}
+
 /// The fields of one CSV line with RFC 4180 quoting ("a, b" and doubled quotes).
 std::vector<std::string> SplitQuotedCsv(const std::string& line) {
   std::vector<std::string> fields(1);

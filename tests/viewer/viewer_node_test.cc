@@ -1,10 +1,12 @@
 // The bridge node over LCM (memq://): malformed messages are counted by channel and dropped
 // before they reach the scene; a viewer started mid-run waits for a snapshot without counting
-// the deltas before it as errors.
+// the deltas before it as errors; with several vehicles each one's channels reach its own part
+// of the scene.
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/clock.h"
@@ -80,6 +82,65 @@ TEST(ViewerNode, DeltasBeforeTheFirstSnapshotAreNotErrors) {
   Drain(lcm);
   EXPECT_EQ(node.deltas_before_snapshot(), 2);
   EXPECT_EQ(node.dropped().total(), 0);
+}
+
+// Two vehicles (V1_, V2_): each one's pose, trajectory, exploration and 2D-map channels reach
+// its own part of the scene; the unprefixed channels of a one-vehicle run are not listened to.
+TEST(ViewerNode, EachVehicleListensToItsOwnChannels) {
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  ViewerConfig config = TestConfig();
+  config.vehicle_prefixes = {"V1_", "V2_"};
+  ViewerNode node(lcm, config, "", clock);
+  pose_t pose = ValidPose();
+  pose.position_m[0] = 1.0;
+  lcm.publish("V1_POSE_VICON", &pose);
+  pose.position_m[0] = 2.0;
+  lcm.publish("V1_POSE_VICON", &pose);
+  pose.position_m[0] = -3.0;
+  lcm.publish("V2_POSE_VICON", &pose);
+  pose.position_m[0] = 99.0;
+  lcm.publish("POSE_VICON", &pose);  // no such vehicle here
+  exploration_status_t status{};
+  status.seq = 4;
+  status.state = exploration_status_t::STATE_DONE;
+  status.chosen_index = -1;
+  lcm.publish("V2_EXPLORATION_STATUS", &status);
+  grid_map_t grid{};
+  grid.width = 1;
+  grid.height = 1;
+  grid.num_values = 1;
+  grid.values = {0.5f};
+  grid.resolution_m = 0.3;
+  lcm.publish("V2_MAP2D_COLLISION", &grid);
+  lcm.publish("MAP2D_COLLISION", &grid);  // no such vehicle here
+  Drain(lcm);
+  EXPECT_EQ(node.messages_received(), 5);
+  EXPECT_EQ(node.dropped().total(), 0);
+  ASSERT_EQ(node.scene().vehicle_count(), 2u);
+  EXPECT_EQ(node.scene().path_points(0), 2u);
+  EXPECT_EQ(node.scene().path_points(1), 1u);
+  int poses = 0, explorations = 0;
+  std::vector<std::string> grids;
+  for (const ViewerFrame& f : node.scene().SnapshotFrames()) {
+    if (f.binary) {
+      if (f.bytes[0] == 2) grids.push_back(f.bytes.substr(56, f.bytes[2]));
+      continue;
+    }
+    const YAML::Node m = YAML::Load(f.bytes);
+    const std::string type = m["type"].as<std::string>();
+    if (type == "pose") {
+      ++poses;
+      EXPECT_DOUBLE_EQ(m["p"][0].as<double>(), m["vehicle"].as<int>() == 0 ? 2.0 : -3.0);
+    } else if (type == "exploration") {
+      ++explorations;
+      EXPECT_EQ(m["vehicle"].as<int>(), 1);
+      EXPECT_EQ(m["seq"].as<int>(), 4);
+    }
+  }
+  EXPECT_EQ(poses, 2);
+  EXPECT_EQ(explorations, 1);
+  EXPECT_EQ(grids, std::vector<std::string>{"V2_MAP2D_COLLISION"});
 }
 
 }  // namespace

@@ -192,6 +192,122 @@ TEST(ViewerScene, SnapshotStartsWithHello) {
   EXPECT_EQ(JsonString("a\"b\\c\x01"), "\"a\\\"b\\\\c\\u0001\"");
 }
 
+/// A one-segment trajectory from `from` to `to` in `duration_s` at constant velocity, numbered
+/// `seq` (the TRAJECTORY layout: coefficient rows per segment, constant term first).
+trajectory_t LineTrajectory(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                            double duration_s, int64_t seq) {
+  trajectory_t m{};
+  m.utime = 1000;
+  m.seq = seq;
+  m.epoch = 1;
+  m.start_utime = 1000;
+  m.num_segments = 1;
+  m.num_coeffs = 2;
+  m.durations_s = {duration_s};
+  const Eigen::Vector3d v = (to - from) / duration_s;
+  m.coeffs_x = {{from.x(), v.x()}};
+  m.coeffs_y = {{from.y(), v.y()}};
+  m.coeffs_z = {{from.z(), v.z()}};
+  m.coeffs_yaw = {{0.0, 0.0}};
+  return m;
+}
+
+// Two vehicles on their own channels: each one's pose, path, plan and exploration are kept and
+// sent apart, each frame names its vehicle, and nothing of one shows up as the other's.
+TEST(ViewerScene, EachVehicleIsKeptApart) {
+  ViewerSceneConfig config;
+  config.vehicles = {"V1_", "V2_"};
+  config.path_min_step_m = 0.0;
+  ViewerScene scene(config);
+  ASSERT_EQ(scene.vehicle_count(), 2u);
+  for (int i = 0; i < 5; ++i) scene.OnPose(0, PoseAt(1.0 + 0.1 * i, 1.0, 1.0, 1000 + i));
+  for (int i = 0; i < 3; ++i) scene.OnPose(1, PoseAt(-2.0, -2.0 - 0.1 * i, 1.5, 1000 + i));
+  std::string error;
+  ASSERT_TRUE(scene.OnTrajectory(0, LineTrajectory({1, 1, 1}, {3, 1, 1}, 1.0, 11), &error))
+      << error;
+  ASSERT_TRUE(scene.OnTrajectory(1, LineTrajectory({-2, -2, 1.5}, {-2, -5, 1.5}, 2.0, 22), &error))
+      << error;
+  exploration_status_t e{};
+  e.mode = "volumetric";
+  e.state = exploration_status_t::STATE_RETURNING;
+  e.seq = 7;
+  e.chosen_index = -1;
+  e.goal_position_m[0] = -4.0;
+  scene.OnExploration(1, e);
+  EXPECT_EQ(scene.path_points(0), 5u);
+  EXPECT_EQ(scene.path_points(1), 3u);
+
+  for (const auto& frames : {scene.TakeUpdateFrames(), scene.SnapshotFrames()}) {
+    const auto hello = TextFrames(frames, "hello");
+    if (!hello.empty()) {
+      ASSERT_EQ(hello[0]["vehicles"].size(), 2u);
+      EXPECT_EQ(hello[0]["vehicles"][0].as<std::string>(), "V1_");
+      EXPECT_EQ(hello[0]["vehicles"][1].as<std::string>(), "V2_");
+    }
+    const auto poses = TextFrames(frames, "pose");
+    ASSERT_EQ(poses.size(), 2u);
+    for (const YAML::Node& p : poses) {
+      const int k = p["vehicle"].as<int>();
+      ASSERT_TRUE(k == 0 || k == 1);
+      // The latest pose of each: V1_ at x = 1.4, V2_ at y = -2.2.
+      EXPECT_NEAR(p["p"][0].as<double>(), k == 0 ? 1.4 : -2.0, 1e-9);
+      EXPECT_NEAR(p["p"][1].as<double>(), k == 0 ? 1.0 : -2.2, 1e-9);
+    }
+    EXPECT_NE(poses[0]["vehicle"].as<int>(), poses[1]["vehicle"].as<int>());
+    const auto paths = TextFrames(frames, "path");
+    ASSERT_EQ(paths.size(), 2u);
+    for (const YAML::Node& p : paths) {
+      const int k = p["vehicle"].as<int>();
+      ASSERT_EQ(p["points"].size(), k == 0 ? 5u : 3u);
+      for (size_t i = 0; i < p["points"].size(); ++i) {
+        // Every point of V1_'s path at y = 1, every one of V2_'s at x = -2.
+        EXPECT_DOUBLE_EQ(p["points"][i][k == 0 ? 1 : 0].as<double>(), k == 0 ? 1.0 : -2.0);
+      }
+    }
+    const auto plans = TextFrames(frames, "plan");
+    ASSERT_EQ(plans.size(), 2u);
+    for (const YAML::Node& p : plans) {
+      const int k = p["vehicle"].as<int>();
+      EXPECT_EQ(p["seq"].as<int>(), k == 0 ? 11 : 22);
+      const YAML::Node last = p["points"][p["points"].size() - 1];
+      EXPECT_NEAR(last[0].as<double>(), k == 0 ? 3.0 : -2.0, 1e-6);
+      EXPECT_NEAR(last[1].as<double>(), k == 0 ? 1.0 : -5.0, 1e-6);
+    }
+    const auto exploration = TextFrames(frames, "exploration");
+    ASSERT_EQ(exploration.size(), 1u);  // V1_ has none yet
+    EXPECT_EQ(exploration[0]["vehicle"].as<int>(), 1);
+    EXPECT_EQ(exploration[0]["state"].as<int>(), exploration_status_t::STATE_RETURNING);
+    EXPECT_DOUBLE_EQ(exploration[0]["goal"][0].as<double>(), -4.0);
+  }
+  // A new pose of V2_ sends V2_'s pose and path only.
+  scene.OnPose(1, PoseAt(-2.0, -3.0, 1.5, 2000));
+  const auto update = scene.TakeUpdateFrames();
+  const auto poses = TextFrames(update, "pose");
+  ASSERT_EQ(poses.size(), 1u);
+  EXPECT_EQ(poses[0]["vehicle"].as<int>(), 1);
+  const auto paths = TextFrames(update, "path");
+  ASSERT_EQ(paths.size(), 1u);
+  EXPECT_EQ(paths[0]["vehicle"].as<int>(), 1);
+  EXPECT_EQ(paths[0]["points"].size(), 1u);
+  EXPECT_EQ(scene.path_points(0), 5u);
+}
+
+// One vehicle (the default): every per-vehicle frame is vehicle 0, hello lists one vehicle
+// without a prefix.
+TEST(ViewerScene, OneVehicleIsVehicleZero) {
+  ViewerScene scene{ViewerSceneConfig{}};
+  scene.OnPose(PoseAt(1, 2, 3, 10));
+  const auto frames = scene.SnapshotFrames();
+  const auto hello = TextFrames(frames, "hello");
+  ASSERT_EQ(hello.size(), 1u);
+  ASSERT_EQ(hello[0]["vehicles"].size(), 1u);
+  EXPECT_EQ(hello[0]["vehicles"][0].as<std::string>(), "");
+  const auto pose = TextFrames(frames, "pose");
+  ASSERT_EQ(pose.size(), 1u);
+  EXPECT_EQ(pose[0]["vehicle"].as<int>(), 0);
+  EXPECT_EQ(TextFrames(frames, "path").size(), 1u);
+}
+
 // Pacing: a page too far behind is skipped (and later gets a snapshot), never queued without
 // bound.
 TEST(ViewerServer, PagesBehindAreSkippedThenResynchronised) {
@@ -228,6 +344,49 @@ TEST(ViewerConfig, OnlyLoopbackIsAccepted) {
   }
   ConfigNode threshold = ConfigNode::FromString("scene: {occupied_threshold: 1.0}\n", "v.yaml");
   EXPECT_THROW((void)LoadViewerConfig(threshold), ConfigError);
+}
+
+/// The message of the ConfigError LoadViewerConfig throws on `yaml` ("" if it throws none).
+std::string RefusalOf(const std::string& yaml) {
+  ConfigNode node = ConfigNode::FromString(yaml, "v.yaml");
+  try {
+    (void)LoadViewerConfig(node);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// The vehicles: one without a prefix by default; a list is read in order and reaches the scene;
+// a duplicate, a bad character, an empty list or more than 16 are refused, naming the entry.
+TEST(ViewerConfig, VehiclesAreReadAndChecked) {
+  ConfigNode none = ConfigNode::FromString("port: 0\n", "v.yaml");
+  const ViewerConfig one = LoadViewerConfig(none);
+  EXPECT_EQ(one.vehicle_prefixes, std::vector<std::string>{""});
+  EXPECT_EQ(one.scene.vehicles, std::vector<std::string>{""});
+  ConfigNode two = ConfigNode::FromString("vehicles: [{prefix: V1_}, {prefix: V2_}]\n", "v.yaml");
+  const ViewerConfig c = LoadViewerConfig(two);
+  EXPECT_EQ(c.vehicle_prefixes, (std::vector<std::string>{"V1_", "V2_"}));
+  EXPECT_EQ(c.scene.vehicles, c.vehicle_prefixes);
+
+  std::string what = RefusalOf("vehicles: [{prefix: V1_}, {prefix: V2_}, {prefix: V1_}]\n");
+  EXPECT_NE(what.find("v.yaml: vehicles[0] and [2] share the prefix 'V1_'"), std::string::npos)
+      << what;
+  what = RefusalOf("vehicles: [{prefix: V1_}, {prefix: \"V-2\"}]\n");
+  EXPECT_NE(what.find("vehicles[1].prefix = 'V-2': accepted: letters, digits and '_'"),
+            std::string::npos)
+      << what;
+  what = RefusalOf("vehicles: [{prefix: \"V1 \"}]\n");
+  EXPECT_NE(what.find("vehicles[0].prefix = 'V1 '"), std::string::npos) << what;
+  what = RefusalOf("vehicles: []\n");
+  EXPECT_NE(what.find("vehicles: 0 listed; accepted: 1 to 16"), std::string::npos) << what;
+  std::string many = "vehicles: [";
+  for (int k = 1; k <= 17; ++k)
+    many += (k > 1 ? ", " : "") + std::string("{prefix: V") + std::to_string(k) + "_}";
+  what = RefusalOf(many + "]\n");
+  EXPECT_NE(what.find("vehicles: 17 listed; accepted: 1 to 16"), std::string::npos) << what;
+  what = RefusalOf("vehicles: [{name: V1_}]\n");
+  EXPECT_NE(what.find("prefix"), std::string::npos) << what;
 }
 
 }  // namespace

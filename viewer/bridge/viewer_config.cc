@@ -1,5 +1,6 @@
 #include "viewer/bridge/viewer_config.h"
 
+#include <cctype>
 #include <stdexcept>
 
 #include "common/check.h"
@@ -26,6 +27,21 @@ void ViewerConfig::Validate() const {
                        "plan_sample_period_s = " << scene.plan_sample_period_s << " must be > 0");
   KESTREL_THROW_UNLESS(scene.max_candidates >= 0,
                        "max_candidates = " << scene.max_candidates << " below 0");
+  // The same rules as the mapper's and the simulator's vehicles (docs/design.md §7.10).
+  KESTREL_THROW_UNLESS(!vehicle_prefixes.empty() && vehicle_prefixes.size() <= 16,
+                       "vehicles: " << vehicle_prefixes.size() << " listed; accepted: 1 to 16");
+  for (size_t i = 0; i < vehicle_prefixes.size(); ++i) {
+    for (const char ch : vehicle_prefixes[i]) {
+      KESTREL_THROW_UNLESS(std::isalnum(static_cast<unsigned char>(ch)) || ch == '_',
+                           "vehicles[" << i << "].prefix = '" << vehicle_prefixes[i]
+                                       << "': accepted: letters, digits and '_'");
+    }
+    for (size_t j = 0; j < i; ++j) {
+      KESTREL_THROW_UNLESS(vehicle_prefixes[i] != vehicle_prefixes[j],
+                           "vehicles[" << j << "] and [" << i << "] share the prefix '"
+                                       << vehicle_prefixes[i] << "'");
+    }
+  }
 }
 
 ViewerConfig LoadViewerConfig(const ConfigNode& node) {
@@ -52,6 +68,14 @@ ViewerConfig LoadViewerConfig(const ConfigNode& node) {
     ch.Read("exploration", &c.exploration_channel);
     ch.Read("heartbeat", &c.heartbeat_channel);
   }
+  if (node.Has("vehicles")) {
+    c.vehicle_prefixes.clear();
+    for (const ConfigNode& v : node.Elements("vehicles")) {
+      std::string prefix;
+      v.ReadRequired("prefix", &prefix);
+      c.vehicle_prefixes.push_back(prefix);
+    }
+  }
   if (node.Has("scene")) {
     const ConfigNode s = node.Child("scene");
     s.Read("occupied_threshold", &c.scene.occupied_threshold, Range{0.0, 1.0, true, false});
@@ -74,6 +98,7 @@ ViewerConfig LoadViewerConfig(const ConfigNode& node) {
                       {"pose", c.pose_channel},
                       {"trajectory", c.trajectory_channel},
                       {"exploration", c.exploration_channel}};
+  c.scene.vehicles = c.vehicle_prefixes;
   return c;
 }
 

@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "common/config.h"
 #include "viewer/bridge/viewer_scene.h"
@@ -33,8 +34,13 @@ struct ViewerConfig {
   std::string trajectory_channel{"TRAJECTORY"};           ///< trajectory_t (the current plan)
   std::string exploration_channel{"EXPLORATION_STATUS"};  ///< exploration_status_t
   std::string heartbeat_channel{"HEARTBEAT_VIEWER"};
+  /// The vehicles shown (docs/design.md §7.10): each one's prefix goes before the pose,
+  /// trajectory, exploration and 2D-map channels above (V2_POSE_VICON, V2_MAP2D_.*); the map
+  /// channels are shared. Letters, digits and '_' only, no two alike, 1 to 16 of them. One
+  /// vehicle without a prefix by default.
+  std::vector<std::string> vehicle_prefixes{""};
 
-  ViewerSceneConfig scene;  ///< threshold, history sizes (channels filled from the above)
+  ViewerSceneConfig scene;  ///< threshold, history sizes (channels, vehicles from the above)
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;

@@ -22,7 +22,10 @@ const char* const kUsage =
     "http://127.0.0.1:8740/ (host, port): the 3D map as voxels, the 2D maps, pose, trajectory,\n"
     "candidates and the entropy history; a page opened late starts from the current state.\n"
     "Foxglove connects to ws://127.0.0.1:8765 (foxglove.port; -1: off): the map as cubes, the\n"
-    "2D maps as grids, the pose as a transform, trajectory and candidates as lines and arrows.\n";
+    "2D maps as grids, the pose as a transform, trajectory and candidates as lines and arrows.\n"
+    "Several vehicles (vehicles: [{prefix: V1_}, {prefix: V2_}]): the page shows each one's\n"
+    "pose, path, plan, goal and explorer state from its prefixed channels; Foxglove shows the\n"
+    "first vehicle's.\n";
 
 #ifndef KESTREL_VIEWER_WEB_ROOT
 #define KESTREL_VIEWER_WEB_ROOT ""
@@ -82,10 +85,12 @@ int main(int argc, char** argv) {
           f.bridge.occupied_threshold = config.scene.occupied_threshold;
           f.bridge.map_channel = config.map_channel;
           f.bridge.delta_channel = config.delta_channel;
-          f.bridge.pose_channel = config.pose_channel;
-          f.bridge.trajectory_channel = config.trajectory_channel;
-          f.bridge.exploration_channel = config.exploration_channel;
-          f.bridge.map2d_prefix = MapPrefixOf(config.map2d_channels);
+          // The first vehicle's channels (one vehicle without a prefix: as before).
+          const std::string& vehicle = config.vehicle_prefixes.front();
+          f.bridge.pose_channel = vehicle + config.pose_channel;
+          f.bridge.trajectory_channel = vehicle + config.trajectory_channel;
+          f.bridge.exploration_channel = vehicle + config.exploration_channel;
+          f.bridge.map2d_prefix = vehicle + MapPrefixOf(config.map2d_channels);
           foxglove = std::make_unique<kestrel::foxglove::FoxgloveNode>(lcm, f, clock);
         }
         while (!kestrel::NodeLoop::signal_received()) {

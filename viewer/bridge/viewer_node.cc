@@ -13,6 +13,12 @@ ViewerServer::Options ServerOptions(const ViewerConfig& config, const std::strin
   o.max_clients = config.max_clients;
   return o;
 }
+// The scene's configuration with the vehicles of the node's (one list, whoever filled it).
+ViewerSceneConfig SceneConfigOf(const ViewerConfig& config) {
+  ViewerSceneConfig scene = config.scene;
+  scene.vehicles = config.vehicle_prefixes;
+  return scene;
+}
 }  // namespace
 
 ViewerNode::ViewerNode(lcm::LCM& lcm, const ViewerConfig& config, const std::string& web_root,
@@ -20,7 +26,7 @@ ViewerNode::ViewerNode(lcm::LCM& lcm, const ViewerConfig& config, const std::str
     : lcm_(lcm),
       config_(config),
       clock_(clock),
-      scene_(config.scene),
+      scene_(SceneConfigOf(config)),
       server_(ServerOptions(config, web_root)),
       subscriptions_(lcm),
       dropped_(clock),
@@ -56,36 +62,40 @@ ViewerNode::ViewerNode(lcm::LCM& lcm, const ViewerConfig& config, const std::str
         scene_.OnMapStatus(m);
       },
       malformed);
-  subscriptions_.Add<grid_map_t>(
-      config_.map2d_channels,
-      [this](const std::string& channel, const grid_map_t& m) {
-        ++messages_received_;
-        std::string error;
-        if (!scene_.OnGridMap(channel, m, &error)) Refused(channel, error);
-      },
-      malformed);
-  subscriptions_.Add<pose_t>(
-      config_.pose_channel,
-      [this](const std::string&, const pose_t& m) {
-        ++messages_received_;
-        scene_.OnPose(m);
-      },
-      malformed);
-  subscriptions_.Add<trajectory_t>(
-      config_.trajectory_channel,
-      [this](const std::string& channel, const trajectory_t& m) {
-        ++messages_received_;
-        std::string error;
-        if (!scene_.OnTrajectory(m, &error)) Refused(channel, error);
-      },
-      malformed);
-  subscriptions_.Add<exploration_status_t>(
-      config_.exploration_channel,
-      [this](const std::string&, const exploration_status_t& m) {
-        ++messages_received_;
-        scene_.OnExploration(m);
-      },
-      malformed);
+  // Each vehicle's own channels: its prefix before the configured names (docs/design.md §7.10).
+  for (size_t k = 0; k < config_.vehicle_prefixes.size(); ++k) {
+    const std::string& prefix = config_.vehicle_prefixes[k];
+    subscriptions_.Add<grid_map_t>(
+        prefix + config_.map2d_channels,
+        [this](const std::string& channel, const grid_map_t& m) {
+          ++messages_received_;
+          std::string error;
+          if (!scene_.OnGridMap(channel, m, &error)) Refused(channel, error);
+        },
+        malformed);
+    subscriptions_.Add<pose_t>(
+        prefix + config_.pose_channel,
+        [this, k](const std::string&, const pose_t& m) {
+          ++messages_received_;
+          scene_.OnPose(k, m);
+        },
+        malformed);
+    subscriptions_.Add<trajectory_t>(
+        prefix + config_.trajectory_channel,
+        [this, k](const std::string& channel, const trajectory_t& m) {
+          ++messages_received_;
+          std::string error;
+          if (!scene_.OnTrajectory(k, m, &error)) Refused(channel, error);
+        },
+        malformed);
+    subscriptions_.Add<exploration_status_t>(
+        prefix + config_.exploration_channel,
+        [this, k](const std::string&, const exploration_status_t& m) {
+          ++messages_received_;
+          scene_.OnExploration(k, m);
+        },
+        malformed);
+  }
   heartbeat_.SetState(heartbeat_t::STATE_OK);
 }
 

@@ -1,9 +1,11 @@
 #pragma once
 /// @file
-/// The bridge node of kestrel-viewer: subscribes to Kestrel's channels (decoded through
-/// common/lcm_decode.h; malformed messages are counted by channel, logged rate-limited and
-/// dropped), keeps the ViewerScene, serves pages through a ViewerServer, and sends them the
-/// scene's changes at update_rate_hz. A 1 Hz heartbeat carries its counters.
+/// The bridge node of kestrel-viewer: subscribes to Kestrel's channels (the map's once, and
+/// each vehicle's pose, trajectory, exploration and 2D-map channels under its prefix,
+/// docs/design.md §7.10), decoded through common/lcm_decode.h (malformed messages are counted
+/// by channel, logged rate-limited and dropped), keeps the ViewerScene, serves pages through a
+/// ViewerServer, and sends them the scene's changes at update_rate_hz. A 1 Hz heartbeat carries
+/// its counters.
 ///
 /// One thread: the process loop (viewer_main.cc) alternates LCM handling, Poll() and Tick().
 

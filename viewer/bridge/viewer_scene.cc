@@ -143,6 +143,8 @@ ViewerScene::ViewerScene(const ViewerSceneConfig& config)
                            config.max_plan_points >= 2 && config.max_candidates >= 0,
                        "viewer scene sizes: path step " << config.path_min_step_m << ", points "
                                                         << config.max_path_points);
+  KESTREL_THROW_UNLESS(!config.vehicles.empty(), "viewer scene: no vehicle");
+  vehicles_.resize(config.vehicles.size());
 }
 
 bool ViewerScene::OnMapChunk(const map3d_chunk_t& msg, std::string* error) {
@@ -176,35 +178,38 @@ bool ViewerScene::OnGridMap(const std::string& channel, const grid_map_t& msg, s
   return true;
 }
 
-void ViewerScene::OnPose(const pose_t& msg) {
-  pose_ = msg;
-  pose_dirty_ = true;
+void ViewerScene::OnPose(size_t vehicle, const pose_t& msg) {
+  Vehicle& v = vehicles_.at(vehicle);
+  v.pose = msg;
+  v.pose_dirty = true;
   if (!msg.valid) return;
   const Eigen::Vector3d p(msg.position_m[0], msg.position_m[1], msg.position_m[2]);
   if (!p.allFinite()) return;
-  if (!path_.empty() && (p - path_.back()).norm() < config_.path_min_step_m) return;
-  path_.push_back(p);
-  if (path_.size() > static_cast<size_t>(config_.max_path_points)) {
-    Halve(&path_);
-    path_reset_ = true;
+  if (!v.path.empty() && (p - v.path.back()).norm() < config_.path_min_step_m) return;
+  v.path.push_back(p);
+  if (v.path.size() > static_cast<size_t>(config_.max_path_points)) {
+    Halve(&v.path);
+    v.path_reset = true;
   }
 }
 
-bool ViewerScene::OnTrajectory(const trajectory_t& msg, std::string* error) {
+bool ViewerScene::OnTrajectory(size_t vehicle, const trajectory_t& msg, std::string* error) {
+  Vehicle& v = vehicles_.at(vehicle);
   const std::optional<PiecewisePolynomialTrajectory> trajectory = FromMessage(msg, error);
   if (!trajectory) return false;
   const double dt_s = std::max(config_.plan_sample_period_s,
                                trajectory->duration_s() / (config_.max_plan_points - 1));
-  plan_.clear();
-  for (const TrajectorySample& s : trajectory->Sample(dt_s)) plan_.push_back(s.flat.position_m);
-  plan_seq_ = msg.seq;
-  plan_dirty_ = true;
+  v.plan.clear();
+  for (const TrajectorySample& s : trajectory->Sample(dt_s)) v.plan.push_back(s.flat.position_m);
+  v.plan_seq = msg.seq;
+  v.plan_dirty = true;
   return true;
 }
 
-void ViewerScene::OnExploration(const exploration_status_t& msg) {
-  exploration_ = msg;
-  exploration_dirty_ = true;
+void ViewerScene::OnExploration(size_t vehicle, const exploration_status_t& msg) {
+  Vehicle& v = vehicles_.at(vehicle);
+  v.exploration = msg;
+  v.exploration_dirty = true;
 }
 
 void ViewerScene::SetBridgeCounter(const std::string& name, int64_t value) {
@@ -222,13 +227,19 @@ std::string ViewerScene::HelloJson() const {
     first = false;
     out += JsonString(key) + ":" + JsonString(channel);
   }
-  out += "}}";
+  out += "},\"vehicles\":[";
+  for (size_t k = 0; k < config_.vehicles.size(); ++k) {
+    if (k > 0) out += ',';
+    out += JsonString(config_.vehicles[k]);
+  }
+  out += "]}";
   return out;
 }
 
-std::string ViewerScene::PoseJson() const {
-  const pose_t& m = *pose_;
-  std::string out = "{\"type\":\"pose\",\"utime\":" + std::to_string(m.utime) + ",\"p\":";
+std::string ViewerScene::PoseJson(size_t vehicle) const {
+  const pose_t& m = *vehicles_[vehicle].pose;
+  std::string out = "{\"type\":\"pose\",\"vehicle\":" + std::to_string(vehicle) +
+                    ",\"utime\":" + std::to_string(m.utime) + ",\"p\":";
   AppendPoint(&out, Eigen::Vector3d(m.position_m[0], m.position_m[1], m.position_m[2]));
   out += ",\"q\":[";
   for (int i = 0; i < 4; ++i) {
@@ -241,26 +252,28 @@ std::string ViewerScene::PoseJson() const {
   return out;
 }
 
-std::string ViewerScene::PathJson(bool reset, size_t from) const {
-  std::string out = "{\"type\":\"path\",\"reset\":";
+std::string ViewerScene::PathJson(size_t vehicle, bool reset, size_t from) const {
+  std::string out = "{\"type\":\"path\",\"vehicle\":" + std::to_string(vehicle) + ",\"reset\":";
   out += reset ? "true" : "false";
   out += ",\"points\":";
-  AppendPoints(&out, path_, reset ? 0 : from);
+  AppendPoints(&out, vehicles_[vehicle].path, reset ? 0 : from);
   out += '}';
   return out;
 }
 
-std::string ViewerScene::PlanJson() const {
-  std::string out = "{\"type\":\"plan\",\"seq\":" + std::to_string(plan_seq_) + ",\"points\":";
-  AppendPoints(&out, plan_, 0);
+std::string ViewerScene::PlanJson(size_t vehicle) const {
+  const Vehicle& v = vehicles_[vehicle];
+  std::string out = "{\"type\":\"plan\",\"vehicle\":" + std::to_string(vehicle) +
+                    ",\"seq\":" + std::to_string(v.plan_seq) + ",\"points\":";
+  AppendPoints(&out, v.plan, 0);
   out += '}';
   return out;
 }
 
-std::string ViewerScene::ExplorationJson() const {
-  const exploration_status_t& m = *exploration_;
-  std::string out = "{\"type\":\"exploration\",\"utime\":" + std::to_string(m.utime) +
-                    ",\"seq\":" + std::to_string(m.seq) +
+std::string ViewerScene::ExplorationJson(size_t vehicle) const {
+  const exploration_status_t& m = *vehicles_[vehicle].exploration;
+  std::string out = "{\"type\":\"exploration\",\"vehicle\":" + std::to_string(vehicle) +
+                    ",\"utime\":" + std::to_string(m.utime) + ",\"seq\":" + std::to_string(m.seq) +
                     ",\"state\":" + std::to_string(static_cast<int>(m.state)) +
                     ",\"mode\":" + JsonString(m.mode) + ",\"reason\":" + JsonString(m.reason) +
                     ",\"entropy\":";
@@ -357,10 +370,13 @@ std::vector<ViewerFrame> ViewerScene::SnapshotFrames() const {
   if (voxels_.has_snapshot()) frames.push_back({true, VoxelSnapshotFrame()});
   for (const auto& [channel, grid] : grids_)
     frames.push_back({true, EncodeGridFrame(channel, grid)});
-  if (pose_) frames.push_back({false, PoseJson()});
-  frames.push_back({false, PathJson(true, 0)});
-  if (plan_seq_ >= 0) frames.push_back({false, PlanJson()});
-  if (exploration_) frames.push_back({false, ExplorationJson()});
+  for (size_t k = 0; k < vehicles_.size(); ++k) {
+    const Vehicle& v = vehicles_[k];
+    if (v.pose) frames.push_back({false, PoseJson(k)});
+    frames.push_back({false, PathJson(k, true, 0)});
+    if (v.plan_seq >= 0) frames.push_back({false, PlanJson(k)});
+    if (v.exploration) frames.push_back({false, ExplorationJson(k)});
+  }
   frames.push_back({false, EntropyJson(true, 0)});
   frames.push_back({false, StatusJson()});
   return frames;
@@ -377,17 +393,20 @@ std::vector<ViewerFrame> ViewerScene::TakeUpdateFrames() {
     if (dirty) frames.push_back({true, EncodeGridFrame(channel, grids_.at(channel))});
     dirty = false;
   }
-  if (pose_dirty_ && pose_) frames.push_back({false, PoseJson()});
-  pose_dirty_ = false;
-  if (path_reset_ || path_sent_ < path_.size()) {
-    frames.push_back({false, PathJson(path_reset_, path_sent_)});
+  for (size_t k = 0; k < vehicles_.size(); ++k) {
+    Vehicle& v = vehicles_[k];
+    if (v.pose_dirty && v.pose) frames.push_back({false, PoseJson(k)});
+    v.pose_dirty = false;
+    if (v.path_reset || v.path_sent < v.path.size()) {
+      frames.push_back({false, PathJson(k, v.path_reset, v.path_sent)});
+    }
+    v.path_reset = false;
+    v.path_sent = v.path.size();
+    if (v.plan_dirty) frames.push_back({false, PlanJson(k)});
+    v.plan_dirty = false;
+    if (v.exploration_dirty && v.exploration) frames.push_back({false, ExplorationJson(k)});
+    v.exploration_dirty = false;
   }
-  path_reset_ = false;
-  path_sent_ = path_.size();
-  if (plan_dirty_) frames.push_back({false, PlanJson()});
-  plan_dirty_ = false;
-  if (exploration_dirty_ && exploration_) frames.push_back({false, ExplorationJson()});
-  exploration_dirty_ = false;
   if (entropy_reset_ || entropy_sent_ < entropy_.size()) {
     frames.push_back({false, EntropyJson(entropy_reset_, entropy_sent_)});
   }

@@ -5,6 +5,9 @@
 ///
 /// Wire protocol (one WebSocket message per frame; the page is viewer/web/viewer.js):
 ///
+/// "vehicle" is the index of the vehicle in hello's list: each vehicle's pose, path, plan and
+/// exploration are kept and sent apart (its prefix before each channel name).
+///
 /// Binary frames, little-endian, the first byte is the kind:
 ///  - kind 1, voxels (48-byte header, then num_entries x 8 bytes):
 ///      u8 kind=1 | u8 flags (bit 0: reset = drop every voxel first, i.e. a full snapshot)
@@ -15,14 +18,18 @@
 ///  - kind 2, a 2D grid map (56-byte header, the name padded to 8 bytes, then f32 values):
 ///      u8 kind=2 | u8 0 | u16 name_length | u32 width | u32 height | u32 0
 ///      | f64 origin_m[2] | f64 height_m | f64 resolution_m | i64 utime; name (the channel,
-///      e.g. "MAP2D_COLLISION"); width * height f32, row-major, x fastest (grid_map_t.values).
+///      e.g. "MAP2D_COLLISION", "V2_MAP2D_COLLISION"); width * height f32, row-major, x fastest
+///      (grid_map_t.values).
 /// Text frames are JSON objects with a "type":
-///  - "hello": protocol version, occupied threshold, channel names;
-///  - "pose": {utime, p: [x, y, z] m, q: [w, x, y, z], valid} (the latest POSE_VICON);
-///  - "path": {reset, points: [[x, y, z], ...]}: the flown path, appended (reset: replace);
-///  - "plan": {seq, points}: the latest TRAJECTORY, sampled;
-///  - "exploration": {seq, state, mode, reason, chosen, goal, best_gain, candidates:
-///      [[x, y, z, yaw, gain_nats, objective], ...]};
+///  - "hello": protocol version, occupied threshold, channel names, vehicles: [prefix, ...]
+///      (docs/design.md §7.10; [""] for one vehicle without a prefix);
+///  - "pose": {vehicle, utime, p: [x, y, z] m, q: [w, x, y, z], valid} (the vehicle's latest
+///      POSE_VICON);
+///  - "path": {vehicle, reset, points: [[x, y, z], ...]}: its flown path, appended (reset:
+///      replace);
+///  - "plan": {vehicle, seq, points}: its latest TRAJECTORY, sampled;
+///  - "exploration": {vehicle, seq, state, mode, reason, chosen, goal, best_gain, candidates:
+///      [[x, y, z, yaw, gain_nats, objective], ...]} from its EXPLORATION_STATUS;
 ///  - "entropy": {reset, points: [[utime_s, H_nats], ...]} from MAP_STATUS, appended;
 ///  - "status": map_seq, current, occupied count, mapper rates and the bridge's counters.
 ///
@@ -50,7 +57,8 @@
 namespace kestrel {
 
 /// The protocol version sent in "hello" (bump when a frame layout changes).
-inline constexpr int kViewerProtocolVersion = 1;
+/// 2: the per-vehicle frames name their vehicle, hello lists the vehicles.
+inline constexpr int kViewerProtocolVersion = 2;
 
 /// One WebSocket message: binary or text (JSON).
 struct ViewerFrame {
@@ -69,6 +77,8 @@ struct ViewerSceneConfig {
   int max_candidates{512};           ///< candidates forwarded per plan (best objective first)
   /// Channel names for "hello" (display only).
   std::map<std::string, std::string> channels;
+  /// The vehicles' channel prefixes (docs/design.md §7.10), at least one; index k is vehicle k.
+  std::vector<std::string> vehicles{""};
 };
 
 /// Encodes a voxel frame (kind 1) as documented in the file comment.
@@ -82,7 +92,8 @@ struct ViewerSceneConfig {
 
 class ViewerScene {
  public:
-  /// @throws std::invalid_argument on a threshold outside [0, 1) or non-positive sizes.
+  /// @throws std::invalid_argument on a threshold outside [0, 1), non-positive sizes or no
+  ///   vehicle.
   explicit ViewerScene(const ViewerSceneConfig& config);
 
   /// Map input (VoxelStream::Apply). Returns false with *error when refused.
@@ -92,12 +103,19 @@ class ViewerScene {
   void OnMapStatus(const map_status_t& msg);
   /// A MAP2D_* grid under its channel name. Returns false with *error on inconsistent sizes.
   bool OnGridMap(const std::string& channel, const grid_map_t& msg, std::string* error);
-  /// POSE_VICON: the latest pose; valid poses extend the flown path.
-  void OnPose(const pose_t& msg);
-  /// TRAJECTORY: sampled for display. Returns false with *error on an inconsistent message.
-  bool OnTrajectory(const trajectory_t& msg, std::string* error);
-  /// EXPLORATION_STATUS: state, goal and candidates.
-  void OnExploration(const exploration_status_t& msg);
+  /// A vehicle's POSE_VICON: its latest pose; valid poses extend its flown path. `vehicle` is
+  /// an index into config.vehicles (precondition); the overloads without it are vehicle 0.
+  void OnPose(size_t vehicle, const pose_t& msg);
+  void OnPose(const pose_t& msg) { OnPose(0, msg); }
+  /// A vehicle's TRAJECTORY: sampled for display. Returns false with *error on an inconsistent
+  /// message.
+  bool OnTrajectory(size_t vehicle, const trajectory_t& msg, std::string* error);
+  bool OnTrajectory(const trajectory_t& msg, std::string* error) {
+    return OnTrajectory(0, msg, error);
+  }
+  /// A vehicle's EXPLORATION_STATUS: state, goal and candidates.
+  void OnExploration(size_t vehicle, const exploration_status_t& msg);
+  void OnExploration(const exploration_status_t& msg) { OnExploration(0, msg); }
   /// Counters of the bridge itself (malformed messages, refused maps, clients ...) for "status".
   void SetBridgeCounter(const std::string& name, int64_t value);
 
@@ -107,15 +125,33 @@ class ViewerScene {
   [[nodiscard]] std::vector<ViewerFrame> TakeUpdateFrames();
 
   [[nodiscard]] const VoxelStream& voxels() const { return voxels_; }
-  [[nodiscard]] size_t path_points() const { return path_.size(); }
+  [[nodiscard]] size_t vehicle_count() const { return vehicles_.size(); }
+  /// Flown path points kept of a vehicle (default: vehicle 0).
+  [[nodiscard]] size_t path_points(size_t vehicle = 0) const {
+    return vehicles_.at(vehicle).path.size();
+  }
   [[nodiscard]] size_t entropy_points() const { return entropy_.size(); }
 
  private:
+  /// What is kept of one vehicle, and what of it changed since the last update.
+  struct Vehicle {
+    std::optional<pose_t> pose;
+    bool pose_dirty{false};
+    std::vector<Eigen::Vector3d> path;
+    size_t path_sent{0};
+    bool path_reset{false};
+    int64_t plan_seq{-1};
+    std::vector<Eigen::Vector3d> plan;
+    bool plan_dirty{false};
+    std::optional<exploration_status_t> exploration;
+    bool exploration_dirty{false};
+  };
+
   [[nodiscard]] std::string HelloJson() const;
-  [[nodiscard]] std::string PoseJson() const;
-  [[nodiscard]] std::string PathJson(bool reset, size_t from) const;
-  [[nodiscard]] std::string PlanJson() const;
-  [[nodiscard]] std::string ExplorationJson() const;
+  [[nodiscard]] std::string PoseJson(size_t vehicle) const;
+  [[nodiscard]] std::string PathJson(size_t vehicle, bool reset, size_t from) const;
+  [[nodiscard]] std::string PlanJson(size_t vehicle) const;
+  [[nodiscard]] std::string ExplorationJson(size_t vehicle) const;
   [[nodiscard]] std::string EntropyJson(bool reset, size_t from) const;
   [[nodiscard]] std::string StatusJson() const;
   [[nodiscard]] std::string VoxelSnapshotFrame() const;
@@ -125,16 +161,7 @@ class ViewerScene {
   // Latest grids by channel, and the channels changed since the last update.
   std::map<std::string, grid_map_t> grids_;
   std::map<std::string, bool> grid_dirty_;
-  std::optional<pose_t> pose_;
-  bool pose_dirty_{false};
-  std::vector<Eigen::Vector3d> path_;
-  size_t path_sent_{0};
-  bool path_reset_{false};
-  int64_t plan_seq_{-1};
-  std::vector<Eigen::Vector3d> plan_;
-  bool plan_dirty_{false};
-  std::optional<exploration_status_t> exploration_;
-  bool exploration_dirty_{false};
+  std::vector<Vehicle> vehicles_;                    // one per config_.vehicles entry, same order
   std::vector<std::pair<int64_t, double>> entropy_;  // (utime, H nats)
   size_t entropy_sent_{0};
   bool entropy_reset_{false};

@@ -5,10 +5,13 @@ Draws, with Debian's python3-matplotlib (Agg backend, no display):
   fig1_map3d.png          the 3D occupancy grid (cells with P above the threshold, coloured by
                           height) beside the ground truth when the run was simulated (Figs. 1, 5);
   fig2_map2d_<k>_t<T>s.png   the 2D projected maps at each kept time with the flown trajectory
-                          and the candidate poses as arrows (Figs. 2, 6);
+                          and the candidate poses as arrows (Figs. 2, 6); with several vehicles
+                          (docs/design.md §7.10) the first vehicle's maps and candidates, every
+                          vehicle's path in its own colour, named in the legend;
   fig3_entropy.png/.svg   map entropy and known fraction against time, runs overlaid (Figs. 3, 7);
 and writes configuration.txt: what every process of the run ran with (its params_t in the log:
-command line, then every value under the file it came from, defaults and overrides marked).
+command line, then every value under the file it came from, defaults and overrides marked), and
+vehicles.txt: one line per vehicle (path length, plans, how its exploration ended).
 Each PNG has a sidecar <name>.json with its pixel size and, per panel, the transform from world
 (or data) coordinates to image pixels, so a test can check that pixels show what the data holds.
 
@@ -26,6 +29,7 @@ import sys
 import matplotlib
 
 matplotlib.use("Agg")
+import matplotlib.colors  # noqa: E402
 import matplotlib.ticker  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
@@ -210,6 +214,39 @@ def figure_map3d(data_dir, out_dir, meta, args):
 
 MAP2D_TITLES = {"collision": "collision map C", "combined": "combined map B",
                 "entropy": "entropy map E"}
+# Path colours of the vehicles when there are several (one vehicle: tab:red, as always); none is
+# the candidates' blue or orange.
+VEHICLE_COLORS = ["tab:red", "tab:green", "tab:purple", "tab:brown", "tab:pink", "tab:cyan",
+                  "tab:olive", "black"]
+STATE_NAMES = ["waiting", "startup", "exploring", "returning", "done", "failed"]
+
+
+def read_vehicles(data_dir):
+    """The run's vehicles (vehicles.csv) as dicts; an export without it: one, trajectory.csv."""
+    path = os.path.join(data_dir, "vehicles.csv")
+    if not os.path.exists(path):
+        return [{"vehicle": "0", "prefix": "", "trajectory_file": "trajectory.csv"}]
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def vehicle_paths(data_dir):
+    """Per vehicle: prefix, colour, label and its trajectory (time, x, y)."""
+    vehicles = read_vehicles(data_dir)
+    several = len(vehicles) > 1
+    out = []
+    for i, v in enumerate(vehicles):
+        trajectory = read_table(os.path.join(data_dir, v["trajectory_file"]))
+        out.append({
+            "prefix": v["prefix"],
+            "file": v["trajectory_file"],
+            "color": VEHICLE_COLORS[i % len(VEHICLE_COLORS)] if several else "tab:red",
+            "label": f"{v['prefix'] or '(no prefix)'} path" if several else "trajectory",
+            "t": floats(trajectory, "time_s"),
+            "x": floats(trajectory, "x_m"),
+            "y": floats(trajectory, "y_m"),
+        })
+    return out
 
 
 def figure_map2d(data_dir, out_dir):
@@ -217,9 +254,8 @@ def figure_map2d(data_dir, out_dir):
     if not index["k"]:
         print("kestrel-report: no MAP2D_* messages in the log: no 2D map figures")
         return
-    trajectory = read_table(os.path.join(data_dir, "trajectory.csv"))
-    tt = floats(trajectory, "time_s")
-    tx, ty = floats(trajectory, "x_m"), floats(trajectory, "y_m")
+    paths = vehicle_paths(data_dir)
+    several = len(paths) > 1
     candidates = read_table(os.path.join(data_dir, "candidates.csv"))
     c_plan = np.array([int(v) for v in candidates["plan"]], dtype=int)
     rows = list(zip(*[index[name] for name in index]))
@@ -246,10 +282,13 @@ def figure_map2d(data_dir, out_dir):
             extent = [ox, ox + w * r, oy, oy + h * r]
             ax.imshow(values, origin="lower", extent=extent, cmap="gray_r", vmin=0.0, vmax=1.0,
                       interpolation="nearest")
-            upto = tt <= request_s
-            ax.plot(tx[upto], ty[upto], "-", color="tab:red", lw=1.5, label="trajectory")
-            if upto.any():
-                ax.plot(tx[upto][-1:], ty[upto][-1:], "o", color="tab:red", ms=6)
+            for path in paths:
+                upto = path["t"] <= request_s
+                ax.plot(path["x"][upto], path["y"][upto], "-", color=path["color"], lw=1.5,
+                        label=path["label"])
+                if upto.any():
+                    ax.plot(path["x"][upto][-1:], path["y"][upto][-1:], "o", color=path["color"],
+                            ms=6)
             plan = int(e["plan"])
             shown = 0
             if plan >= 0:
@@ -272,7 +311,8 @@ def figure_map2d(data_dir, out_dir):
             ax.set_aspect("equal")
             ax.set_xlabel("x (m)")
             ax.set_ylabel("y (m)")
-            ax.set_title(f"{MAP2D_TITLES.get(e['name'], e['name'])}, t = {request_s:g} s\n"
+            owner = f" of {paths[0]['prefix']}" if several else ""
+            ax.set_title(f"{MAP2D_TITLES.get(e['name'], e['name'])}{owner}, t = {request_s:g} s\n"
                          f"(h = {float(e['height_m']):.2f} m, {shown} candidates)")
             ax.legend(loc="lower right", fontsize=7)
             panels.append({"kind": "2d", "name": e["name"], "file": e["file"],
@@ -284,7 +324,9 @@ def figure_map2d(data_dir, out_dir):
             b = ax.get_window_extent()
             panel["bbox_px"] = [b.x0, b.y0, b.x1, b.y1]
         save(fig, out_dir, f"fig2_map2d_{k}_t{request_s:g}s",
-             {"panels": panels, "time_s": request_s})
+             {"panels": panels, "time_s": request_s,
+              "vehicles": [{"prefix": p["prefix"], "file": p["file"],
+                            "color": matplotlib.colors.to_hex(p["color"])} for p in paths]})
 
 
 # ------------------------------------------------------------------------------------------
@@ -334,6 +376,39 @@ def figure_entropy(runs, out_dir):
                        "bbox_px": [b.x0, b.y0, b.x1, b.y1], "xlim": list(ax.get_xlim()),
                        "ylim": list(ax.get_ylim())})
     save(fig, out_dir, "fig3_entropy", {"panels": panels, "runs": lines}, svg=True)
+
+
+def vehicle_line(v):
+    """One vehicle's summary line from its vehicles.csv row."""
+    name = v["prefix"] or "vehicle"
+    line = (f"{name}: path {float(v['path_length_m']):.2f} m ({v['valid_poses']} valid poses), "
+            f"{v['plans']} plans")
+    state = int(v["final_state"])
+    if state < 0:
+        return line + ", no exploration status"
+    state_name = STATE_NAMES[state] if state < len(STATE_NAMES) else str(state)
+    line += f", last status {state_name} at {float(v['final_time_s']):.1f} s"
+    # The explorer's DONE status says "home: land sent (<end rule>, <landing>)".
+    line += "; land sent" if v["land_sent"] == "1" else "; no land sent"
+    if v["final_reason"]:
+        line += f": {v['final_reason']}"
+    return line
+
+
+def write_vehicles(data_dir, out_dir):
+    """vehicles.txt: one line per vehicle; returns its path or None (an older export)."""
+    if not os.path.exists(os.path.join(data_dir, "vehicles.csv")):
+        return None
+    vehicles = read_vehicles(data_dir)
+    path = os.path.join(out_dir, "vehicles.txt")
+    with open(path, "w") as out:
+        for v in vehicles:
+            out.write(vehicle_line(v) + "\n")
+    print(f"kestrel-report: wrote vehicles.txt ({len(vehicles)} "
+          f"vehicle{'s' if len(vehicles) != 1 else ''})")
+    for v in vehicles:
+        print(f"  {vehicle_line(v)}")
+    return path
 
 
 def write_configuration(data_dir, out_dir):
@@ -407,6 +482,7 @@ def main(argv):
         figure_entropy(runs, args.out)
     if args.only is None:
         write_configuration(args.data, args.out)
+        write_vehicles(args.data, args.out)
     return 0
 
 

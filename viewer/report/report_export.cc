@@ -114,6 +114,49 @@ struct Truth {
   std::vector<uint8_t> observable;
 };
 
+/// Natural order of prefixes: runs of digits compare as numbers (V2_ before V10_), the rest
+/// character by character; a prefix of another comes first ("" first of all).
+bool NaturalLess(const std::string& a, const std::string& b) {
+  size_t i = 0, j = 0;
+  while (i < a.size() && j < b.size()) {
+    const bool da = std::isdigit(static_cast<unsigned char>(a[i])) != 0;
+    const bool db = std::isdigit(static_cast<unsigned char>(b[j])) != 0;
+    if (da && db) {
+      size_t ie = i, je = j;
+      while (ie < a.size() && std::isdigit(static_cast<unsigned char>(a[ie]))) ++ie;
+      while (je < b.size() && std::isdigit(static_cast<unsigned char>(b[je]))) ++je;
+      std::string na = a.substr(i, ie - i), nb = b.substr(j, je - j);
+      na.erase(0, std::min(na.find_first_not_of('0'), na.size()));
+      nb.erase(0, std::min(nb.find_first_not_of('0'), nb.size()));
+      if (na.size() != nb.size()) return na.size() < nb.size();
+      if (na != nb) return na < nb;
+      i = ie;
+      j = je;
+    } else {
+      if (a[i] != b[j]) return a[i] < b[j];
+      ++i;
+      ++j;
+    }
+  }
+  if ((a.size() - i) != (b.size() - j)) return a.size() - i < b.size() - j;
+  return a < b;  // equal up to leading zeros: any fixed order
+}
+
+bool IsPrefixText(const std::string& text) {
+  return std::all_of(text.begin(), text.end(), [](char ch) {
+    return std::isalnum(static_cast<unsigned char>(ch)) != 0 || ch == '_';
+  });
+}
+
+/// One vehicle while the log is read.
+struct VehicleTrack {
+  ReportVehicle info;
+  std::vector<std::array<double, 5>> trajectory;  // utime, x, y, z, yaw
+  int64_t last_trajectory_utime{std::numeric_limits<int64_t>::min()};
+  std::optional<Eigen::Vector3d> last_position_m;
+  int64_t final_clock_utime{-1};
+};
+
 std::string JoinNames(const std::map<std::string, int64_t>& counts) {
   std::string out;
   for (const auto& [name, count] : counts) {
@@ -124,6 +167,26 @@ std::string JoinNames(const std::map<std::string, int64_t>& counts) {
 }
 
 }  // namespace
+
+std::vector<std::string> VehiclePrefixesOf(const std::vector<std::string>& channels,
+                                           const std::string& pose_channel) {
+  std::vector<std::string> prefixes;
+  for (const std::string& channel : channels) {
+    if (pose_channel.empty() || channel.size() < pose_channel.size() ||
+        channel.compare(channel.size() - pose_channel.size(), pose_channel.size(), pose_channel) !=
+            0) {
+      continue;
+    }
+    const std::string prefix = channel.substr(0, channel.size() - pose_channel.size());
+    if (!IsPrefixText(prefix)) continue;
+    if (std::find(prefixes.begin(), prefixes.end(), prefix) == prefixes.end()) {
+      prefixes.push_back(prefix);
+    }
+  }
+  std::sort(prefixes.begin(), prefixes.end(), NaturalLess);
+  if (prefixes.empty()) prefixes.push_back("");
+  return prefixes;
+}
 
 void ReportExportConfig::Validate() const {
   KESTREL_THROW_UNLESS(!log_path.empty(), "report: log_path is empty, accepted: a file name");
@@ -141,6 +204,20 @@ void ReportExportConfig::Validate() const {
   for (const double t : map2d_times_s) {
     KESTREL_THROW_UNLESS(t >= 0.0 && std::isfinite(t),
                          "report: map2d time " << t << " s, accepted [0, inf)");
+  }
+  KESTREL_THROW_UNLESS(vehicle_prefixes.size() <= 16,
+                       "report: vehicle_prefixes: " << vehicle_prefixes.size()
+                                                    << " listed, accepted: 0 (from the log) to 16");
+  for (size_t i = 0; i < vehicle_prefixes.size(); ++i) {
+    KESTREL_THROW_UNLESS(IsPrefixText(vehicle_prefixes[i]),
+                         "report: vehicle_prefixes[" << i << "] = '" << vehicle_prefixes[i]
+                                                     << "', accepted: letters, digits and '_'");
+    for (size_t j = 0; j < i; ++j) {
+      KESTREL_THROW_UNLESS(vehicle_prefixes[i] != vehicle_prefixes[j],
+                           "report: vehicle_prefixes[" << j << "] and [" << i
+                                                       << "] share the prefix '"
+                                                       << vehicle_prefixes[i] << "'");
+    }
   }
 }
 
@@ -189,10 +266,30 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
     warn("no " + config.status_channel +
          " in the log: sampling at map updates, entropy recomputed from the map only");
   }
-  if (count_of(config.pose_channel) == 0) warn("no " + config.pose_channel + ": no trajectory");
-  if (count_of(config.exploration_channel) == 0) {
-    warn("no " + config.exploration_channel + ": no candidate poses");
+  // The vehicles (docs/design.md §7.10): as configured, or from the pose channels in the log.
+  std::vector<std::string> prefixes = config.vehicle_prefixes;
+  if (prefixes.empty()) {
+    std::vector<std::string> names;
+    for (const auto& [name, count] : channel_counts) names.push_back(name);
+    prefixes = VehiclePrefixesOf(names, config.pose_channel);
   }
+  std::vector<VehicleTrack> tracks(prefixes.size());
+  std::map<std::string, size_t> pose_vehicle, exploration_vehicle;  // channel -> vehicle
+  for (size_t k = 0; k < prefixes.size(); ++k) {
+    tracks[k].info.prefix = prefixes[k];
+    tracks[k].info.trajectory_file =
+        k == 0 ? "trajectory.csv" : "trajectory_" + prefixes[k] + ".csv";
+    pose_vehicle[prefixes[k] + config.pose_channel] = k;
+    exploration_vehicle[prefixes[k] + config.exploration_channel] = k;
+    if (count_of(prefixes[k] + config.pose_channel) == 0) {
+      warn("no " + prefixes[k] + config.pose_channel + ": no trajectory");
+    }
+  }
+  if (count_of(prefixes.front() + config.exploration_channel) == 0) {
+    warn("no " + prefixes.front() + config.exploration_channel + ": no candidate poses");
+  }
+  // The 2D maps of the first vehicle's explorer.
+  const std::string map2d_prefix = prefixes.front() + config.map2d_prefix;
 
   std::optional<World> world;
   if (!config.world_path.empty()) world = LoadWorld(config.world_path);
@@ -207,8 +304,6 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
   int64_t clock_utime = std::numeric_limits<int64_t>::min();
   int64_t first_clock_utime = -1;
   std::vector<Sample> samples;
-  std::vector<std::array<double, 5>> trajectory;  // utime, x, y, z, yaw
-  int64_t last_trajectory_utime = std::numeric_limits<int64_t>::min();
   std::vector<Map2dCopy> map2d;
   std::vector<PlanCopy> plans;
   std::map<std::string, int64_t> malformed_by_channel;
@@ -327,33 +422,51 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
       s.map_seq = status.map_seq;
       s.entropy_status_nats = status.map_entropy_nats;
       take_sample(s);
-    } else if (channel == config.pose_channel) {
+    } else if (const auto pv = pose_vehicle.find(channel); pv != pose_vehicle.end()) {
       pose_t pose;
       if (!GuardedDecode(data, size, &pose, &error)) {
         malformed();
         continue;
       }
+      VehicleTrack& v = tracks[pv->second];
       ++summary.poses;
+      ++v.info.poses;
       advance_clock(pose.utime);
       Eigen::Quaterniond q;
       if (!pose.valid || !QuaternionFromWxyz(pose.orientation_wxyz, &q)) continue;
+      ++v.info.valid_poses;
       const double period_us = 1e6 * config.trajectory_period_s;
-      if (!trajectory.empty() &&
-          static_cast<double>(pose.utime - last_trajectory_utime) < period_us) {
+      if (!v.trajectory.empty() &&
+          static_cast<double>(pose.utime - v.last_trajectory_utime) < period_us) {
         continue;
       }
-      last_trajectory_utime = pose.utime;
-      trajectory.push_back({static_cast<double>(pose.utime), pose.position_m[0], pose.position_m[1],
-                            pose.position_m[2], YawOf(q)});
-    } else if (channel == config.exploration_channel) {
+      v.last_trajectory_utime = pose.utime;
+      v.trajectory.push_back({static_cast<double>(pose.utime), pose.position_m[0],
+                              pose.position_m[1], pose.position_m[2], YawOf(q)});
+      // The path length along the kept poses: summed over every pose, motion-capture noise
+      // (0.5 mm at 100 Hz in simulation) would add about a fifth to it.
+      const Eigen::Vector3d p(pose.position_m[0], pose.position_m[1], pose.position_m[2]);
+      if (p.allFinite()) {
+        if (v.last_position_m.has_value()) v.info.path_length_m += (p - *v.last_position_m).norm();
+        v.last_position_m = p;
+      }
+    } else if (const auto ev = exploration_vehicle.find(channel); ev != exploration_vehicle.end()) {
       PlanCopy plan;
       if (!GuardedDecode(data, size, &plan.msg, &error)) {
         malformed();
         continue;
       }
-      ++summary.plans;
       plan.clock_utime = std::max(clock_utime, plan.msg.utime);
-      plans.push_back(std::move(plan));
+      VehicleTrack& v = tracks[ev->second];
+      ++v.info.plans;
+      v.info.final_state = plan.msg.state;
+      v.info.final_reason = plan.msg.reason;
+      v.final_clock_utime = plan.clock_utime;
+      v.info.land_sent = v.info.land_sent || plan.msg.state == exploration_status_t::STATE_DONE;
+      if (ev->second == 0) {  // plans.csv, candidates.csv: the first vehicle's
+        ++summary.plans;
+        plans.push_back(std::move(plan));
+      }
     } else if (!config.params_prefix.empty() && channel.rfind(config.params_prefix, 0) == 0) {
       params_t params;
       if (!GuardedDecode(data, size, &params, &error)) {
@@ -369,7 +482,7 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
       } else {
         configurations[it->second].second = std::move(params);
       }
-    } else if (channel.rfind(config.map2d_prefix, 0) == 0) {
+    } else if (channel.rfind(map2d_prefix, 0) == 0) {
       Map2dCopy copy;
       if (!GuardedDecode(data, size, &copy.msg, &error)) {
         malformed();
@@ -431,13 +544,31 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
     }
     f.Close();
   }
-  {  // trajectory.csv
-    CsvFile f(dir + "trajectory.csv");
+  for (VehicleTrack& v : tracks) {  // trajectory.csv, trajectory_<prefix>.csv
+    CsvFile f(dir + v.info.trajectory_file);
     std::fprintf(f.get(), "time_s,x_m,y_m,z_m,yaw_rad\n");
-    for (const auto& row : trajectory) {
+    for (const auto& row : v.trajectory) {
       std::fprintf(f.get(), "%.3f,%.4f,%.4f,%.4f,%.4f\n",
                    SecondsBetween(static_cast<int64_t>(row[0]), origin_utime), row[1], row[2],
                    row[3], row[4]);
+    }
+    f.Close();
+    v.info.final_time_s =
+        v.final_clock_utime < 0 ? kNan : SecondsBetween(v.final_clock_utime, origin_utime);
+    summary.vehicles.push_back(v.info);
+  }
+  {  // vehicles.csv
+    CsvFile f(dir + "vehicles.csv");
+    std::fprintf(f.get(),
+                 "vehicle,prefix,trajectory_file,poses,valid_poses,path_length_m,plans,"
+                 "final_state,final_time_s,land_sent,final_reason\n");
+    for (size_t k = 0; k < summary.vehicles.size(); ++k) {
+      const ReportVehicle& v = summary.vehicles[k];
+      std::fprintf(f.get(), "%zu,%s,%s,%lld,%lld,%.4f,%lld,%d,%.3f,%d,%s\n", k,
+                   CsvField(v.prefix).c_str(), CsvField(v.trajectory_file).c_str(),
+                   static_cast<long long>(v.poses), static_cast<long long>(v.valid_poses),
+                   v.path_length_m, static_cast<long long>(v.plans), v.final_state, v.final_time_s,
+                   v.land_sent ? 1 : 0, CsvField(v.final_reason).c_str());
     }
     f.Close();
   }
@@ -615,6 +746,7 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
     std::fprintf(f.get(), "plans,%lld\n", static_cast<long long>(summary.plans));
     std::fprintf(f.get(), "map2d_messages,%lld\n", static_cast<long long>(summary.map2d_messages));
     std::fprintf(f.get(), "configurations,%zu\n", summary.configurations);
+    std::fprintf(f.get(), "vehicles,%zu\n", summary.vehicles.size());
     f.Close();
   }
   return summary;

@@ -13,9 +13,11 @@ const char* const kUsage =
     "                             [--times 30,60] [--threshold 0.5] [--range-m 4.0]\n"
     "                             [--vfov-deg 45]\n"
     "Rebuilds the 3D map from the log's MAP3D/MAP3D_DELTA messages and writes DIR/timeseries.csv,\n"
-    "trajectory.csv, plans.csv, candidates.csv, map2d_index.csv, map2d_*.csv, occupied.csv,\n"
-    "truth.csv (with --world) and meta.csv. --times: seconds since the first MAP_STATUS at which\n"
-    "to keep the 2D maps (default: half way and the end).\n";
+    "vehicles.csv, trajectory.csv (and trajectory_<prefix>.csv for the other vehicles),\n"
+    "plans.csv, candidates.csv, map2d_index.csv, map2d_*.csv, occupied.csv, truth.csv (with\n"
+    "--world) and meta.csv. --times: seconds since the first MAP_STATUS at which to keep the 2D\n"
+    "maps (default: half way and the end). The vehicles are the prefixes P of the log's\n"
+    "P + POSE_VICON channels (V1_POSE_VICON, ...; one vehicle: POSE_VICON).\n";
 
 }  // namespace
 

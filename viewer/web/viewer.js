@@ -1,7 +1,9 @@
 // Kestrel's live viewer page: decodes kestrel-viewer's frames (protocol in
 // viewer/bridge/viewer_scene.h) into a model, and draws it: the 3D map as instanced voxels
-// (three.js), the 2D maps, the vehicle pose, the flown and planned paths, the explorer's
-// candidates as arrows, and the map entropy over time.
+// (three.js), the 2D maps, each vehicle's pose, flown and planned paths and goal, the explorers'
+// candidates as arrows, and the map entropy over time. With several vehicles
+// (docs/design.md §7.10) each one is drawn in its own colour and labelled with its prefix; with
+// one, as before.
 //
 // The model does not depend on three.js: if the 3D view cannot start (no WebGL, three.js not
 // staged) the rest of the page still works. window.kestrelViewer exposes the model's counters
@@ -17,11 +19,12 @@ const state = {
   renderedVoxels: 0,         // instances drawn by the 3D view
   mapSeq: -1,
   grids: [],                 // names of the 2D maps received
-  pathPoints: 0,
-  planPoints: 0,
-  candidates: 0,
+  pathPoints: 0,             // flown path points, all vehicles
+  planPoints: 0,             // plan samples, all vehicles
+  candidates: 0,             // candidates, all vehicles
   entropyPoints: 0,
-  pose: null,
+  pose: null,                // the first vehicle's
+  vehicles: [],              // per vehicle: {prefix, color, pathPoints, planPoints, candidates, state, pose}
   status: null,
   hello: null,
   errors: [],                // decode errors and the 3D view's start-up error, if any
@@ -38,12 +41,57 @@ const model = {
   origin: [0, 0, 0],
   resolution: 0.075,
   grids: new Map(),      // name -> {width, height, origin, heightM, resolution, values, utime}
-  pose: null,            // {p, q, valid, utime}
-  path: [],              // [[x, y, z]]
-  plan: [],
-  exploration: null,
+  vehicles: [],          // by the bridge's vehicle index, see newVehicle()
   entropy: [],           // [[t_s, H]]
 };
+
+// Vehicle colours when there are several (the first one keeps the single vehicle's amber).
+const kVehicleColors = ['#ffcc33', '#33ccff', '#ff5fd2', '#7dff5a', '#ff8c3a', '#b48cff',
+                        '#3affc8', '#ff5050', '#c8c8c8', '#4d7dff', '#e6e64d', '#ff9ea8',
+                        '#5ac88c', '#d28c4d', '#8cd2ff', '#d25ad2'];
+const multi = () => model.vehicles.length > 1;
+
+function newVehicle(prefix, index) {
+  return {
+    prefix, index, color: kVehicleColors[index % kVehicleColors.length],
+    pose: null,          // {p, q, valid, utime}
+    path: [],            // [[x, y, z]]
+    plan: [],
+    exploration: null,
+  };
+}
+// The vehicle of a frame (index into hello's list); made on demand if the list is not known yet.
+function vehicleOf(msg) {
+  const k = Number.isInteger(msg.vehicle) ? msg.vehicle : 0;
+  let changed = false;
+  while (model.vehicles.length <= k) {
+    model.vehicles.push(newVehicle(model.vehicles.length === 0 ? '' : `#${model.vehicles.length}`, model.vehicles.length));
+    changed = true;
+  }
+  if (changed) view.vehiclesChanged();
+  return model.vehicles[k];
+}
+function countVehicles() {
+  state.vehicles = model.vehicles.map((v) => ({
+    prefix: v.prefix, color: v.color, pathPoints: v.path.length, planPoints: v.plan.length,
+    candidates: v.exploration ? v.exploration.candidates.length : 0,
+    state: v.exploration ? v.exploration.state : null,
+    pose: v.pose ? { p: v.pose.p, valid: v.pose.valid } : null,
+  }));
+  const sum = (key) => state.vehicles.reduce((n, v) => n + v[key], 0);
+  state.pathPoints = sum('pathPoints');
+  state.planPoints = sum('planPoints');
+  state.candidates = sum('candidates');
+  state.pose = state.vehicles.length > 0 ? state.vehicles[0].pose : null;
+}
+// The vehicle whose 2D map `name` is: the longest prefix it starts with ('' matches any).
+function vehicleOfGrid(name) {
+  let best = null;
+  for (const v of model.vehicles) {
+    if (name.startsWith(v.prefix) && (!best || v.prefix.length > best.prefix.length)) best = v;
+  }
+  return best;
+}
 
 const voxelKey = (x, y, z) => (x + 32768) + 65536 * ((y + 32768) + 65536 * (z + 32768));
 
@@ -99,28 +147,45 @@ function decodeGrid(buffer) {
 
 function onText(msg) {
   switch (msg.type) {
-    case 'hello': state.hello = msg; break;
-    case 'pose':
-      model.pose = msg;
-      state.pose = { p: msg.p, valid: msg.valid };
-      view.poseChanged();
+    case 'hello': {
+      state.hello = msg;
+      const prefixes = Array.isArray(msg.vehicles) && msg.vehicles.length > 0 ? msg.vehicles : [''];
+      if (prefixes.join('\n') !== model.vehicles.map((v) => v.prefix).join('\n')) {
+        model.vehicles = prefixes.map((p, k) => newVehicle(p, k));
+        view.vehiclesChanged();
+        countVehicles();
+      }
       break;
-    case 'path':
-      if (msg.reset) model.path = [];
-      for (const p of msg.points) model.path.push(p);
-      state.pathPoints = model.path.length;
-      view.pathChanged();
+    }
+    case 'pose': {
+      const v = vehicleOf(msg);
+      v.pose = msg;
+      view.poseChanged(v);
+      countVehicles();
       break;
-    case 'plan':
-      model.plan = msg.points;
-      state.planPoints = model.plan.length;
-      view.planChanged();
+    }
+    case 'path': {
+      const v = vehicleOf(msg);
+      if (msg.reset) v.path = [];
+      for (const p of msg.points) v.path.push(p);
+      view.pathChanged(v);
+      countVehicles();
       break;
-    case 'exploration':
-      model.exploration = msg;
-      state.candidates = msg.candidates.length;
-      view.candidatesChanged();
+    }
+    case 'plan': {
+      const v = vehicleOf(msg);
+      v.plan = msg.points;
+      view.planChanged(v);
+      countVehicles();
       break;
+    }
+    case 'exploration': {
+      const v = vehicleOf(msg);
+      v.exploration = msg;
+      view.candidatesChanged(v);
+      countVehicles();
+      break;
+    }
     case 'entropy':
       if (msg.reset) model.entropy = [];
       for (const p of msg.points) model.entropy.push(p);
@@ -167,7 +232,7 @@ function connect() {
 const view = {
   dirty: true,
   clearVoxels() {}, setVoxel() {}, removeVoxel() {}, voxelsChanged() {},
-  poseChanged() {}, pathChanged() {}, planChanged() {}, candidatesChanged() {},
+  vehiclesChanged() {}, poseChanged() {}, pathChanged() {}, planChanged() {}, candidatesChanged() {},
 };
 
 // Height colours (blue low -> red high), as in the paper's 3D map figures.
@@ -334,46 +399,85 @@ async function startView() {
     },
   });
 
-  // Vehicle: a cone along its body x axis plus small axes.
-  const vehicle = new THREE.Group();
-  const body = new THREE.Mesh(new THREE.ConeGeometry(0.12, 0.35, 16),
-                              new THREE.MeshLambertMaterial({ color: 0xffcc33 }));
-  body.rotation.z = -Math.PI / 2;  // cone axis (+y) onto +x
-  vehicle.add(body);
-  vehicle.add(new THREE.AxesHelper(0.3));
-  vehicle.visible = false;
-  scene.add(vehicle);
-  view.poseChanged = () => {
-    const m = model.pose;
-    vehicle.visible = m.valid;
-    vehicle.position.set(m.p[0], m.p[1], m.p[2]);
-    vehicle.quaternion.set(m.q[1], m.q[2], m.q[3], m.q[0]);
-    view.dirty = true;
-  };
+  // Each vehicle: a cone along its body x axis plus small axes, its flown path, its plan
+  // (dashed), its candidates as arrows and, with several vehicles, its goal and a label. One
+  // vehicle keeps the single-vehicle colours: amber cone, white path, cyan plan, red choice.
   const makeLine = (colorHex, dashed) => {
     const mat = dashed ? new THREE.LineDashedMaterial({ color: colorHex, dashSize: 0.1, gapSize: 0.06 })
                        : new THREE.LineBasicMaterial({ color: colorHex });
     const line = new THREE.Line(new THREE.BufferGeometry(), mat);
     line.frustumCulled = false;
-    scene.add(line);
     return line;
   };
-  const pathLine = makeLine(0xffffff, false), planLine = makeLine(0x44ddff, true);
+  const makeLabel = (text, colorCss) => {
+    const canvas = document.createElement('canvas');
+    canvas.width = 256; canvas.height = 64;
+    const ctx = canvas.getContext('2d');
+    ctx.font = 'bold 40px "DejaVu Sans", sans-serif';
+    ctx.textAlign = 'center'; ctx.textBaseline = 'middle';
+    ctx.lineWidth = 6; ctx.strokeStyle = '#000000';
+    ctx.strokeText(text, 128, 30);
+    ctx.fillStyle = colorCss;
+    ctx.fillText(text, 128, 30);
+    const sprite = new THREE.Sprite(new THREE.SpriteMaterial({ map: new THREE.CanvasTexture(canvas), depthTest: false }));
+    sprite.scale.set(1.2, 0.3, 1);
+    sprite.renderOrder = 10;
+    return sprite;
+  };
+  let drawn = [];  // per vehicle: its three.js objects
+  const build = (v) => {
+    const several = multi(), color = new THREE.Color(several ? v.color : '#ffcc33');
+    const d = { group: new THREE.Group(), all: [] };
+    const body = new THREE.Mesh(new THREE.ConeGeometry(0.12, 0.35, 16),
+                                new THREE.MeshLambertMaterial({ color }));
+    body.rotation.z = -Math.PI / 2;  // cone axis (+y) onto +x
+    d.group.add(body);
+    d.group.add(new THREE.AxesHelper(0.3));
+    if (several) {
+      const label = makeLabel(v.prefix || '(none)', v.color);
+      label.position.set(0, 0, 0.4);
+      d.group.add(label);
+    }
+    d.group.visible = false;
+    d.path = makeLine(several ? color : 0xffffff, false);
+    d.plan = makeLine(several ? color : 0x44ddff, true);
+    d.arrows = new THREE.LineSegments(new THREE.BufferGeometry(),
+                                      new THREE.LineBasicMaterial({ vertexColors: true }));
+    d.arrows.frustumCulled = false;
+    d.all.push(d.group, d.path, d.plan, d.arrows);
+    if (several) {
+      d.goal = new THREE.Mesh(new THREE.SphereGeometry(0.09, 16, 12),
+                              new THREE.MeshBasicMaterial({ color, transparent: true, opacity: 0.85 }));
+      d.goal.visible = false;
+      d.all.push(d.goal);
+    }
+    for (const o of d.all) scene.add(o);
+    return d;
+  };
   const setLine = (line, points) => {
     line.geometry.dispose();
     line.geometry = new THREE.BufferGeometry().setFromPoints(points.map((p) => new THREE.Vector3(p[0], p[1], p[2])));
     if (line.material.isLineDashedMaterial) line.computeLineDistances();
     view.dirty = true;
   };
-  view.pathChanged = () => setLine(pathLine, model.path);
-  view.planChanged = () => setLine(planLine, model.plan);
-  // Candidates: arrows (shaft and head) at their pose, colour by objective; the chosen one red.
-  const arrows = new THREE.LineSegments(new THREE.BufferGeometry(),
-                                        new THREE.LineBasicMaterial({ vertexColors: true }));
-  arrows.frustumCulled = false;
-  scene.add(arrows);
-  view.candidatesChanged = () => {
-    const e = model.exploration, pos = [], col = [];
+  const drawnOf = (v) => drawn[v.index];
+  view.poseChanged = (v) => {
+    const m = v.pose, d = drawnOf(v);
+    if (!d) return;
+    d.group.visible = m.valid;
+    d.group.position.set(m.p[0], m.p[1], m.p[2]);
+    d.group.quaternion.set(m.q[1], m.q[2], m.q[3], m.q[0]);
+    view.dirty = true;
+  };
+  view.pathChanged = (v) => { if (drawnOf(v)) setLine(drawnOf(v).path, v.path); };
+  view.planChanged = (v) => { if (drawnOf(v)) setLine(drawnOf(v).plan, v.plan); };
+  // Candidates: arrows (shaft and head) at their pose, colour by objective; the chosen one red
+  // (with several vehicles: in the vehicle's colour, and its goal a ball).
+  view.candidatesChanged = (v) => {
+    const d = drawnOf(v);
+    if (!d) return;
+    const e = v.exploration, pos = [], col = [];
+    const several = multi(), own = new THREE.Color(v.color);
     let best = 1e-12;
     for (const c of e.candidates) best = Math.max(best, c[5]);
     e.candidates.forEach((c, i) => {
@@ -385,23 +489,44 @@ async function startView() {
       for (const seg of [[[x, y, z], tip], [tip, head(0.5)], [tip, head(-0.5)]]) {
         for (const p of seg) {
           pos.push(...p);
-          if (chosen) col.push(1, 0.15, 0.15); else col.push(0.2 + 0.8 * t, 0.9 * t + 0.1, 1 - 0.6 * t);
+          if (chosen && several) col.push(own.r, own.g, own.b);
+          else if (chosen) col.push(1, 0.15, 0.15);
+          else col.push(0.2 + 0.8 * t, 0.9 * t + 0.1, 1 - 0.6 * t);
         }
       }
     });
-    arrows.geometry.dispose();
-    arrows.geometry = new THREE.BufferGeometry();
-    arrows.geometry.setAttribute('position', new THREE.Float32BufferAttribute(pos, 3));
-    arrows.geometry.setAttribute('color', new THREE.Float32BufferAttribute(col, 3));
+    d.arrows.geometry.dispose();
+    d.arrows.geometry = new THREE.BufferGeometry();
+    d.arrows.geometry.setAttribute('position', new THREE.Float32BufferAttribute(pos, 3));
+    d.arrows.geometry.setAttribute('color', new THREE.Float32BufferAttribute(col, 3));
+    if (d.goal) {
+      const g = e.goal;
+      d.goal.visible = e.chosen >= 0 && Array.isArray(g) && g.every(Number.isFinite);
+      if (d.goal.visible) d.goal.position.set(g[0], g[1], g[2]);
+    }
+    view.dirty = true;
+  };
+  // (Re)builds every vehicle's objects and draws what the model holds.
+  view.vehiclesChanged = () => {
+    for (const d of drawn) {
+      for (const o of d.all) {
+        scene.remove(o);
+        o.traverse((x) => { if (x.geometry) x.geometry.dispose(); });
+      }
+    }
+    drawn = model.vehicles.map(build);
+    for (const v of model.vehicles) {
+      if (v.pose) view.poseChanged(v);
+      view.pathChanged(v);
+      view.planChanged(v);
+      if (v.exploration) view.candidatesChanged(v);
+    }
     view.dirty = true;
   };
   // Replay what arrived before the view started.
   for (const [key, c] of model.voxels) view.setVoxel(key, c);
   view.voxelsChanged();
-  if (model.pose) view.poseChanged();
-  view.pathChanged();
-  view.planChanged();
-  if (model.exploration) view.candidatesChanged();
+  view.vehiclesChanged();
 
   const resize = () => {
     const w = container.clientWidth, h = container.clientHeight;
@@ -427,6 +552,12 @@ async function startView() {
 // ---------------------------------------------------------------------------------------------
 // 2D panels: grid map with path, pose and candidates; entropy plot; status
 
+// "MAP2D_COLLISION" -> "collision", "V2_MAP2D_COLLISION" -> "V2_ collision".
+function gridLabel(name) {
+  const m = /^(.*?)MAP2D_(.*)$/.exec(name);
+  return m ? (m[1] ? `${m[1]} ` : '') + m[2].toLowerCase() : name.toLowerCase();
+}
+
 const panels = {
   dirty: true,
   userChoseGrid: false,
@@ -436,7 +567,7 @@ const panels = {
     if (select.options.length !== names.length) {
       const chosen = select.value;
       select.innerHTML = '';
-      for (const n of names) select.add(new Option(n.replace(/^MAP2D_/, '').toLowerCase(), n));
+      for (const n of names) select.add(new Option(gridLabel(n), n));
       const preferred = names.find((n) => /COMBINED/.test(n)) || names[0];
       select.value = panels.userChoseGrid && names.includes(chosen) ? chosen : preferred;
     }
@@ -490,10 +621,12 @@ function drawGrid() {
   ctx.drawImage(off, 0, 0, w, h);
   const toPx = (x, y) => [(x - g.origin[0]) / g.resolution * scale,
                           h - (y - g.origin[1]) / g.resolution * scale];
-  if (model.path.length > 1) {
-    ctx.strokeStyle = '#2a7fff'; ctx.lineWidth = 1.5;
+  const several = multi();
+  for (const veh of model.vehicles) {  // every vehicle's flown path
+    if (veh.path.length < 2) continue;
+    ctx.strokeStyle = several ? veh.color : '#2a7fff'; ctx.lineWidth = 1.5;
     ctx.beginPath();
-    model.path.forEach((p, i) => { const [u, v] = toPx(p[0], p[1]); if (i) ctx.lineTo(u, v); else ctx.moveTo(u, v); });
+    veh.path.forEach((p, i) => { const [u, v] = toPx(p[0], p[1]); if (i) ctx.lineTo(u, v); else ctx.moveTo(u, v); });
     ctx.stroke();
   }
   const arrow = (x, y, yaw, len, style, width) => {
@@ -505,15 +638,29 @@ function drawGrid() {
     for (const s of [2.6, -2.6]) { ctx.moveTo(u + du, v + dv); ctx.lineTo(u + du + 0.4 * len * Math.cos(a + s), v + dv + 0.4 * len * Math.sin(a + s)); }
     ctx.stroke();
   };
-  if (model.exploration) {
-    const e = model.exploration;
+  // The candidates of the vehicle whose 2D map this is (its explorer projected it).
+  const owner = vehicleOfGrid(g.name);
+  if (owner && owner.exploration) {
+    const e = owner.exploration;
     e.candidates.forEach((c, i) => { if (i !== e.chosen) arrow(c[0], c[1], c[3], 9, '#e69f00', 1); });
-    if (e.chosen >= 0) { const c = e.candidates[e.chosen]; arrow(c[0], c[1], c[3], 14, '#ff2020', 2); }
+    if (e.chosen >= 0) { const c = e.candidates[e.chosen]; arrow(c[0], c[1], c[3], 14, several ? owner.color : '#ff2020', 2); }
   }
-  if (model.pose && model.pose.valid) {
-    const q = model.pose.q;
-    const yaw = Math.atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]));
-    arrow(model.pose.p[0], model.pose.p[1], yaw, 12, '#20d020', 2.5);
+  for (const veh of model.vehicles) {
+    if (several && veh.exploration && veh.exploration.chosen >= 0) {  // goal: a ring
+      const [u, v] = toPx(veh.exploration.goal[0], veh.exploration.goal[1]);
+      ctx.strokeStyle = veh.color; ctx.lineWidth = 2;
+      ctx.beginPath(); ctx.arc(u, v, 5, 0, 2 * Math.PI); ctx.stroke();
+    }
+    if (veh.pose && veh.pose.valid) {
+      const q = veh.pose.q;
+      const yaw = Math.atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]));
+      arrow(veh.pose.p[0], veh.pose.p[1], yaw, 12, several ? veh.color : '#20d020', 2.5);
+      if (several) {
+        const [u, v] = toPx(veh.pose.p[0], veh.pose.p[1]);
+        ctx.fillStyle = veh.color;
+        ctx.fillText(veh.prefix || '(none)', u + 6, v - 6);
+      }
+    }
   }
   ctx.restore();
   ctx.fillStyle = '#9aa4b1';
@@ -549,24 +696,46 @@ function drawEntropy() {
 }
 
 const kStateNames = ['waiting', 'startup', 'exploring', 'returning', 'done', 'failed'];
+const escapeHtml = (t) => String(t).replace(/[&<>"']/g, (c) => `&#${c.charCodeAt(0)};`);
 function drawStatus() {
   document.getElementById('conn').className = state.connected ? 'dot on' : 'dot';
   const s = state.status || {};
   document.getElementById('summary').textContent =
     `${state.voxelCount} occupied voxels  map seq ${state.mapSeq}` + (s.current === false ? ' (stale)' : '');
-  const e = model.exploration;
+  // With several vehicles, a legend: each one's colour, prefix and explorer state.
+  const legend = document.getElementById('legend');
+  const entries = multi() ? model.vehicles.map((v) => {
+    const e = v.exploration;
+    return `<span class="swatch" style="background:${v.color}"></span>${escapeHtml(v.prefix || '(none)')} ` +
+           `${e ? escapeHtml(kStateNames[e.state] || String(e.state)) : '-'}`;
+  }) : [];
+  const html = entries.join('&nbsp;&nbsp; ');
+  if (legend.innerHTML !== html) legend.innerHTML = html;
+  const vehicles = model.vehicles;
+  const explorerLine = (e) => (e ? `${kStateNames[e.state] || e.state} (${e.mode}), plan ${e.seq}` : '-');
   const lines = [
     `connected        ${state.connected}`,
     `messages         ${state.messagesReceived}`,
     `voxel frames     ${state.voxelSnapshots} snapshot, ${state.voxelDeltas} delta`,
     `voxels           ${state.voxelCount}`,
     `path points      ${state.pathPoints}`,
-    `explorer         ${e ? `${kStateNames[e.state] || e.state} (${e.mode}), plan ${e.seq}` : '-'}`,
+  ];
+  if (vehicles.length <= 1) {
+    lines.push(`explorer         ${explorerLine(vehicles.length ? vehicles[0].exploration : null)}`);
+  } else {  // one line per vehicle: its prefix, explorer state and plan
+    for (const v of vehicles) {
+      lines.push(`${`explorer ${v.prefix || '(none)'}`.padEnd(17)}${explorerLine(v.exploration)}`);
+    }
+  }
+  lines.push(
     `candidates       ${state.candidates}`,
     `entropy          ${s.entropy !== undefined ? s.entropy.toExponential(5) + ' nats' : '-'}`,
     `rays/s           ${s.rays_per_s !== undefined ? Math.round(s.rays_per_s) : '-'}`,
-  ];
-  if (e && e.reason) lines.push(`reason           ${e.reason}`);
+  );
+  for (const v of vehicles) {
+    const e = v.exploration;
+    if (e && e.reason) lines.push(`${vehicles.length > 1 ? `reason ${v.prefix || '(none)'}`.padEnd(17) : 'reason           '}${e.reason}`);
+  }
   if (s.bridge) lines.push(`bridge           ${Object.entries(s.bridge).map(([k, v]) => `${k} ${v}`).join(', ')}`);
   if (state.view3d !== 'ok') lines.push(`3D view          ${state.view3d}`);
   document.getElementById('status').textContent = lines.join('\n');
