@@ -189,18 +189,154 @@ std::string DecodeMapChunkCells(const map3d_chunk_t& chunk, std::vector<float>* 
   return "";
 }
 
-std::string CheckMapDelta(const map3d_delta_t& delta) {
+namespace {
+
+void PutVarint(int64_t v, std::vector<uint8_t>* out) {
+  uint64_t z = (static_cast<uint64_t>(v) << 1) ^ static_cast<uint64_t>(v >> 63);  // zigzag
+  while (z >= 0x80) {
+    out->push_back(static_cast<uint8_t>(z | 0x80));
+    z >>= 7;
+  }
+  out->push_back(static_cast<uint8_t>(z));
+}
+
+// Reads one zigzag varint of at most 5 bytes (an int32 difference); false at the end or if longer.
+bool GetVarint(const std::vector<uint8_t>& in, size_t* pos, int64_t* v) {
+  uint64_t z = 0;
+  for (int shift = 0; shift < 35; shift += 7) {
+    if (*pos >= in.size()) return false;
+    const uint8_t b = in[(*pos)++];
+    z |= static_cast<uint64_t>(b & 0x7f) << shift;
+    if ((b & 0x80) == 0) {
+      *v = static_cast<int64_t>(z >> 1) ^ -static_cast<int64_t>(z & 1);
+      return true;
+    }
+  }
+  return false;
+}
+
+// The most bytes one packed cell takes: three 5-byte varints and a float; the fewest: 3 + 4.
+constexpr size_t kMaxPackedCellBytes = 19;
+constexpr size_t kMinPackedCellBytes = 7;
+
+}  // namespace
+
+void EncodeMapDeltaCells(const MapDeltaCells& cells, int8_t encoding, int zlib_level,
+                         map3d_delta_t* delta) {
+  if (cells.cells.size() != cells.probabilities.size()) {
+    throw std::invalid_argument("EncodeMapDeltaCells: cells and probabilities differ in size");
+  }
+  if (encoding != map3d_delta_t::ENCODING_CELLS && encoding != map3d_delta_t::ENCODING_ZLIB_CELLS) {
+    throw std::invalid_argument("EncodeMapDeltaCells: unknown encoding " +
+                                std::to_string(encoding));
+  }
+  delta->encoding = encoding;
+  delta->cells.clear();
+  delta->probabilities.clear();
+  delta->data.clear();
+  delta->num_cells = 0;
+  delta->num_packed_cells = 0;
+  if (encoding == map3d_delta_t::ENCODING_CELLS) {
+    for (const auto& c : cells.cells) delta->cells.push_back({c[0], c[1], c[2]});
+    delta->probabilities = cells.probabilities;
+    delta->num_cells = static_cast<int32_t>(cells.cells.size());
+  } else if (encoding == map3d_delta_t::ENCODING_ZLIB_CELLS) {
+    const size_t n = cells.cells.size();
+    std::vector<uint8_t> raw;
+    raw.reserve(n * 8);
+    std::array<int64_t, 3> previous{0, 0, 0};
+    for (const auto& c : cells.cells) {
+      for (int a = 0; a < 3; ++a) {
+        PutVarint(int64_t{c[a]} - previous[a], &raw);
+        previous[a] = c[a];
+      }
+    }
+    const std::vector<uint8_t> floats = FloatBytes(cells.probabilities);
+    for (int plane = 0; plane < 4; ++plane) {
+      for (size_t i = 0; i < n; ++i) raw.push_back(floats[4 * i + plane]);
+    }
+    delta->data = Deflate(raw, zlib_level);
+    delta->num_packed_cells = static_cast<int32_t>(n);
+  }
+  delta->data_size = static_cast<int32_t>(delta->data.size());
+}
+
+std::string DecodeMapDelta(const map3d_delta_t& delta, MapDeltaCells* out) {
+  out->cells.clear();
+  out->probabilities.clear();
   if (delta.num_cells < 0 || static_cast<size_t>(delta.num_cells) != delta.cells.size() ||
       delta.cells.size() != delta.probabilities.size()) {
     return "num_cells " + std::to_string(delta.num_cells) + " does not match its arrays";
   }
+  if (delta.data_size < 0 || static_cast<size_t>(delta.data_size) != delta.data.size()) {
+    return "data_size " + std::to_string(delta.data_size) + " does not match its data";
+  }
   if (!(std::isfinite(delta.resolution_m) && delta.resolution_m > 0)) {
     return "resolution " + std::to_string(delta.resolution_m);
   }
-  for (const float p : delta.probabilities) {
+  if (delta.encoding == map3d_delta_t::ENCODING_CELLS) {
+    if (delta.num_packed_cells != 0 || delta.data_size != 0) {
+      return "ENCODING_CELLS with packed cells or data";
+    }
+    for (const auto& c : delta.cells) out->cells.push_back({c[0], c[1], c[2]});
+    out->probabilities = delta.probabilities;
+  } else if (delta.encoding == map3d_delta_t::ENCODING_ZLIB_CELLS) {
+    if (delta.num_cells != 0) return "ENCODING_ZLIB_CELLS with cells in the arrays";
+    if (delta.num_packed_cells < 0) {
+      return "num_packed_cells " + std::to_string(delta.num_packed_cells);
+    }
+    const size_t n = static_cast<size_t>(delta.num_packed_cells);
+    if (!CanInflateTo(delta.data, n * kMinPackedCellBytes)) {
+      return std::to_string(n) + " packed cells cannot come from " +
+             std::to_string(delta.data.size()) + " bytes";
+    }
+    std::vector<uint8_t> raw(n * kMaxPackedCellBytes);
+    uLongf size = static_cast<uLongf>(raw.size());
+    if (uncompress(raw.data(), &size, delta.data.data(), static_cast<uLong>(delta.data.size())) !=
+        Z_OK) {
+      return "the packed cells do not inflate";
+    }
+    raw.resize(size);
+    if (raw.size() < 4 * n) return "the packed cells are too short";
+    const size_t coordinates_end = raw.size() - 4 * n;
+    std::vector<uint8_t> coordinates(raw.begin(),
+                                     raw.begin() + static_cast<std::ptrdiff_t>(coordinates_end));
+    size_t pos = 0;
+    std::array<int64_t, 3> c{0, 0, 0};
+    out->cells.reserve(n);
+    for (size_t i = 0; i < n; ++i) {
+      for (int a = 0; a < 3; ++a) {
+        int64_t d = 0;
+        if (!GetVarint(coordinates, &pos, &d)) return "a packed cell index is cut short";
+        c[a] += d;
+        if (c[a] <= -kMaxCellIndex || c[a] >= kMaxCellIndex) {
+          return "a packed cell index outside (-2^23, 2^23)";
+        }
+      }
+      out->cells.push_back(
+          {static_cast<int32_t>(c[0]), static_cast<int32_t>(c[1]), static_cast<int32_t>(c[2])});
+    }
+    if (pos != coordinates.size()) return "bytes left over after the packed cell indices";
+    std::vector<uint8_t> floats(4 * n);
+    for (int plane = 0; plane < 4; ++plane) {
+      for (size_t i = 0; i < n; ++i) {
+        floats[4 * i + plane] = raw[coordinates_end + plane * n + i];
+      }
+    }
+    out->probabilities.resize(n);
+    for (size_t i = 0; i < n; ++i) out->probabilities[i] = FloatAt(floats, i);
+  } else {
+    return "unknown encoding " + std::to_string(delta.encoding);
+  }
+  for (const float p : out->probabilities) {
     if (!(p >= 0.0f && p <= 1.0f)) return "a probability outside [0, 1]";
   }
   return "";
+}
+
+std::string CheckMapDelta(const map3d_delta_t& delta) {
+  MapDeltaCells cells;
+  return DecodeMapDelta(delta, &cells);
 }
 
 void SnapshotDeltaBuffer::Begin(int64_t epoch, int64_t map_seq) {

@@ -8,6 +8,7 @@
 /// Byte order: u16 and float32 payloads are little-endian whatever the host (x86-64 and the
 /// Jetson's arm64 both are; the codec converts explicitly all the same).
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -44,8 +45,28 @@ void EncodeMapChunkCells(const std::vector<float>& probabilities, int8_t encodin
 [[nodiscard]] std::string DecodeMapChunkCells(const map3d_chunk_t& chunk,
                                               std::vector<float>* probabilities);
 
-/// What is wrong with a delta ("" if nothing): counts that do not match the arrays, a resolution
-/// that is not positive and finite, probabilities outside [0, 1] or NaN.
+/// The changed cells of a map delta, whatever its encoding.
+struct MapDeltaCells {
+  std::vector<std::array<int32_t, 3>> cells;  ///< cell indices
+  std::vector<float> probabilities;           ///< posterior of each cell
+};
+
+/// Sets delta->encoding, num_cells, cells, probabilities, num_packed_cells, data and data_size to
+/// hold `cells` (same sizes): ENCODING_CELLS (the arrays) or ENCODING_ZLIB_CELLS (coordinates
+/// as zigzag varints of their differences, probabilities byte plane by byte plane, deflated at
+/// zlib_level 0-9; exact: the same floats come back; see docs/design.md §7.6). @throws
+/// std::invalid_argument on an unknown encoding or mismatched sizes, std::runtime_error if zlib
+/// fails.
+void EncodeMapDeltaCells(const MapDeltaCells& cells, int8_t encoding, int zlib_level,
+                         map3d_delta_t* delta);
+
+/// The cells of a delta, either encoding. Checks the counts against the arrays and the payload
+/// (which must inflate to exactly num_packed_cells entries, no byte left over), the resolution
+/// (positive, finite), the probabilities ([0, 1], not NaN) and every index (within (-2^23, 2^23)
+/// per axis). Returns "" and fills *out, or says what is wrong.
+[[nodiscard]] std::string DecodeMapDelta(const map3d_delta_t& delta, MapDeltaCells* out);
+
+/// What is wrong with a delta ("" if nothing): DecodeMapDelta's checks.
 [[nodiscard]] std::string CheckMapDelta(const map3d_delta_t& delta);
 
 /// The deltas a map copy keeps while a paced snapshot's chunks arrive (docs/design.md §3.3): from

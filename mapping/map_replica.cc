@@ -88,7 +88,8 @@ bool MapReplica::Apply(const map3d_chunk_t& chunk, std::string* error) {
 }
 
 bool MapReplica::Apply(const map3d_delta_t& delta, std::string* error) {
-  if (const std::string why = CheckMapDelta(delta); !why.empty()) {
+  MapDeltaCells changed;
+  if (const std::string why = DecodeMapDelta(delta, &changed); !why.empty()) {
     *error = "delta: " + why;
     return false;
   }
@@ -115,10 +116,10 @@ bool MapReplica::Apply(const map3d_delta_t& delta, std::string* error) {
              " does not follow " + std::to_string(seq_) + ": stale until the next snapshot";
     return false;
   }
-  for (int i = 0; i < delta.num_cells; ++i) {
-    const auto& c = delta.cells[static_cast<size_t>(i)];
+  for (size_t i = 0; i < changed.cells.size(); ++i) {
+    const auto& c = changed.cells[i];
     if (Inside(c[0], c[1], c[2]))
-      probabilities_[Index(c[0], c[1], c[2])] = delta.probabilities[static_cast<size_t>(i)];
+      probabilities_[Index(c[0], c[1], c[2])] = changed.probabilities[i];
   }
   seq_ = delta.seq;
   utime_ = delta.utime;

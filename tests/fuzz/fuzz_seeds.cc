@@ -132,6 +132,13 @@ void WriteLcmSeeds() {
     delta.probabilities[i] = static_cast<float>(i) / 40.0f;
   }
   WriteLcm(5, delta, "map3d_delta_t-valid");
+  MapDeltaCells packed;
+  for (size_t i = 0; i < delta.cells.size(); ++i) {
+    packed.cells.push_back({delta.cells[i][0], delta.cells[i][1], delta.cells[i][2]});
+    packed.probabilities.push_back(delta.probabilities[i]);
+  }
+  EncodeMapDeltaCells(packed, map3d_delta_t::ENCODING_ZLIB_CELLS, 1, &delta);
+  WriteLcm(5, delta, "map3d_delta_t-packed");
 }
 
 template <class Map>

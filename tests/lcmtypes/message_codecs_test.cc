@@ -8,7 +8,9 @@
 
 #include <climits>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <random>
 
 #include "tests/lcmtypes/allocation_watch.h"
@@ -179,6 +181,124 @@ TEST(MapDelta, ChecksCountsResolutionAndProbabilities) {
   map3d_delta_t resolution = d;
   resolution.resolution_m = 0.0;
   EXPECT_NE(CheckMapDelta(resolution).find("resolution"), std::string::npos);
+}
+
+// The packed delta (ENCODING_ZLIB_CELLS), byte for byte as map3d_delta_t.lcm describes it: the
+// zigzag varints of the coordinate differences, then the float32s byte plane by byte plane.
+TEST(MapDelta, PackedCellsAreTheDocumentedBytes) {
+  MapDeltaCells in;
+  in.cells = {{1, 2, 3}, {0, 2, 3}, {-64, 2, 3}};
+  in.probabilities = {0.5f, 1.0f, 0.0f};
+  map3d_delta_t d{};
+  d.resolution_m = 0.075;
+  EncodeMapDeltaCells(in, map3d_delta_t::ENCODING_ZLIB_CELLS, 6, &d);
+  EXPECT_EQ(d.num_cells, 0);
+  EXPECT_TRUE(d.cells.empty());
+  EXPECT_EQ(d.num_packed_cells, 3);
+  EXPECT_EQ(d.data_size, static_cast<int32_t>(d.data.size()));
+  std::vector<uint8_t> raw(64);
+  uLongf size = raw.size();
+  ASSERT_EQ(uncompress(raw.data(), &size, d.data.data(), d.data.size()), Z_OK);
+  raw.resize(size);
+  // 1 -> 2, 2 -> 4, 3 -> 6; -1 -> 1, 0, 0; -64 -> 127, 0, 0. 0.5f = 0x3f000000, 1.0f = 0x3f800000.
+  const std::vector<uint8_t> expected = {2, 4,    6, 1,    0,    0, 127, 0, 0,  // indices
+                                         0, 0,    0, 0,    0,    0,   // first and second bytes
+                                         0, 0x80, 0, 0x3f, 0x3f, 0};  // third and fourth
+  EXPECT_EQ(raw, expected);
+  MapDeltaCells out;
+  ASSERT_EQ(DecodeMapDelta(d, &out), "");
+  EXPECT_EQ(out.cells, in.cells);
+  EXPECT_EQ(out.probabilities, in.probabilities);
+}
+
+// Both encodings give back exactly the cells and floats put in (every bit), over far-apart
+// indices, the map's index limits and probabilities that are not round numbers; the packed one is
+// far smaller than the arrays for cells in a map's order.
+TEST(MapDelta, EncodingsRoundTripExactly) {
+  MapDeltaCells in;
+  uint32_t state = 12345;
+  auto next = [&state] { return state = state * 1664525u + 1013904223u; };
+  for (int z = 0; z < 8; ++z) {
+    for (int y = 0; y < 16; ++y) {
+      for (int x = 0; x < 16; ++x) {
+        in.cells.push_back({100 + x, -40 + y, z});
+        in.probabilities.push_back(static_cast<float>(next() % 1000000) / 1e6f);
+      }
+    }
+  }
+  in.cells.push_back({(1 << 23) - 1, -(1 << 23) + 1, 0});
+  in.probabilities.push_back(std::nextafter(1.0f, 0.0f));
+  for (const int8_t encoding :
+       {map3d_delta_t::ENCODING_CELLS, map3d_delta_t::ENCODING_ZLIB_CELLS}) {
+    map3d_delta_t d{};
+    d.resolution_m = 0.075;
+    EncodeMapDeltaCells(in, encoding, 1, &d);
+    std::vector<uint8_t> bytes(static_cast<size_t>(d.getEncodedSize()));
+    ASSERT_EQ(d.encode(bytes.data(), 0, static_cast<int>(bytes.size())),
+              static_cast<int>(bytes.size()));
+    map3d_delta_t back{};
+    ASSERT_EQ(back.decode(bytes.data(), 0, static_cast<int>(bytes.size())),
+              static_cast<int>(bytes.size()));
+    MapDeltaCells out;
+    ASSERT_EQ(DecodeMapDelta(back, &out), "") << int{encoding};
+    EXPECT_EQ(out.cells, in.cells);
+    ASSERT_EQ(out.probabilities.size(), in.probabilities.size());
+    for (size_t i = 0; i < in.probabilities.size(); ++i) {
+      ASSERT_EQ(std::memcmp(&out.probabilities[i], &in.probabilities[i], 4), 0) << i;
+    }
+    std::printf("encoding %d: %zu cells in %zu bytes\n", int{encoding}, in.cells.size(),
+                bytes.size());
+    if (encoding == map3d_delta_t::ENCODING_ZLIB_CELLS) {
+      EXPECT_LT(bytes.size(), in.cells.size() * 16 / 2) << "less than half the arrays' bytes";
+    }
+  }
+  EXPECT_THROW(EncodeMapDeltaCells(in, 7, 1, nullptr), std::invalid_argument);
+}
+
+TEST(MapDelta, PackedCellsThatDoNotAddUpAreRefused) {
+  MapDeltaCells in;
+  in.cells = {{1, 2, 3}, {4, 5, 6}};
+  in.probabilities = {0.25f, 0.75f};
+  map3d_delta_t d{};
+  d.resolution_m = 0.075;
+  EncodeMapDeltaCells(in, map3d_delta_t::ENCODING_ZLIB_CELLS, 1, &d);
+  MapDeltaCells out;
+  ASSERT_EQ(DecodeMapDelta(d, &out), "");
+  map3d_delta_t fewer = d;
+  fewer.num_packed_cells = 1;  // the payload holds two: bytes left over
+  EXPECT_NE(DecodeMapDelta(fewer, &out), "");
+  map3d_delta_t more = d;
+  more.num_packed_cells = 3;
+  EXPECT_NE(DecodeMapDelta(more, &out), "");
+  map3d_delta_t huge = d;
+  huge.num_packed_cells = 100000000;  // refused before anything that size is allocated
+  EXPECT_NE(DecodeMapDelta(huge, &out).find("cannot come from"), std::string::npos);
+  map3d_delta_t cut = d;
+  cut.data.resize(cut.data.size() - 3);
+  cut.data_size = static_cast<int32_t>(cut.data.size());
+  EXPECT_NE(DecodeMapDelta(cut, &out).find("do not inflate"), std::string::npos);
+  map3d_delta_t both = d;
+  both.num_cells = 1;
+  both.cells = {{0, 0, 0}};
+  both.probabilities = {0.5f};
+  EXPECT_NE(DecodeMapDelta(both, &out).find("cells in the arrays"), std::string::npos);
+  map3d_delta_t unknown = d;
+  unknown.encoding = 5;
+  EXPECT_NE(DecodeMapDelta(unknown, &out).find("unknown encoding 5"), std::string::npos);
+  MapDeltaCells far;
+  far.cells = {{1 << 23, 0, 0}};
+  far.probabilities = {0.5f};
+  map3d_delta_t outside{};
+  outside.resolution_m = 0.075;
+  EncodeMapDeltaCells(far, map3d_delta_t::ENCODING_ZLIB_CELLS, 1, &outside);
+  EXPECT_NE(DecodeMapDelta(outside, &out).find("outside"), std::string::npos);
+  MapDeltaCells bad;
+  bad.cells = {{0, 0, 0}};
+  bad.probabilities = {std::nanf("")};
+  map3d_delta_t nan{};
+  nan.resolution_m = 0.075;
+  EncodeMapDeltaCells(bad, map3d_delta_t::ENCODING_ZLIB_CELLS, 1, &nan);
+  EXPECT_NE(DecodeMapDelta(nan, &out).find("outside [0, 1]"), std::string::npos);
 }
 
 // A compressed payload's header claims the size; a few bytes of zlib cannot hold more than 1032

@@ -166,6 +166,10 @@ inline void Fill(Filler& f, map3d_delta_t* m) {
     for (auto& v : m->cells[i]) v = f.Small(-500, 500);
     m->probabilities[i] = static_cast<float>(f.Real());
   }
+  m->encoding = map3d_delta_t::ENCODING_CELLS;
+  m->num_packed_cells = 0;
+  m->data_size = 0;
+  m->data.clear();
 }
 inline void Fill(Filler& f, grid_map_t* m) {
   m->utime = f.Int();

@@ -157,7 +157,8 @@ bool VoxelStream::ApplyStagedDeltas(std::string* error) {
 }
 
 bool VoxelStream::Apply(const map3d_delta_t& delta, std::string* error) {
-  if (const std::string why = CheckMapDelta(delta); !why.empty()) {
+  MapDeltaCells changed;
+  if (const std::string why = DecodeMapDelta(delta, &changed); !why.empty()) {
     *error = "delta: " + why;
     return false;
   }
@@ -188,10 +189,10 @@ bool VoxelStream::Apply(const map3d_delta_t& delta, std::string* error) {
              " does not follow " + std::to_string(seq_) + ": stale until the next snapshot";
     return false;
   }
-  for (size_t i = 0; i < delta.cells.size(); ++i) {
-    const auto& c = delta.cells[i];
+  for (size_t i = 0; i < changed.cells.size(); ++i) {
+    const auto& c = changed.cells[i];
     Key key;
-    const uint8_t q = QuantizeProbability(delta.probabilities[i], threshold_);
+    const uint8_t q = QuantizeProbability(changed.probabilities[i], threshold_);
     if (MakeKey(c[0], c[1], c[2], &key)) {
       Set(key, q);
     } else if (q != 0) {
