@@ -69,6 +69,13 @@ struct MapperConfig {
 
   int max_queue{60};          ///< scans held at most; beyond, the oldest is dropped (counted)
   double max_backlog_s{0.5};  ///< backlog beyond which rays are decimated (status shows it)
+  /// Several vehicles (docs/design.md §7.10): a scan is applied only once every vehicle's stream
+  /// of every sensor some vehicle has sent has delivered one with a stamp at least as new, or the
+  /// newest input is this much newer than the scan (message time, s; 0: no wait, arrival order). So
+  /// mappers that receive the same scans with different delays (one per vehicle, across a
+  /// network) apply them in one order, (stamp, vehicle, then arrival), and hold the same map bit
+  /// for bit. One vehicle: unused.
+  double order_wait_s{0.5};
 
   /// Cast the rays of each scan on a second thread ahead of the in-order updates
   /// (ScanIntegrator::SetWorkerThread): the same map bit for bit. Each kind

@@ -71,6 +71,7 @@ MapperNode::MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& c
       clock_(clock),
       epoch_(NewPublisherEpoch()),
       poses_(config.vehicle_prefixes.size(), PoseHistory(config.pose_history)),
+      vehicle_latest_utime_(config.vehicle_prefixes.size(), 0),
       skipped_(clock),
       bad_poses_(clock),
       heartbeat_(lcm, clock, "kestrel-mapper", config.heartbeat_channel),
@@ -253,6 +254,7 @@ void MapperNode::OnPose(size_t vehicle, const pose_t& msg) {
                      "pose at " + std::to_string(msg.utime) + " us is not newer than the latest");
   }
   latest_input_utime_ = std::max(latest_input_utime_, msg.utime);
+  vehicle_latest_utime_[vehicle] = std::max(vehicle_latest_utime_[vehicle], msg.utime);
 }
 
 void MapperNode::OnDepth(size_t sensor, size_t vehicle, const std::string& channel,
@@ -300,9 +302,19 @@ void MapperNode::OnScan(size_t sensor, size_t vehicle, const std::string& channe
 
 void MapperNode::Enqueue(Pending p) {
   latest_input_utime_ = std::max(latest_input_utime_, p.utime);
-  // Keep time-stamp order; equal stamps keep arrival order.
-  auto it = std::upper_bound(queue_.begin(), queue_.end(), p.utime,
-                             [](int64_t t, const Pending& q) { return t < q.utime; });
+  vehicle_latest_utime_[p.vehicle] = std::max(vehicle_latest_utime_[p.vehicle], p.utime);
+  // Keep time-stamp order; equal stamps keep arrival order. Several vehicles: (stamp, vehicle),
+  // then arrival order, so that no delay between the vehicles changes the order.
+  const bool several = config_.vehicle_prefixes.size() > 1;
+  if (several) {
+    int64_t& latest = stream_latest_utime_[{p.vehicle, p.sensor}];
+    latest = std::max(latest, p.utime);
+  }
+  auto it = std::upper_bound(queue_.begin(), queue_.end(), p,
+                             [several](const Pending& a, const Pending& q) {
+                               if (a.utime != q.utime) return a.utime < q.utime;
+                               return several && a.vehicle < q.vehicle;
+                             });
   queue_.insert(it, std::move(p));
   while (static_cast<int>(queue_.size()) > config_.max_queue) {
     Skip(queue_.front(), "overload",
@@ -317,15 +329,33 @@ void MapperNode::Skip(const Pending& p, const std::string& reason, const std::st
   Record(p);
 }
 
+bool MapperNode::StreamsPassed(int64_t utime) const {
+  if (config_.vehicle_prefixes.size() < 2 || config_.order_wait_s <= 0) return true;
+  if (latest_input_utime_ - utime >= SecondsToUtime(config_.order_wait_s)) return true;
+  // Every vehicle's stream of every sensor that some vehicle has sent: a vehicle whose first
+  // scans are still on their way is waited for too.
+  for (const auto& [stream, latest] : stream_latest_utime_) {
+    (void)latest;
+    for (size_t v = 0; v < config_.vehicle_prefixes.size(); ++v) {
+      const auto it = stream_latest_utime_.find({v, stream.second});
+      if (it == stream_latest_utime_.end() || it->second < utime) return false;
+    }
+  }
+  return true;
+}
+
 int MapperNode::ProcessPending(int max_scans) {
   int done = 0;
   while (!queue_.empty() && (max_scans <= 0 || done < max_scans)) {
     const Pending& front = queue_.front();
+    // Several vehicles: a scan still on its way from another stream may come before it.
+    if (!StreamsPassed(front.utime)) break;
     Pose3 X_WB;
-    // The wait for a newer pose is bounded in message time (the newest input stamp), not wall
-    // time, so a log replayed at any speed pairs exactly as it did live.
+    // The wait for a newer pose is bounded in message time (the newest input stamp of the scan's
+    // own vehicle: another vehicle's link may be faster), not wall time, so a log replayed at any
+    // speed pairs exactly as it did live.
     const PoseLookupResult r =
-        poses_[front.vehicle].Lookup(front.utime, latest_input_utime_, &X_WB);
+        poses_[front.vehicle].Lookup(front.utime, vehicle_latest_utime_[front.vehicle], &X_WB);
     if (r == PoseLookupResult::kWait) break;
     if (r != PoseLookupResult::kOk) {
       Skip(front, ToString(r), "no pose to pair it with");
@@ -556,13 +586,14 @@ void MapperNode::PublishDelta() {
   if (map_seq_ == last_delta_map_seq_) return;
   const GridGeometry& g = geometry();
   map3d_delta_t msg{};
+  MapDeltaCells changed;
   const bool too_large = std::visit(
       [&](const auto& m) {
         if (m->ChangedCellCount() > kMaxDeltaMessages * MaxDeltaCells()) return true;
         const OccupancyUpdater& updater = m->updater();
         m->ForEachChangedCell([&](const CellIndex& c, float stored) {
-          msg.cells.push_back({c.x, c.y, c.z});
-          msg.probabilities.push_back(static_cast<float>(updater.ProbabilityOf(stored)));
+          changed.cells.push_back({c.x, c.y, c.z});
+          changed.probabilities.push_back(static_cast<float>(updater.ProbabilityOf(stored)));
         });
         return false;
       },
@@ -580,7 +611,8 @@ void MapperNode::PublishDelta() {
   msg.base_snapshot_id = snapshot_id_;
   for (int a = 0; a < 3; ++a) msg.origin_m[a] = g.origin_m()[a];
   msg.resolution_m = g.resolution_m();
-  msg.num_cells = static_cast<int32_t>(msg.cells.size());
+  // Packed and deflated, exactly (docs/design.md §7.6): about a third of the raw 16 bytes a cell.
+  EncodeMapDeltaCells(changed, map3d_delta_t::ENCODING_ZLIB_CELLS, 1, &msg);
   lcm_.publish(config_.delta_channel, &msg);
   std::visit([](auto& m) { m->ClearChanges(); }, map_);
   last_delta_map_seq_ = map_seq_;

@@ -28,6 +28,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <memory>
 #include <string>
 #include <variant>
@@ -161,6 +162,7 @@ class MapperNode {
   MapPtr map_;
   std::unique_ptr<ScanIntegrator> integrator_;  // into map_
   std::vector<PoseHistory> poses_;              // by vehicle
+  std::vector<int64_t> vehicle_latest_utime_;   // newest input stamp of each vehicle
   std::deque<Pending> queue_;
   StreamSequences sequences_;
   DropCounter skipped_;
@@ -175,6 +177,10 @@ class MapperNode {
   int64_t status_seq_{0};
   int64_t scans_applied_{0};
   int64_t latest_input_utime_{0};
+  // Several vehicles: the newest stamp queued of each (vehicle, sensor) stream (order_wait_s).
+  std::map<std::pair<size_t, size_t>, int64_t> stream_latest_utime_;
+  // Whether every stream seen has passed `utime`, or the newest input is order_wait_s past it.
+  [[nodiscard]] bool StreamsPassed(int64_t utime) const;
   int64_t newest_applied_utime_{0};
   int ray_stride_{1};
   bool decimated_ever_{false};
