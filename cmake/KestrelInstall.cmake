@@ -50,10 +50,14 @@ file(CONFIGURE OUTPUT ${PROJECT_BINARY_DIR}/sheets/kestrel.env CONTENT "${text}"
 # kestrel-procman, which reads it, is in the vehicle package; the host's depends on it.
 install(FILES ${PROJECT_BINARY_DIR}/sheets/kestrel.env
         DESTINATION ${KESTREL_INSTALL_DATADIR}/sheets COMPONENT vehicle)
+# two_vehicles.procman holds both vehicles' commands and the host's: the vehicles need it, and the
+# host package depends on the vehicle package.
 install(FILES ${PROJECT_SOURCE_DIR}/scripts/sheets/vehicle.procman
+              ${PROJECT_SOURCE_DIR}/scripts/sheets/two_vehicles.procman
         DESTINATION ${KESTREL_INSTALL_DATADIR}/sheets COMPONENT vehicle)
 install(FILES ${PROJECT_SOURCE_DIR}/scripts/sheets/host.procman
               ${PROJECT_SOURCE_DIR}/scripts/sheets/sim.procman
+              ${PROJECT_SOURCE_DIR}/scripts/sheets/two_vehicles_sim.procman
         DESTINATION ${KESTREL_INSTALL_DATADIR}/sheets COMPONENT host)
 
 # The licence, as Debian's /usr/share/doc/<package>/copyright of each package.
