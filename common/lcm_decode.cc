@@ -5,6 +5,7 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <regex>
 #include <stdexcept>
 #include <vector>
 
@@ -308,8 +309,23 @@ void GuardedSubscriptions::AddRaw(
     std::function<void(const lcm::ReceiveBuffer*, const std::string&)> callback) {
   auto raw = std::make_unique<Raw>();
   raw->callback = std::move(callback);
+  raw->hold = &hold_;
+  raw->pattern = channel;
   raw->subscription = lcm_.subscribe(channel, &Raw::Handle, raw.get());
   subscriptions_.push_back(std::move(raw));
+}
+
+int GuardedSubscriptions::Feed(const std::string& channel, const void* data, size_t size) {
+  lcm::ReceiveBuffer rbuf{};
+  rbuf.data = const_cast<void*>(data);  // NOLINT(cppcoreguidelines-pro-type-const-cast): read only
+  rbuf.data_size = static_cast<uint32_t>(size);
+  int matched = 0;
+  for (const auto& raw : subscriptions_) {
+    if (raw->pattern != channel && !std::regex_match(channel, std::regex(raw->pattern))) continue;
+    raw->callback(&rbuf, channel);
+    ++matched;
+  }
+  return matched;
 }
 
 }  // namespace kestrel

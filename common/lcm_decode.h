@@ -52,6 +52,9 @@ class GuardedSubscriptions {
   ~GuardedSubscriptions();
 
   using ErrorHandler = std::function<void(const std::string& channel, const std::string& reason)>;
+  /// Receives a message's raw bytes while holding (SetHold).
+  using HoldHandler =
+      std::function<void(const std::string& channel, const void* data, size_t size)>;
 
   /// Subscribes to `channel` (an LCM regex is allowed, e.g. "DEPTH_.*").
   template <typename Message>
@@ -70,11 +73,26 @@ class GuardedSubscriptions {
     });
   }
 
+  /// Hands bytes that did not come from the socket (a recorded log's event) to every
+  /// subscription whose channel pattern matches `channel` (anchored, as LCM matches), exactly as
+  /// if they had been received, holding or not. Returns the number of subscriptions matched.
+  int Feed(const std::string& channel, const void* data, size_t size);
+  /// While `hold` is set, messages received from the socket go to it, raw, instead of being
+  /// decoded and handled (a node catching up from a log keeps its live input aside); an empty
+  /// function ends holding.
+  void SetHold(HoldHandler hold) { hold_ = std::move(hold); }
+
  private:
   struct Raw {
     std::function<void(const lcm::ReceiveBuffer*, const std::string&)> callback;
     lcm::Subscription* subscription{nullptr};
+    const HoldHandler* hold{nullptr};  // the owner's
+    std::string pattern;
     void Handle(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+      if (hold != nullptr && *hold) {
+        (*hold)(channel, rbuf->data, static_cast<size_t>(rbuf->data_size));
+        return;
+      }
       callback(rbuf, channel);
     }
   };
@@ -83,6 +101,7 @@ class GuardedSubscriptions {
 
   lcm::LCM& lcm_;
   std::vector<std::unique_ptr<Raw>> subscriptions_;
+  HoldHandler hold_;
 };
 
 }  // namespace kestrel

@@ -1,0 +1,91 @@
+// LogTail reads an LCM log that is still being written: whole events only, and an event written
+// in part is read once the rest arrives.
+#include "common/log_tail.h"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+
+namespace kestrel {
+namespace {
+
+std::string TempPath(const std::string& name) {
+  return ::testing::TempDir() + "kestrel_log_tail_test_" + std::to_string(::getpid()) + "_" + name;
+}
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+void Append(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::app);
+  out << bytes;
+}
+
+// Three events written by the LCM library's writer, as lcm-logger writes them.
+std::string WriteThreeEvents() {
+  const std::string path = TempPath("whole.lcmlog");
+  lcm::LogFile log(path, "w");
+  EXPECT_TRUE(log.good());
+  for (int i = 0; i < 3; ++i) {
+    std::string data(static_cast<size_t>(100 + 1000 * i), static_cast<char>('a' + i));
+    lcm::LogEvent e;
+    e.eventnum = i;
+    e.timestamp = 1000 + i;
+    e.channel = "CHANNEL_" + std::to_string(i);
+    e.datalen = static_cast<int32_t>(data.size());
+    e.data = data.data();
+    EXPECT_EQ(log.writeEvent(&e), 0);
+  }
+  return path;
+}
+
+TEST(LogTail, ReadsWholeEventsAndWaitsForOnesWrittenInPart) {
+  const std::string whole_path = WriteThreeEvents();
+  const std::string whole = ReadAll(whole_path);
+  // The third event cut in the middle of its data, then in the middle of its header.
+  for (const size_t cut : {whole.size() - 500, whole.size() - 2100 - 20}) {
+    SCOPED_TRACE("cut at " + std::to_string(cut) + " of " + std::to_string(whole.size()));
+    const std::string path = TempPath("growing.lcmlog");
+    std::remove(path.c_str());
+    Append(path, whole.substr(0, cut));
+    LogTail tail(path);
+    std::optional<LoggedEvent> e = tail.Next();
+    ASSERT_TRUE(e.has_value());
+    EXPECT_EQ(e->channel, "CHANNEL_0");
+    EXPECT_EQ(e->timestamp, 1000);
+    EXPECT_EQ(e->data, std::vector<uint8_t>(100, 'a'));
+    ASSERT_TRUE(tail.Next().has_value());
+    EXPECT_FALSE(tail.Next().has_value()) << "the third event is only partly written";
+    EXPECT_FALSE(tail.Next().has_value());
+    Append(path, whole.substr(cut));
+    e = tail.Next();
+    ASSERT_TRUE(e.has_value()) << "the rest has been written";
+    EXPECT_EQ(e->channel, "CHANNEL_2");
+    EXPECT_EQ(e->timestamp, 1002);
+    EXPECT_EQ(e->data, std::vector<uint8_t>(2100, 'c'));
+    EXPECT_FALSE(tail.Next().has_value());
+    EXPECT_EQ(tail.events_read(), 3);
+    std::remove(path.c_str());
+  }
+  std::remove(whole_path.c_str());
+}
+
+TEST(LogTail, AMissingFileIsAClearError) {
+  try {
+    LogTail tail(TempPath("missing.lcmlog"));
+    FAIL() << "opened a missing file";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot open the LCM log"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace kestrel
