@@ -75,7 +75,12 @@ void MapperConfig::Validate() const {
                        "resume = '" << resume << "' must be same_run or any");
   KESTREL_THROW_UNLESS(max_queue >= 1, "max_queue = " << max_queue << " must be >= 1");
   KESTREL_THROW_UNLESS(max_backlog_s > 0, "max_backlog_s = " << max_backlog_s << " must be > 0");
-  KESTREL_THROW_UNLESS(order_wait_s >= 0, "order_wait_s = " << order_wait_s << " must be >= 0");
+  KESTREL_THROW_UNLESS(
+      order_wait_s >= 0 && order_wait_s < max_backlog_s,
+      "order_wait_s = " << order_wait_s
+                        << " must be >= 0 and below max_backlog_s = " << max_backlog_s);
+  KESTREL_THROW_UNLESS(catch_up_wait_s >= 0,
+                       "catch_up_wait_s = " << catch_up_wait_s << " must be >= 0");
 }
 
 namespace {
@@ -153,6 +158,8 @@ MapperConfig LoadMapperConfig(const ConfigNode& node) {
   node.Read("max_queue", &c.max_queue, Range::Closed(1, 100000));
   node.Read("max_backlog_s", &c.max_backlog_s, Range::Positive());
   node.Read("order_wait_s", &c.order_wait_s, Range::NonNegative());
+  node.Read("catch_up_log", &c.catch_up_log);
+  node.Read("catch_up_wait_s", &c.catch_up_wait_s, Range::NonNegative());
   node.Read("traversal_thread", &c.traversal_thread);
   node.Read("instruction_set", &c.instruction_set, {"", "scalar", "avx512"});
   try {

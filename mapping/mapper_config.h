@@ -69,13 +69,22 @@ struct MapperConfig {
 
   int max_queue{60};          ///< scans held at most; beyond, the oldest is dropped (counted)
   double max_backlog_s{0.5};  ///< backlog beyond which rays are decimated (status shows it)
-  /// Several vehicles (docs/design.md §7.10): a scan is applied only once every vehicle's stream
-  /// of every sensor some vehicle has sent has delivered one with a stamp at least as new, or the
-  /// newest input is this much newer than the scan (message time, s; 0: no wait, arrival order). So
-  /// mappers that receive the same scans with different delays (one per vehicle, across a
-  /// network) apply them in one order, (stamp, vehicle, then arrival), and hold the same map bit
-  /// for bit. One vehicle: unused.
-  double order_wait_s{0.5};
+  /// Scan order (docs/design.md §3.6, §7.10): a scan is applied only once every configured
+  /// stream (vehicle, sensor) has delivered one with a stamp at least as new, or the newest input
+  /// is this much newer than the scan (message time, s; 0: no wait, arrival order; a sensor that
+  /// never sends delays the map by this much). So sensors relayed by separate driver processes, and mappers that receive
+  /// the same scans with different delays (one per vehicle, across a network), apply them in one
+  /// order, (stamp, vehicle, sensor), and hold the same map bit for bit. Below max_backlog_s, so
+  /// that the wait alone never decimates.
+  double order_wait_s{0.3};
+
+  /// The run's LCM log (lcm-logger's file; "" = none). A mapper that resumed its checkpoint reads
+  /// it before its live input and applies what it missed while it was down (docs/design.md §3.6):
+  /// the map is then the one a mapper that never stopped would hold.
+  std::string catch_up_log;
+  /// How long catching up may wait for the log to reach the live input (the logger flushes every
+  /// 100 ms) before it goes on without (logged), s.
+  double catch_up_wait_s{5.0};
 
   /// Cast the rays of each scan on a second thread ahead of the in-order updates
   /// (ScanIntegrator::SetWorkerThread): the same map bit for bit. Each kind

@@ -257,9 +257,22 @@ void MapperNode::OnPose(size_t vehicle, const pose_t& msg) {
   vehicle_latest_utime_[vehicle] = std::max(vehicle_latest_utime_[vehicle], msg.utime);
 }
 
+bool MapperNode::AlreadyQueued(const std::string& channel, int64_t epoch, int64_t seq) {
+  for (const Pending& p : queue_) {
+    if (p.seq == seq && p.epoch == epoch && p.channel == channel) {
+      skipped_.Count("already_applied", channel + " seq " + std::to_string(seq) + " of epoch " +
+                                            std::to_string(epoch) + " is already queued");
+      return true;
+    }
+  }
+  return false;
+}
+
 void MapperNode::OnDepth(size_t sensor, size_t vehicle, const std::string& channel,
                          const depth_image_t& msg) {
-  if (AlreadyApplied(channel, msg.epoch, msg.seq)) return;
+  if (AlreadyApplied(channel, msg.epoch, msg.seq) || AlreadyQueued(channel, msg.epoch, msg.seq)) {
+    return;
+  }
   auto bad = [&](const std::string& why) {
     skipped_.Count("malformed", channel + " seq " + std::to_string(msg.seq) + ": " + why);
   };
@@ -281,7 +294,9 @@ void MapperNode::OnDepth(size_t sensor, size_t vehicle, const std::string& chann
 
 void MapperNode::OnScan(size_t sensor, size_t vehicle, const std::string& channel,
                         const planar_scan_t& msg) {
-  if (AlreadyApplied(channel, msg.epoch, msg.seq)) return;
+  if (AlreadyApplied(channel, msg.epoch, msg.seq) || AlreadyQueued(channel, msg.epoch, msg.seq)) {
+    return;
+  }
   auto bad = [&](const std::string& why) {
     skipped_.Count("malformed", channel + " seq " + std::to_string(msg.seq) + ": " + why);
   };
@@ -303,18 +318,16 @@ void MapperNode::OnScan(size_t sensor, size_t vehicle, const std::string& channe
 void MapperNode::Enqueue(Pending p) {
   latest_input_utime_ = std::max(latest_input_utime_, p.utime);
   vehicle_latest_utime_[p.vehicle] = std::max(vehicle_latest_utime_[p.vehicle], p.utime);
-  // Keep time-stamp order; equal stamps keep arrival order. Several vehicles: (stamp, vehicle),
-  // then arrival order, so that no delay between the vehicles changes the order.
-  const bool several = config_.vehicle_prefixes.size() > 1;
-  if (several) {
-    int64_t& latest = stream_latest_utime_[{p.vehicle, p.sensor}];
-    latest = std::max(latest, p.utime);
-  }
-  auto it = std::upper_bound(queue_.begin(), queue_.end(), p,
-                             [several](const Pending& a, const Pending& q) {
-                               if (a.utime != q.utime) return a.utime < q.utime;
-                               return several && a.vehicle < q.vehicle;
-                             });
+  int64_t& latest = stream_latest_utime_[{p.vehicle, p.sensor}];
+  latest = std::max(latest, p.utime);
+  // Order (docs/design.md §3.6): (stamp, vehicle, sensor), then arrival, so that no delay between
+  // the vehicles or the sensors' driver processes changes it.
+  auto it =
+      std::upper_bound(queue_.begin(), queue_.end(), p, [](const Pending& a, const Pending& q) {
+        if (a.utime != q.utime) return a.utime < q.utime;
+        if (a.vehicle != q.vehicle) return a.vehicle < q.vehicle;
+        return a.sensor < q.sensor;
+      });
   queue_.insert(it, std::move(p));
   while (static_cast<int>(queue_.size()) > config_.max_queue) {
     Skip(queue_.front(), "overload",
@@ -329,15 +342,22 @@ void MapperNode::Skip(const Pending& p, const std::string& reason, const std::st
   Record(p);
 }
 
+int MapperNode::ApplyRemaining() {
+  input_ended_ = true;
+  const int done = ProcessPending();
+  input_ended_ = false;
+  return done;
+}
+
 bool MapperNode::StreamsPassed(int64_t utime) const {
-  if (config_.vehicle_prefixes.size() < 2 || config_.order_wait_s <= 0) return true;
+  if (config_.order_wait_s <= 0 || input_ended_) return true;
   if (latest_input_utime_ - utime >= SecondsToUtime(config_.order_wait_s)) return true;
-  // Every vehicle's stream of every sensor that some vehicle has sent: a vehicle whose first
-  // scans are still on their way is waited for too.
-  for (const auto& [stream, latest] : stream_latest_utime_) {
-    (void)latest;
-    for (size_t v = 0; v < config_.vehicle_prefixes.size(); ++v) {
-      const auto it = stream_latest_utime_.find({v, stream.second});
+  // Every configured stream (vehicle, sensor), sent yet or not: a stream whose first scans are
+  // still on their way is waited for too (a sensor that never sends delays the map by
+  // order_wait_s).
+  for (size_t v = 0; v < config_.vehicle_prefixes.size(); ++v) {
+    for (size_t i = 0; i < config_.sensors.size(); ++i) {
+      const auto it = stream_latest_utime_.find({v, i});
       if (it == stream_latest_utime_.end() || it->second < utime) return false;
     }
   }
@@ -420,6 +440,78 @@ void MapperNode::Apply(const Pending& p, const Pose3& X_WB) {
   ++scans_applied_;
   newest_applied_utime_ = std::max(newest_applied_utime_, p.utime);
   Record(p);
+}
+
+namespace {
+// FNV-1a over a message's channel and bytes: the identity of a message in the log and live.
+uint64_t MessageHash(const std::string& channel, const void* data, size_t size) {
+  uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](const uint8_t* p, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+      h ^= p[i];
+      h *= 1099511628211ull;
+    }
+  };
+  mix(reinterpret_cast<const uint8_t*>(channel.data()), channel.size());
+  const uint8_t separator = 0;
+  mix(&separator, 1);
+  mix(static_cast<const uint8_t*>(data), size);
+  return h;
+}
+}  // namespace
+
+void MapperNode::HandleRecorded(const std::string& channel, const void* data, size_t size) {
+  subscriptions_.Feed(channel, data, size);
+  ProcessPending();
+}
+
+void MapperNode::BeginCatchUp() {
+  catching_up_ = true;
+  catch_up_overlap_ = false;
+  held_.clear();
+  held_hashes_.clear();
+  fed_since_overlap_.clear();
+  catch_up_fed_ = 0;
+  heartbeat_.SetState(heartbeat_t::STATE_STARTING);
+  subscriptions_.SetHold([this](const std::string& channel, const void* data, size_t size) {
+    const uint64_t hash = MessageHash(channel, data, size);
+    const auto* bytes = static_cast<const uint8_t*>(data);
+    held_.push_back(Held{channel, std::vector<uint8_t>(bytes, bytes + size), hash});
+    held_hashes_.insert(hash);
+  });
+}
+
+void MapperNode::FeedCatchUp(const std::string& channel, const void* data, size_t size) {
+  KESTREL_DEMAND(catching_up_);
+  const uint64_t hash = MessageHash(channel, data, size);
+  if (!catch_up_overlap_ && held_hashes_.count(hash) > 0) catch_up_overlap_ = true;
+  if (catch_up_overlap_) fed_since_overlap_.insert(hash);
+  ++catch_up_fed_;
+  HandleRecorded(channel, data, size);
+}
+
+MapperNode::CatchUpResult MapperNode::EndCatchUp() {
+  KESTREL_DEMAND(catching_up_);
+  subscriptions_.SetHold(nullptr);
+  catching_up_ = false;
+  CatchUpResult r;
+  r.fed = catch_up_fed_;
+  r.held = static_cast<int64_t>(held_.size());
+  r.overlapped = catch_up_overlap_;
+  // The held messages in order; those the log also held were handled from it (the live order
+  // and the logger's are the same datagrams in the same order on one host).
+  for (const Held& h : held_) {
+    if (fed_since_overlap_.count(h.hash) > 0) {
+      ++r.repeated;
+      continue;
+    }
+    HandleRecorded(h.channel, h.data.data(), h.data.size());
+  }
+  held_.clear();
+  held_hashes_.clear();
+  fed_since_overlap_.clear();
+  heartbeat_.SetState(heartbeat_t::STATE_OK);
+  return r;
 }
 
 double MapperNode::entropy_nats() const {

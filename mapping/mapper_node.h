@@ -6,8 +6,9 @@
 /// scans are paired with its own poses, and all go through the one queue below.
 ///
 /// Order and determinism: handlers only queue; ProcessPending() applies queued scans in
-/// time-stamp order (equal stamps, of several vehicles for instance, in arrival order) as soon as
-/// their pose is known, so the same message sequence gives the same map bit for bit. A scan newer
+/// (stamp, vehicle, sensor) order, each once every stream has passed its stamp (or order_wait_s)
+/// and its pose is known, so the same messages give the same map bit for bit whatever the delays
+/// between the sensors' publishers (docs/design.md §3.6). A scan newer
 /// than the latest pose waits, until a pose after it arrives or the newest input stamp passes it by
 /// pose_history.max_wait_s (message time, so that a replayed log pairs exactly as live); scans
 /// older than the history, across a pose gap, malformed, or already applied (the same publisher
@@ -31,6 +32,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <unordered_set>
 #include <variant>
 #include <vector>
 
@@ -66,6 +68,10 @@ class MapperNode {
   /// Applies every queued scan whose pose is known (at most max_scans; <= 0: all). Returns the
   /// number of scans applied or skipped.
   int ProcessPending(int max_scans = 0);
+  /// At the end of the input (exit, the end of a replayed log): applies every queued scan whose
+  /// pose is known without waiting for the other streams to pass it. Returns the number applied
+  /// or skipped.
+  int ApplyRemaining();
   /// Publishes whatever is due at the clock's time: status/heartbeat, delta, snapshot, and saves
   /// the checkpoint when due.
   void PublishDue();
@@ -81,6 +87,27 @@ class MapperNode {
   void PublishStatus();
   /// Saves the checkpoint (if configured). Returns false (logged) on failure.
   bool SaveCheckpoint();
+
+  /// Hands one recorded message (a log's event, in log order) to the node as if received, then
+  /// applies what it can: a log fed this way gives the map of a mapper that received it live and
+  /// kept up (docs/design.md §3.6, §7.3).
+  void HandleRecorded(const std::string& channel, const void* data, size_t size);
+
+  /// Catching up from the run's log (docs/design.md §3.6). BeginCatchUp() holds the live input
+  /// aside, raw; the log is then fed through FeedCatchUp() from its start, in order (messages in
+  /// the checkpoint are skipped as already applied); once catch_up_overlaps() (the log has
+  /// reached a held live message) and the log's end is read, EndCatchUp() handles the held
+  /// messages the log did not also hold, and live input flows again.
+  void BeginCatchUp();
+  void FeedCatchUp(const std::string& channel, const void* data, size_t size);
+  [[nodiscard]] bool catch_up_overlaps() const { return catch_up_overlap_; }
+  struct CatchUpResult {
+    int64_t fed{0};       ///< log events fed
+    int64_t held{0};      ///< live messages held meanwhile
+    int64_t repeated{0};  ///< held messages the log also held (not handled twice)
+    bool overlapped{false};
+  };
+  CatchUpResult EndCatchUp();
 
   [[nodiscard]] double entropy_nats() const;
   /// FNV-1a hash of the map cells (bit-exact comparisons).
@@ -132,6 +159,8 @@ class MapperNode {
   void OnScan(size_t sensor, size_t vehicle, const std::string& channel, const planar_scan_t& msg);
   void Enqueue(Pending p);
   bool AlreadyApplied(const std::string& channel, int64_t epoch, int64_t seq);
+  // The same message is waiting in the queue (a message both logged and received live).
+  bool AlreadyQueued(const std::string& channel, int64_t epoch, int64_t seq);
   // Records (channel, epoch, seq) as applied or skipped for good; logs a new epoch once.
   void Record(const Pending& p);
   void Skip(const Pending& p, const std::string& reason, const std::string& detail);
@@ -177,10 +206,23 @@ class MapperNode {
   int64_t status_seq_{0};
   int64_t scans_applied_{0};
   int64_t latest_input_utime_{0};
-  // Several vehicles: the newest stamp queued of each (vehicle, sensor) stream (order_wait_s).
+  // The newest stamp queued of each (vehicle, sensor) stream (order_wait_s).
   std::map<std::pair<size_t, size_t>, int64_t> stream_latest_utime_;
+  // Catching up from the log (BeginCatchUp).
+  struct Held {
+    std::string channel;
+    std::vector<uint8_t> data;
+    uint64_t hash;
+  };
+  bool catching_up_{false};
+  bool catch_up_overlap_{false};
+  std::vector<Held> held_;
+  std::unordered_set<uint64_t> held_hashes_;
+  std::unordered_set<uint64_t> fed_since_overlap_;
+  int64_t catch_up_fed_{0};
   // Whether every stream seen has passed `utime`, or the newest input is order_wait_s past it.
   [[nodiscard]] bool StreamsPassed(int64_t utime) const;
+  bool input_ended_{false};  // ApplyRemaining: no stream waits
   int64_t newest_applied_utime_{0};
   int ray_stride_{1};
   bool decimated_ever_{false};

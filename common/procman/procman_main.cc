@@ -122,9 +122,10 @@ int main(int argc, char** argv) {
                              : env_file,
             !env_file.empty());
         PutOwnFolderOnPath(argv[0]);
-        if (dry_run) return PrintExecLines(sheet, config.host);
-        // One run id for every command and respawn of this runner (docs/design.md §3.5).
+        // One run id for every command and respawn of this runner (docs/design.md §3.5); a dry run
+        // shows the commands with the one it would give them.
         const std::string run_id = kestrel::EnsureRunIdInEnvironment();
+        if (dry_run) return PrintExecLines(sheet, config.host);
         kestrel::Log(kestrel::LogLevel::kInfo, std::string("run id ") + run_id + " ($" +
                                                    kestrel::kRunIdEnvironmentVariable +
                                                    " of every command)");

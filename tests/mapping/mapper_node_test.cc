@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <iterator>
@@ -17,6 +18,7 @@
 
 #include <gtest/gtest.h>
 
+#include "common/log_tail.h"
 #include "kestrel/heartbeat_t.hpp"
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
@@ -69,6 +71,7 @@ void Feed(lcm::LCM& lcm, MapperNode& node, SimClock& clock, const std::vector<St
       }
     }
   }
+  node.ApplyRemaining();  // the end of the input: the last scans wait for no other stream
 }
 
 /// The stream with its depth camera and LIDAR publishers restarted before event `restart_at`:
@@ -145,6 +148,7 @@ TEST_F(MapperNodeTest, MapsTheRoomWallsAndFreeSpace) {
 TEST_F(MapperNodeTest, ScansWaitForThePoseAfterThemAndOldOrGapScansAreSkipped) {
   lcm::LCM lcm("memq://");
   SimClock clock(1000000);
+  config_.order_wait_s = 0;  // the pose pairing alone: only the LIDAR sends here
   MapperNode node(lcm, config_, clock);
   // A scan before any pose waits (queued, not skipped).
   const StreamEvent* scan = nullptr;
@@ -546,6 +550,144 @@ TEST_F(MapperNodeTest, AResumedMapperAppliesAReplayedLogExactlyOnce) {
   for (const std::string& p : {once_path, resumed_path, with_checkpoint.checkpoint_path}) {
     std::remove(p.c_str());
   }
+}
+
+/// The events in the order a mapper receives them when the LIDAR's driver process relays its
+/// scans `delay_us` later than the camera's driver relays its images (stable otherwise).
+std::vector<StreamEvent> WithScansDelayed(std::vector<StreamEvent> events, int64_t delay_us) {
+  auto arrival = [delay_us](const StreamEvent& e) {
+    return e.utime + (e.kind == StreamEvent::Kind::kScan ? delay_us : 0);
+  };
+  std::stable_sort(events.begin(), events.end(), [&](const StreamEvent& a, const StreamEvent& b) {
+    return arrival(a) < arrival(b);
+  });
+  return events;
+}
+
+// Scans apply in (stamp, vehicle, sensor) order once every sensor stream has passed them
+// (docs/design.md §3.6): the LIDAR relayed 250 ms behind the camera gives the same map as both on
+// time. In arrival order (order_wait_s = 0) the two maps differ.
+TEST_F(MapperNodeTest, ScansApplyInStampOrderWhateverTheDelayBetweenSensors) {
+  const std::vector<StreamEvent> late = WithScansDelayed(events_, 250000);
+  ASSERT_NE(late[0].utime, events_[0].utime + 1) << "keeps the test honest: orders differ";
+  auto run = [&](double order_wait_s, const std::vector<StreamEvent>& events) {
+    MapperConfig c = config_;
+    c.order_wait_s = order_wait_s;
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, c, clock);
+    Feed(lcm, node, clock, events);
+    EXPECT_EQ(node.scans_applied(), 60);
+    EXPECT_TRUE(node.applied_every_message());
+    return node.map_hash();
+  };
+  EXPECT_EQ(run(0.3, late), run(0.3, events_));
+  EXPECT_NE(run(0.0, late), run(0.0, events_)) << "arrival order: the delay changes the map";
+}
+
+/// The message of an event, encoded, with its channel: what lcm-logger writes.
+std::pair<std::string, std::vector<uint8_t>> Encoded(const StreamEvent& e) {
+  auto encode = [](const auto& msg) {
+    std::vector<uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
+    msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    return bytes;
+  };
+  switch (e.kind) {
+    case StreamEvent::Kind::kPose:
+      return {"POSE_VICON", encode(e.pose)};
+    case StreamEvent::Kind::kDepth:
+      return {"DEPTH_XTION", encode(e.depth)};
+    case StreamEvent::Kind::kScan:
+    default:
+      return {"SCAN_HOKUYO", encode(e.scan)};
+  }
+}
+
+/// Appends events [begin, end) to the run's log and flushes it, as lcm-logger does.
+void Log(lcm::LogFile& log, const std::vector<StreamEvent>& events, size_t begin, size_t end) {
+  for (size_t i = begin; i < end; ++i) {
+    auto [channel, bytes] = Encoded(events[i]);
+    lcm::LogEvent le;
+    le.eventnum = static_cast<int64_t>(i);
+    le.timestamp = events[i].utime;
+    le.channel = channel;
+    le.datalen = static_cast<int32_t>(bytes.size());
+    le.data = bytes.data();
+    ASSERT_EQ(log.writeEvent(&le), 0);
+  }
+  std::fflush(log.getFilePtr());
+}
+
+// A mapper killed with -9 and respawned catches up from the run's log (docs/design.md §3.6): it
+// resumes its last checkpoint, holds its live input aside while it reads the log from the
+// start, and hands over where the log reaches the held messages. The map is the one a mapper
+// that never stopped holds, every scan applied once. Without the catch-up, the scans sent while it
+// was down are missing and the map differs.
+TEST_F(MapperNodeTest, ARespawnedMapperCatchesUpFromTheRunsLog) {
+  const size_t n = events_.size();
+  uint64_t uninterrupted = 0;
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, config_, clock);
+    Feed(lcm, node, clock, events_);
+    ASSERT_EQ(node.scans_applied(), 60);
+    uninterrupted = node.map_hash();
+  }
+  MapperConfig c = config_;
+  c.checkpoint_path = TempPath("catch-up.kmap");
+  c.run_id = "catch-up-run";
+  const std::string log_path = TempPath("catch-up.lcmlog");
+  for (const bool catch_up : {true, false}) {
+    SCOPED_TRACE(catch_up ? "with the catch-up" : "without");
+    std::remove(c.checkpoint_path.c_str());
+    lcm::LogFile log(log_path, "w");
+    ASSERT_TRUE(log.good());
+    int64_t in_checkpoint = 0;
+    {
+      lcm::LCM lcm("memq://");
+      SimClock clock;
+      MapperNode first(lcm, c, clock);
+      Feed(lcm, first, clock, events_, 0, n / 3);
+      ASSERT_TRUE(first.SaveCheckpoint());
+      in_checkpoint = first.scans_applied();
+      Feed(lcm, first, clock, events_, n / 3, n / 2);  // applied, then lost with the process
+    }
+    Log(log, events_, 0, 6 * n / 10);  // the logger went on while the mapper was down
+    lcm::LCM lcm("memq://");
+    SimClock clock(events_[6 * n / 10].utime);
+    MapperNode respawned(lcm, c, clock);
+    ASSERT_TRUE(respawned.resumed());
+    if (!catch_up) {
+      Feed(lcm, respawned, clock, events_, 6 * n / 10 - 20, n);
+      EXPECT_NE(respawned.map_hash(), uninterrupted);
+      continue;
+    }
+    respawned.BeginCatchUp();
+    // Live input from before the log's end (the logger had them already), held aside.
+    Feed(lcm, respawned, clock, events_, 6 * n / 10 - 20, 6 * n / 10 + 30);
+    EXPECT_EQ(respawned.scans_applied(), 0) << "live input is held while catching up";
+    LogTail tail(log_path);
+    while (const std::optional<LoggedEvent> e = tail.Next()) {
+      respawned.FeedCatchUp(e->channel, e->data.data(), e->data.size());
+    }
+    EXPECT_TRUE(respawned.catch_up_overlaps());
+    Log(log, events_, 6 * n / 10, 6 * n / 10 + 10);  // flushed meanwhile
+    while (const std::optional<LoggedEvent> e = tail.Next()) {
+      respawned.FeedCatchUp(e->channel, e->data.data(), e->data.size());
+    }
+    const MapperNode::CatchUpResult r = respawned.EndCatchUp();
+    EXPECT_TRUE(r.overlapped);
+    EXPECT_EQ(r.fed, static_cast<int64_t>(6 * n / 10 + 10));
+    EXPECT_EQ(r.held, 50);
+    EXPECT_EQ(r.repeated, 30) << "held messages also read from the log are not handled twice";
+    Feed(lcm, respawned, clock, events_, 6 * n / 10 + 30, n);
+    EXPECT_EQ(in_checkpoint + respawned.scans_applied(), 60) << "every scan exactly once";
+    EXPECT_TRUE(respawned.applied_every_message());
+    EXPECT_EQ(respawned.map_hash(), uninterrupted);
+  }
+  std::remove(c.checkpoint_path.c_str());
+  std::remove(log_path.c_str());
 }
 
 // A checkpoint of another run is not resumed: it is moved aside (never overwritten, nor a

@@ -198,7 +198,7 @@ std::pair<uint64_t, uint64_t> TwoMappers(double delay_s, double order_wait_s) {
 }
 
 TEST(TwoVehicleMapping, OneMapperPerVehicleHoldsTheSameMapWhateverTheDelays) {
-  const auto [prompt, delayed] = TwoMappers(0.2, 0.5);
+  const auto [prompt, delayed] = TwoMappers(0.2, 0.3);
   EXPECT_EQ(prompt, delayed) << "V2_'s scans 0.2 s late must not change the order";
   // Without the order wait, arrival order decides, and the maps differ (exact updates do not
   // commute): the test can tell.
