@@ -11,6 +11,7 @@
 #include "common/config.h"
 #include "common/identity.h"
 #include "common/trajectory_message.h"
+#include "common/vehicle_prefixes.h"
 #include "exploration/planner_config_io.h"
 #include "exploration/startup_turn.h"
 #include "kestrel/command_t.hpp"
@@ -115,13 +116,7 @@ ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
     e.Read("max_status_candidates", &c.max_status_candidates, Range::Closed(1, 100000));
     e.Read("map2d_period_s", &c.map2d_period_s, Range::NonNegative());
     e.Read("vehicle_prefix", &c.vehicle_prefix);
-    if (e.Has("peers")) {
-      for (const ConfigNode& v : e.Elements("peers")) {
-        std::string prefix;
-        v.ReadRequired("prefix", &prefix);
-        c.peer_prefixes.push_back(prefix);
-      }
-    }
+    ReadVehiclePrefixes(e, "peers", &c.peer_prefixes);
     e.Read("min_separation_m", &c.min_separation_m, Range::Positive());
     e.Read("min_vertical_separation_m", &c.min_vertical_separation_m, Range::Positive());
     e.Read("max_yield_s", &c.max_yield_s, Range::Positive());

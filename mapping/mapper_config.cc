@@ -2,11 +2,10 @@
 
 #include <unistd.h>
 
-#include <cctype>
-
 #include "common/check.h"
 #include "common/identity.h"
 #include "common/vehicle_config.h"
+#include "common/vehicle_prefixes.h"
 #include "mapping/mapping_config.h"
 
 namespace kestrel {
@@ -37,20 +36,7 @@ void MapperConfig::Validate() const {
   log_odds.Validate();
   pose_history.Validate();
   KESTREL_THROW_UNLESS(!sensors.empty(), "sensors: at least one sensor is needed");
-  KESTREL_THROW_UNLESS(!vehicle_prefixes.empty() && vehicle_prefixes.size() <= 16,
-                       "vehicles: " << vehicle_prefixes.size() << " listed; accepted: 1 to 16");
-  for (size_t i = 0; i < vehicle_prefixes.size(); ++i) {
-    for (const char ch : vehicle_prefixes[i]) {
-      KESTREL_THROW_UNLESS(std::isalnum(static_cast<unsigned char>(ch)) || ch == '_',
-                           "vehicles[" << i << "].prefix = '" << vehicle_prefixes[i]
-                                       << "': accepted: letters, digits and '_'");
-    }
-    for (size_t j = 0; j < i; ++j) {
-      KESTREL_THROW_UNLESS(vehicle_prefixes[i] != vehicle_prefixes[j],
-                           "vehicles[" << j << "] and [" << i << "] share the prefix '"
-                                       << vehicle_prefixes[i] << "'");
-    }
-  }
+  ValidateVehiclePrefixes(vehicle_prefixes);
   for (const auto& s : sensors) {
     KESTREL_THROW_UNLESS(
         s.kind == "depth" || s.kind == "scan",
@@ -132,14 +118,7 @@ MapperConfig LoadMapperConfig(const ConfigNode& node) {
     }
   }
   node.Read("pose_channel", &c.pose_channel);
-  if (node.Has("vehicles")) {
-    c.vehicle_prefixes.clear();
-    for (const ConfigNode& v : node.Elements("vehicles")) {
-      std::string prefix;
-      v.ReadRequired("prefix", &prefix);
-      c.vehicle_prefixes.push_back(prefix);
-    }
-  }
+  ReadVehiclePrefixes(node, "vehicles", &c.vehicle_prefixes);
   if (node.Has("pose_history")) ReadPoseHistoryConfig(node.Child("pose_history"), &c.pose_history);
   node.Read("map_channel", &c.map_channel);
   node.Read("delta_channel", &c.delta_channel);

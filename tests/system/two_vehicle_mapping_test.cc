@@ -42,9 +42,8 @@ struct Result {
   bool every_message{false};
 };
 
-Result Fly(const std::vector<std::string>& mapped_prefixes) {
-  lcm::LCM lcm("memq://");
-  SimClock clock(1'000'000);
+// Two vehicles in lasr, kinematic, V2_ 4 m to the right of V1_.
+SimConfig TwoVehicleSimConfig() {
   ConfigNode sim_cfg = ConfigNode::LoadFile(kRoot + "/config/sim/sim_ci.yaml");
   sim_cfg.ApplyOverride("world_file=" + kRoot + "/config/worlds/lasr.yaml");
   sim_cfg.ApplyOverride("mode=kinematic");
@@ -52,18 +51,31 @@ Result Fly(const std::vector<std::string>& mapped_prefixes) {
   sim_cfg.ApplyOverride(
       "vehicles=[{prefix: V1_, start_offset_m: [0, 0, 0]}, {prefix: V2_, start_offset_m: "
       "[0, -4, 0]}]");
-  const SimConfig sim_config = LoadSimConfig(sim_cfg, kRoot);
-  SimNode sim(lcm, sim_config, clock);
+  return LoadSimConfig(sim_cfg, kRoot);
+}
 
+// The shipped mapper over lasr's limits, fusing the vehicles of `prefixes` (order_wait_s < 0:
+// the shipped one).
+MapperConfig LasrMapperConfig(const std::vector<std::string>& prefixes, double order_wait_s = -1) {
   ConfigNode mapper_cfg = ConfigNode::LoadFile(kRoot + "/config/mapper.yaml");
   mapper_cfg.ApplyOverride("map.min_m=[0.5,-8.3,-0.15]");
   mapper_cfg.ApplyOverride("map.max_m=[10.3,3.5,1.5]");
   mapper_cfg.ApplyOverride("traversal_thread=false");
   std::string vehicles = "vehicles=[";
-  for (const std::string& p : mapped_prefixes) vehicles += "{prefix: " + p + "},";
+  for (const std::string& p : prefixes) vehicles += "{prefix: " + p + "},";
   vehicles.back() = ']';
   mapper_cfg.ApplyOverride(vehicles);
-  const MapperConfig mapper_config = LoadMapperConfig(mapper_cfg);
+  if (order_wait_s >= 0) mapper_cfg.ApplyOverride("order_wait_s=" + std::to_string(order_wait_s));
+  return LoadMapperConfig(mapper_cfg);
+}
+
+Result Fly(const std::vector<std::string>& mapped_prefixes) {
+  lcm::LCM lcm("memq://");
+  SimClock clock(1'000'000);
+  const SimConfig sim_config = TwoVehicleSimConfig();
+  SimNode sim(lcm, sim_config, clock);
+
+  const MapperConfig mapper_config = LasrMapperConfig(mapped_prefixes);
   MapperNode mapper(lcm, mapper_config, clock);
 
   const double t0 = UtimeToSeconds(clock.NowUtime());
@@ -78,7 +90,7 @@ Result Fly(const std::vector<std::string>& mapped_prefixes) {
     }
     mapper.ProcessPending();
   }
-  mapper.ProcessPending();
+  mapper.ApplyRemaining();
 
   Result r;
   r.hash = mapper.map_hash();
@@ -115,22 +127,9 @@ std::pair<uint64_t, uint64_t> TwoMappers(double delay_s, double order_wait_s) {
   lcm::LCM near("memq://");
   lcm::LCM far("memq://");
   SimClock clock(1'000'000);
-  ConfigNode sim_cfg = ConfigNode::LoadFile(kRoot + "/config/sim/sim_ci.yaml");
-  sim_cfg.ApplyOverride("world_file=" + kRoot + "/config/worlds/lasr.yaml");
-  sim_cfg.ApplyOverride("mode=kinematic");
-  sim_cfg.ApplyOverride("imu.enabled=false");
-  sim_cfg.ApplyOverride(
-      "vehicles=[{prefix: V1_, start_offset_m: [0, 0, 0]}, {prefix: V2_, start_offset_m: "
-      "[0, -4, 0]}]");
-  const SimConfig sim_config = LoadSimConfig(sim_cfg, kRoot);
+  const SimConfig sim_config = TwoVehicleSimConfig();
   SimNode sim(near, sim_config, clock);
-  ConfigNode mapper_cfg = ConfigNode::LoadFile(kRoot + "/config/mapper.yaml");
-  mapper_cfg.ApplyOverride("map.min_m=[0.5,-8.3,-0.15]");
-  mapper_cfg.ApplyOverride("map.max_m=[10.3,3.5,1.5]");
-  mapper_cfg.ApplyOverride("traversal_thread=false");
-  mapper_cfg.ApplyOverride("vehicles=[{prefix: V1_}, {prefix: V2_}]");
-  mapper_cfg.ApplyOverride("order_wait_s=" + std::to_string(order_wait_s));
-  const MapperConfig mapper_config = LoadMapperConfig(mapper_cfg);
+  const MapperConfig mapper_config = LasrMapperConfig({"V1_", "V2_"}, order_wait_s);
   MapperNode prompt(near, mapper_config, clock);
   MapperNode delayed(far, mapper_config, clock);
   // The relay to the far side: V2_'s messages held for delay_s, the rest passed on at once.

@@ -1,9 +1,9 @@
 #include "viewer/bridge/viewer_config.h"
 
-#include <cctype>
 #include <stdexcept>
 
 #include "common/check.h"
+#include "common/vehicle_prefixes.h"
 
 namespace kestrel {
 
@@ -28,20 +28,7 @@ void ViewerConfig::Validate() const {
   KESTREL_THROW_UNLESS(scene.max_candidates >= 0,
                        "max_candidates = " << scene.max_candidates << " below 0");
   // The same rules as the mapper's and the simulator's vehicles (docs/design.md §7.10).
-  KESTREL_THROW_UNLESS(!vehicle_prefixes.empty() && vehicle_prefixes.size() <= 16,
-                       "vehicles: " << vehicle_prefixes.size() << " listed; accepted: 1 to 16");
-  for (size_t i = 0; i < vehicle_prefixes.size(); ++i) {
-    for (const char ch : vehicle_prefixes[i]) {
-      KESTREL_THROW_UNLESS(std::isalnum(static_cast<unsigned char>(ch)) || ch == '_',
-                           "vehicles[" << i << "].prefix = '" << vehicle_prefixes[i]
-                                       << "': accepted: letters, digits and '_'");
-    }
-    for (size_t j = 0; j < i; ++j) {
-      KESTREL_THROW_UNLESS(vehicle_prefixes[i] != vehicle_prefixes[j],
-                           "vehicles[" << j << "] and [" << i << "] share the prefix '"
-                                       << vehicle_prefixes[i] << "'");
-    }
-  }
+  ValidateVehiclePrefixes(vehicle_prefixes);
 }
 
 ViewerConfig LoadViewerConfig(const ConfigNode& node) {
@@ -68,14 +55,7 @@ ViewerConfig LoadViewerConfig(const ConfigNode& node) {
     ch.Read("exploration", &c.exploration_channel);
     ch.Read("heartbeat", &c.heartbeat_channel);
   }
-  if (node.Has("vehicles")) {
-    c.vehicle_prefixes.clear();
-    for (const ConfigNode& v : node.Elements("vehicles")) {
-      std::string prefix;
-      v.ReadRequired("prefix", &prefix);
-      c.vehicle_prefixes.push_back(prefix);
-    }
-  }
+  ReadVehiclePrefixes(node, "vehicles", &c.vehicle_prefixes);
   if (node.Has("scene")) {
     const ConfigNode s = node.Child("scene");
     s.Read("occupied_threshold", &c.scene.occupied_threshold, Range{0.0, 1.0, true, false});
