@@ -31,8 +31,8 @@ SimNode::SimNode(lcm::LCM& lcm, const SimConfig& config, SimClock& clock)
     VehicleChannels ch;
     ch.pose = c.ChannelOf(k, c.pose_channel);
     ch.imu = c.ChannelOf(k, c.imu_channel);
-    ch.depth = c.ChannelOf(k, c.depth_channel);
-    ch.scan = c.ChannelOf(k, c.scan_channel);
+    ch.depth = c.SensorChannelOf(k, c.depth_channel);
+    ch.scan = c.SensorChannelOf(k, c.scan_channel);
     ch.truth = c.ChannelOf(k, c.truth_channel);
     ch.motor = c.ChannelOf(k, c.motor_channel);
     ch.trajectory = c.ChannelOf(k, c.trajectory_channel);

@@ -6,7 +6,9 @@
 /// (sim_truth_t) and a 1 Hz heartbeat; reads MOTOR_COMMAND (dynamic mode) or TRAJECTORY
 /// (kinematic mode) through the guarded decoder. With several vehicles, each one's channels carry
 /// its prefix (V2_POSE_VICON, V2_MOTOR_COMMAND, V2_SIM_TRUTH, ...); the heartbeat is the
-/// simulator's, one for all. Lockstep: Step() advances one physics step,
+/// simulator's, one for all. With sensor_device_prefix set, depth images and scans go out on the
+/// device channels (e.g. DEV_DEPTH_XTION) for kestrel-sim-standin to relay (docs/design.md §7.11).
+/// Lockstep: Step() advances one physics step,
 /// sets the SimClock to the new time and publishes; nodes sharing the lcm and clock in one
 /// process then handle the messages (lcm.handleTimeout(0)) before the next Step().
 
