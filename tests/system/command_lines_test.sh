@@ -35,6 +35,7 @@ declare -A numeric=(
   [control/kestrel-controller]=""
   [exploration/kestrel-explorer]=""
   [sim/kestrel-sim]=""
+  [sim/kestrel-sim-standin]=""
   [common/procman/kestrel-procman]=""
   [drivers/vicon/kestrel-vicon]=""
   [drivers/vicon/kestrel-vicon-emitter]=""
