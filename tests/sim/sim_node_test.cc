@@ -9,6 +9,7 @@
 
 #include "common/identity.h"
 #include "kestrel/depth_image_t.hpp"
+#include "kestrel/heartbeat_t.hpp"
 #include "kestrel/imu_t.hpp"
 #include "kestrel/planar_scan_t.hpp"
 #include "kestrel/pose_t.hpp"
@@ -325,6 +326,46 @@ TEST(SimNode, RejectsBadMotorCommands) {
   }
   EXPECT_EQ(node.rejected_messages(), 2);
   EXPECT_TRUE(node.simulator().vehicle().on_ground());
+}
+
+// Malformed bytes on the command channel are counted exactly, by reason, in the heartbeat
+// (dropped.malformed; docs/design.md §7.11); a decoded but unusable command is dropped.refused.
+TEST(SimNode, HeartbeatCountsMalformedMessagesByReason) {
+  lcm::LCM lcm("memq://");
+  const SimConfig config = SmallConfig(1);
+  SimClock clock(0);
+  SimNode node(lcm, config, clock);
+  std::vector<heartbeat_t> beats;
+  GuardedSubscriptions subs(lcm);
+  subs.Add<heartbeat_t>(
+      config.heartbeat_channel,
+      [&](const std::string&, const heartbeat_t& m) { beats.push_back(m); }, nullptr);
+  motor_command_t cmd{};
+  cmd.num_motors = 3;
+  cmd.thrust_N.resize(3, 1.0);
+  std::vector<uint8_t> good(static_cast<size_t>(cmd.getEncodedSize()));
+  cmd.encode(good.data(), 0, static_cast<int>(good.size()));
+  const int sent = 7;
+  for (int i = 0; i < sent; ++i) {
+    std::vector<uint8_t> bad = good;
+    bad.resize(static_cast<size_t>(i) * 3);  // truncated, down to nothing
+    lcm.publish(config.motor_channel, bad.data(), static_cast<unsigned>(bad.size()));
+  }
+  lcm.publish(config.motor_channel, &cmd);  // well-formed, 3 motors: refused
+  for (int k = 0; k < 1100; ++k) {
+    while (lcm.handleTimeout(0) > 0) {
+    }
+    node.Step();
+  }
+  while (lcm.handleTimeout(0) > 0) {
+  }
+  ASSERT_FALSE(beats.empty());
+  std::map<std::string, double> values;
+  for (const auto& v : beats.back().values) values[v.name] = v.value;
+  EXPECT_EQ(values["dropped.malformed"], sent);
+  EXPECT_EQ(values["dropped.refused"], 1.0);
+  EXPECT_EQ(values["rejected_messages"], sent + 1.0);
+  EXPECT_EQ(node.drops().count("malformed"), sent);
 }
 
 // Kinematic mode follows TRAJECTORY: after the trajectory's end the vehicle is at its end point.
