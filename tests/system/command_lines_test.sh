@@ -28,6 +28,7 @@ declare -A numeric=(
   [tools/mission/kestrel-mission]="--seed x"
   [tools/map_score/kestrel-map-score]="--world w.yaml --map m.kmap --range-m x"
   [tools/flight_check/kestrel-flight-check]="memq:// 10s"
+  [tools/fault/kestrel-fault]="malformed --count-per-channel x"
   [drivers/usb/kestrel-devices]="--watch soon"
   [viewer/report/kestrel-report-export]="--log a.lcmlog --out d --threshold x"
   [viewer/foxglove/kestrel-mcap-export]="--log a.lcmlog --out b.mcap --map-period x"
