@@ -57,6 +57,7 @@ install(FILES ${PROJECT_SOURCE_DIR}/scripts/sheets/vehicle.procman
         DESTINATION ${KESTREL_INSTALL_DATADIR}/sheets COMPONENT vehicle)
 install(FILES ${PROJECT_SOURCE_DIR}/scripts/sheets/host.procman
               ${PROJECT_SOURCE_DIR}/scripts/sheets/sim.procman
+              ${PROJECT_SOURCE_DIR}/scripts/sheets/chaos_sim.procman
               ${PROJECT_SOURCE_DIR}/scripts/sheets/two_vehicles_sim.procman
         DESTINATION ${KESTREL_INSTALL_DATADIR}/sheets COMPONENT host)
 

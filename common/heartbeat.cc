@@ -17,6 +17,19 @@ Heartbeat::Heartbeat(lcm::LCM& lcm, const Clock& clock, std::string process, std
   if (gethostname(name, sizeof(name) - 1) == 0) host_ = name;
 }
 
+void Heartbeat::SetDropValues(const DropCounter& drops, const std::vector<std::string>& always) {
+  auto name = [](std::string kind) {
+    for (char& c : kind) c = c == ' ' ? '_' : c;
+    return "dropped." + kind;
+  };
+  for (const std::string& kind : always) {
+    values_[name(kind)] = static_cast<double>(drops.count(kind));
+  }
+  for (const auto& [kind, count] : drops.counts()) {
+    values_[name(kind)] = static_cast<double>(count);
+  }
+}
+
 void Heartbeat::Publish() {
   heartbeat_t msg;
   msg.utime = clock_.NowUtime();

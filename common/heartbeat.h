@@ -6,10 +6,12 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <vector>
 
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/clock.h"
+#include "common/log.h"
 #include "kestrel/heartbeat_t.hpp"
 
 namespace kestrel {
@@ -26,6 +28,11 @@ class Heartbeat {
   void SetLastError(const std::string& error) { last_error_ = error; }
   /// Sets a named value reported in the next heartbeat (kept until changed).
   void SetValue(const std::string& name, double value) { values_[name] = value; }
+  /// Sets "dropped.<kind>" to the count of every kind `drops` has seen (spaces in a kind become
+  /// '_'), and of each of `always` even when 0, e.g. "dropped.malformed": what the guarded
+  /// decoder refused (docs/design.md §7.11).
+  void SetDropValues(const DropCounter& drops,
+                     const std::vector<std::string>& always = {"malformed"});
   /// Publishes one heartbeat now (call from a 1 Hz NodeLoop timer and at shutdown).
   void Publish();
 

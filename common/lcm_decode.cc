@@ -169,6 +169,7 @@ class Walker {
       return false;
     }
     std::map<std::string, int64_t> lengths;  // integer fields seen so far in this struct
+    std::map<std::string, LcmLengthField> where_lengths;  // and where they lie
     for (const Field& f : it->second.fields) {
       const std::string where = type + "." + f.name + " at byte " + std::to_string(pos_);
       int64_t count = 1;
@@ -181,6 +182,7 @@ class Walker {
             return false;
           }
           n = len->second;
+          if (fields_ != nullptr) fields_->push_back(where_lengths[d.field]);
         }
         if (n < 0) {
           *error = where + ": negative length " + std::to_string(n);
@@ -206,6 +208,7 @@ class Walker {
         if (f.dims.empty() && (f.type == "int8_t" || f.type == "int16_t" || f.type == "int32_t" ||
                                f.type == "int64_t")) {
           lengths[f.name] = ReadSigned(prim);
+          where_lengths[f.name] = LcmLengthField{pos_, prim, false};
         }
         pos_ += bytes;
       } else if (prim < 0) {
@@ -215,6 +218,7 @@ class Walker {
             return false;
           }
           const int64_t len = ReadSigned(4);
+          if (fields_ != nullptr) fields_->push_back(LcmLengthField{pos_, 4, true});
           pos_ += 4;
           if (len < 1 || static_cast<uint64_t>(len) > remaining()) {
             *error = where + ": bad string length " + std::to_string(len) + " (" +
@@ -247,6 +251,8 @@ class Walker {
 
   [[nodiscard]] size_t pos() const { return pos_; }
   void Skip(size_t n) { pos_ += n; }
+  /// Collects every length field met into *fields (none by default).
+  void CollectLengthFields(std::vector<LcmLengthField>* fields) { fields_ = fields; }
 
  private:
   [[nodiscard]] size_t remaining() const { return size_ - pos_; }
@@ -261,6 +267,7 @@ class Walker {
   size_t size_;
   size_t pos_{0};
   int depth_{0};
+  std::vector<LcmLengthField>* fields_{nullptr};
 };
 
 }  // namespace
@@ -298,6 +305,18 @@ bool CheckLcmBytes(const char* type_name, int64_t hash, const void* data, size_t
     return false;
   }
   return true;
+}
+
+std::vector<LcmLengthField> LcmLengthFields(const char* type_name, int64_t hash, const void* data,
+                                            size_t size) {
+  std::string error;
+  if (!CheckLcmBytes(type_name, hash, data, size, &error)) return {};
+  std::vector<LcmLengthField> fields;
+  Walker walker(static_cast<const uint8_t*>(data), size);
+  walker.Skip(8);
+  walker.CollectLengthFields(&fields);
+  if (!walker.Walk(type_name, &error)) return {};
+  return fields;
 }
 
 GuardedSubscriptions::~GuardedSubscriptions() {

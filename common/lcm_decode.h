@@ -28,6 +28,20 @@ namespace kestrel {
 [[nodiscard]] bool CheckLcmBytes(const char* type_name, int64_t hash, const void* data, size_t size,
                                  std::string* error);
 
+/// A length field in an encoded message: the integer giving a variable-length array its element
+/// count, or the int32 byte count in front of a string.
+struct LcmLengthField {
+  size_t offset{0};  ///< of its first byte (big-endian), from the start of the encoding
+  int width{4};      ///< bytes: 1, 2, 4 or 8
+  bool is_string{false};
+};
+
+/// The length fields of the well-formed encoding `data` of `type_name` (fingerprint first), in
+/// the order the schema walk meets them; empty when the bytes are malformed. For tools that make
+/// malformed messages on purpose (tools/fault, docs/design.md §7.11).
+[[nodiscard]] std::vector<LcmLengthField> LcmLengthFields(const char* type_name, int64_t hash,
+                                                          const void* data, size_t size);
+
 /// Decodes untrusted bytes into *msg after CheckLcmBytes passes. Returns false (with *error set)
 /// when the bytes are malformed; *msg is then unspecified but valid.
 template <typename Message>

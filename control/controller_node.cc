@@ -140,7 +140,7 @@ ControllerNode::ControllerNode(lcm::LCM& lcm, const ControllerConfig& config, Cl
       epoch_(NewPublisherEpoch()) {
   config_.Validate();
   auto on_error = [this](const std::string& channel, const std::string& reason) {
-    drops_.Count("malformed " + channel, reason);
+    drops_.Count("malformed", channel + ": " + reason);
   };
   subscriptions_.Add<pose_t>(
       config_.pose_channel, [this](const std::string&, const pose_t& msg) { OnPose(msg); },

@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
           heartbeat.SetState(kestrel::heartbeat_t::STATE_OK);
           heartbeat.SetValue("mode", static_cast<double>(controller.flight().supervisor().mode()));
           heartbeat.SetValue("drops", static_cast<double>(controller.drops().total()));
+          heartbeat.SetDropValues(controller.drops());
           heartbeat.SetLastError(controller.drops().last_reason());
           heartbeat.Publish();
         });

@@ -669,6 +669,7 @@ void ExplorerNode::Step() {
     heartbeat_.SetValue("plans", static_cast<double>(plan_seq_));
     heartbeat_.SetValue("map_seq", static_cast<double>(replica_.seq()));
     heartbeat_.SetValue("drops", static_cast<double>(drops_.total()));
+    heartbeat_.SetDropValues(drops_);
     if (!drops_.last_reason().empty()) heartbeat_.SetLastError(drops_.last_reason());
     heartbeat_.Publish();
   }

@@ -754,6 +754,10 @@ void MapperNode::PublishStatus() {
   heartbeat_.SetValue("rays_per_s", msg.rays_per_s);
   heartbeat_.SetValue("scans_applied", static_cast<double>(scans_applied_));
   heartbeat_.SetValue("scans_skipped", static_cast<double>(skipped_.total()));
+  // Scans: dropped.malformed (refused bytes or contents), .already_applied, ...; poses:
+  // dropped.malformed_pose, .nan_pose, ... (docs/design.md §7.11).
+  heartbeat_.SetDropValues(skipped_);
+  heartbeat_.SetDropValues(bad_poses_, {"malformed_pose"});
   heartbeat_.SetValue("queue_depth", static_cast<double>(queue_.size()));
   heartbeat_.SetValue("publisher_restarts", static_cast<double>(publisher_restarts_));
   heartbeat_.SetValue("entropy_nats", msg.map_entropy_nats);

@@ -19,20 +19,21 @@ SimNode::SimNode(lcm::LCM& lcm, const SimConfig& config, SimClock& clock)
       simulator_(std::make_unique<Simulator>(config, clock.NowUtime())),
       subscriptions_(lcm),
       heartbeat_(lcm, clock, "kestrel-sim", config.heartbeat_channel),
+      drops_(clock),
       epoch_(NewPublisherEpoch()),
       next_heartbeat_utime_(clock.NowUtime() + 1000000),
       wall_at_heartbeat_(std::chrono::steady_clock::now()),
       utime_at_heartbeat_(clock.NowUtime()) {
   auto on_error = [this](const std::string& channel, const std::string& reason) {
-    Reject(channel, reason);
+    Reject("malformed", channel, reason);
   };
   for (size_t k = 0; k < simulator_->num_vehicles(); ++k) {
     const SimConfig& c = simulator_->config();
     VehicleChannels ch;
     ch.pose = c.ChannelOf(k, c.pose_channel);
     ch.imu = c.ChannelOf(k, c.imu_channel);
-    ch.depth = c.ChannelOf(k, c.depth_channel);
-    ch.scan = c.ChannelOf(k, c.scan_channel);
+    ch.depth = c.SensorChannelOf(k, c.depth_channel);
+    ch.scan = c.SensorChannelOf(k, c.scan_channel);
     ch.truth = c.ChannelOf(k, c.truth_channel);
     ch.motor = c.ChannelOf(k, c.motor_channel);
     ch.trajectory = c.ChannelOf(k, c.trajectory_channel);
@@ -49,23 +50,28 @@ SimNode::SimNode(lcm::LCM& lcm, const SimConfig& config, SimClock& clock)
     }
     channels_.push_back(ch);
   }
+  heartbeat_.SetDropValues(drops_);
   heartbeat_.SetState(heartbeat_t::STATE_OK);
 }
 
-void SimNode::Reject(const std::string& channel, const std::string& reason) {
+void SimNode::Reject(const std::string& kind, const std::string& channel,
+                     const std::string& reason) {
   ++rejected_;
+  drops_.Count(kind, channel + ": " + reason);
+  heartbeat_.SetDropValues(drops_);
   heartbeat_.SetLastError(channel + ": " + reason);
   heartbeat_.SetValue("rejected_messages", static_cast<double>(rejected_));
 }
 
 void SimNode::OnMotorCommand(size_t k, const motor_command_t& msg) {
   if (msg.num_motors != 4) {
-    Reject(channels_[k].motor, "num_motors = " + std::to_string(msg.num_motors) + ", expected 4");
+    Reject("refused", channels_[k].motor,
+           "num_motors = " + std::to_string(msg.num_motors) + ", expected 4");
     return;
   }
   const Eigen::Vector4d thrust(msg.thrust_N[0], msg.thrust_N[1], msg.thrust_N[2], msg.thrust_N[3]);
   if (!simulator_->SetMotorCommand(thrust, msg.armed, k)) {
-    Reject(channels_[k].motor, "non-finite thrust");
+    Reject("refused", channels_[k].motor, "non-finite thrust");
   }
 }
 
@@ -85,7 +91,7 @@ void SimNode::OnTrajectory(size_t k, const trajectory_t& msg) {
   const auto trajectory = PiecewisePolynomialTrajectory::CreateFromFlat(
       UtimeToSeconds(msg.start_utime), msg.durations_s, c, x, y, z, yaw, &error);
   if (!trajectory.has_value()) {
-    Reject(channels_[k].trajectory, error);
+    Reject("refused", channels_[k].trajectory, error);
     return;
   }
   simulator_->SetTrajectory(*trajectory, k);

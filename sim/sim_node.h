@@ -6,7 +6,9 @@
 /// (sim_truth_t) and a 1 Hz heartbeat; reads MOTOR_COMMAND (dynamic mode) or TRAJECTORY
 /// (kinematic mode) through the guarded decoder. With several vehicles, each one's channels carry
 /// its prefix (V2_POSE_VICON, V2_MOTOR_COMMAND, V2_SIM_TRUTH, ...); the heartbeat is the
-/// simulator's, one for all. Lockstep: Step() advances one physics step,
+/// simulator's, one for all. With sensor_device_prefix set, depth images and scans go out on the
+/// device channels (e.g. DEV_DEPTH_XTION) for kestrel-sim-standin to relay (docs/design.md §7.11).
+/// Lockstep: Step() advances one physics step,
 /// sets the SimClock to the new time and publishes; nodes sharing the lcm and clock in one
 /// process then handle the messages (lcm.handleTimeout(0)) before the next Step().
 
@@ -48,6 +50,9 @@ class SimNode {
   [[nodiscard]] Simulator& mutable_simulator() { return *simulator_; }
   /// Messages refused (malformed, wrong motor count, bad trajectory), since start.
   [[nodiscard]] int64_t rejected_messages() const { return rejected_; }
+  /// The same by reason: "malformed" (refused by the guarded decoder), "refused" (decoded but
+  /// unusable); in the heartbeat as dropped.<reason>.
+  [[nodiscard]] const DropCounter& drops() const { return drops_; }
   /// Simulated seconds per wall second since the last heartbeat (0 before the first).
   [[nodiscard]] double real_time_factor() const { return real_time_factor_; }
   /// The publisher epoch stamped on every message but the heartbeat (common/identity.h).
@@ -62,7 +67,7 @@ class SimNode {
 
   void OnMotorCommand(size_t k, const motor_command_t& msg);
   void OnTrajectory(size_t k, const trajectory_t& msg);
-  void Reject(const std::string& channel, const std::string& reason);
+  void Reject(const std::string& kind, const std::string& channel, const std::string& reason);
   void Publish(size_t k);
   void PublishHeartbeat();
 
@@ -71,6 +76,7 @@ class SimNode {
   std::unique_ptr<Simulator> simulator_;
   GuardedSubscriptions subscriptions_;
   Heartbeat heartbeat_;
+  DropCounter drops_;
   int64_t epoch_;
   std::vector<VehicleChannels> channels_;  // by vehicle
   int64_t rejected_{0};

@@ -87,6 +87,15 @@ void SimConfig::Validate() const {
                        "sim truth_rate_hz = " << truth_rate_hz << "; accepted: (0, 1000]");
   KESTREL_THROW_UNLESS(!vehicles.empty() && vehicles.size() <= 4,
                        "sim vehicles: " << vehicles.size() << " listed; accepted: 1 to 4");
+  for (const char c : sensor_device_prefix) {
+    KESTREL_THROW_UNLESS(std::isalnum(static_cast<unsigned char>(c)) || c == '_',
+                         "sim sensor_device_prefix = \""
+                             << sensor_device_prefix << "\"; accepted: letters, digits and '_'");
+  }
+  KESTREL_THROW_UNLESS(std::isfinite(mocap_outage_at_s),
+                       "sim mocap.outage_at_s = " << mocap_outage_at_s << "; accepted: finite");
+  KESTREL_THROW_UNLESS(mocap_outage_s >= 0.0 && std::isfinite(mocap_outage_s),
+                       "sim mocap.outage_s = " << mocap_outage_s << "; accepted: [0, inf)");
   for (size_t i = 0; i < vehicles.size(); ++i) {
     const SimVehicleConfig& v = vehicles[i];
     for (const char c : v.prefix) {
@@ -131,6 +140,7 @@ SimConfig LoadSimConfig(const ConfigNode& root, const std::string& base_dir) {
   root.Read("motor_command_timeout_s", &c.motor_command_timeout_s, Range::Positive());
   root.Read("ray_bin_m", &c.ray_bin_m, Range::Positive());
   root.Read("truth_rate_hz", &c.truth_rate_hz, Range{0, 1000, false, true});
+  root.Read("sensor_device_prefix", &c.sensor_device_prefix);
   if (root.Has("quadrotor")) {
     const ConfigNode q = root.Child("quadrotor");
     q.Read("max_substep_s", &c.quadrotor.max_substep_s, Range{0, 0.01, false, true});
@@ -157,6 +167,8 @@ SimConfig LoadSimConfig(const ConfigNode& root, const std::string& base_dir) {
     m.Read("latency_s", &c.mocap.latency_s, Range::Closed(0, 1));
     m.Read("dropout_probability", &c.mocap.dropout_probability, Range{0, 1, true, false});
     m.Read("mean_dropout_samples", &c.mocap.mean_dropout_samples, Range::AtLeast(1));
+    m.Read("outage_at_s", &c.mocap_outage_at_s);
+    m.Read("outage_s", &c.mocap_outage_s, Range::NonNegative());
   }
   if (root.Has("imu")) {
     const ConfigNode i = root.Child("imu");
@@ -232,6 +244,12 @@ Simulator::Simulator(const SimConfig& config, int64_t start_utime)
   pair_in_contact_.assign(n * n, false);
 }
 
+bool Simulator::InMocapOutage(int64_t utime) const {
+  if (config_.mocap_outage_at_s < 0.0) return false;
+  const int64_t begin = start_utime_ + SecondsToUtime(config_.mocap_outage_at_s);
+  return utime >= begin && utime < begin + SecondsToUtime(config_.mocap_outage_s);
+}
+
 int64_t Simulator::DueUtime(double rate_hz, int64_t k) const {
   return start_utime_ + std::llround(static_cast<double>(k) * 1e6 / rate_hz);
 }
@@ -290,7 +308,12 @@ void Simulator::StepVehicle(Vehicle* v, bool imu_due, bool mocap_due, bool depth
                                   UtimeToSeconds(utime_ - v->last_imu_utime), &v->imu_rng);
     v->last_imu_utime = utime_;
   }
-  if (mocap_due) v->mocap_queue.push_back(v->mocap.Measure(utime_, X_WB, &v->mocap_rng));
+  if (mocap_due) {
+    // The sample is drawn in any case, so the noise streams are those of a run without outage.
+    MotionCaptureSample sample = v->mocap.Measure(utime_, X_WB, &v->mocap_rng);
+    if (InMocapOutage(utime_)) sample.valid = false;
+    v->mocap_queue.push_back(sample);
+  }
   while (!v->mocap_queue.empty() && v->mocap_queue.front().deliver_utime <= utime_) {
     v->frame.poses.push_back(v->mocap_queue.front());
     v->mocap_queue.pop_front();

@@ -54,12 +54,17 @@ struct SimConfig {
   DepthCameraConfig depth;                  ///< depth camera model
   bool lidar_enabled{true};                 ///< simulate the planar LIDAR
   std::string lidar_sensor_name{"hokuyo"};  ///< name in scan messages
-  PlanarLidarConfig lidar;      ///< LIDAR model (profile urg-04lx or utm-30lx, then overrides)
-  bool mocap_enabled{true};     ///< simulate motion capture
-  MotionCaptureConfig mocap;    ///< motion-capture model
-  bool imu_enabled{true};       ///< simulate the IMU
-  ImuConfig imu;                ///< IMU model
-  double truth_rate_hz{100.0};  ///< SIM_TRUTH rate, Hz, (0, 1000]
+  PlanarLidarConfig lidar;    ///< LIDAR model (profile urg-04lx or utm-30lx, then overrides)
+  bool mocap_enabled{true};   ///< simulate motion capture
+  MotionCaptureConfig mocap;  ///< motion-capture model
+  /// A scheduled motion-capture loss (docs/design.md §2.4): the poses acquired in
+  /// [outage_at_s, outage_at_s + outage_s) of simulated time after the start go out invalid, as
+  /// the Vicon bridge publishes a lost body. outage_at_s < 0: none.
+  double mocap_outage_at_s{-1.0};
+  double mocap_outage_s{1.0};                      ///< length of that loss, s, >= 0
+  bool imu_enabled{true};                          ///< simulate the IMU
+  ImuConfig imu;                                   ///< IMU model
+  double truth_rate_hz{100.0};                     ///< SIM_TRUTH rate, Hz, (0, 1000]
   std::string pose_channel{"POSE_VICON"};          ///< motion capture out
   std::string imu_channel{"IMU"};                  ///< IMU out
   std::string depth_channel{"DEPTH_XTION"};        ///< depth out
@@ -68,6 +73,11 @@ struct SimConfig {
   std::string motor_channel{"MOTOR_COMMAND"};      ///< rotor thrusts in (dynamic mode)
   std::string trajectory_channel{"TRAJECTORY"};    ///< trajectory in (kinematic mode)
   std::string heartbeat_channel{"HEARTBEAT_SIM"};  ///< 1 Hz status out (one for the simulator)
+  /// "" (default): depth images and scans go out on the driver channels above. Otherwise they go
+  /// out on <sensor_device_prefix><channel> (e.g. DEV_DEPTH_XTION), the device side, and a
+  /// kestrel-sim-standin per sensor relays them to the driver channel as the real driver would
+  /// (docs/design.md §7.11). Letters, digits and '_'.
+  std::string sensor_device_prefix;
   /// The vehicles, 1 to 4, all of `vehicle`'s model; each one's channels are its prefix followed
   /// by the channels above (except the heartbeat).
   std::vector<SimVehicleConfig> vehicles{SimVehicleConfig{}};
@@ -75,6 +85,10 @@ struct SimConfig {
   /// Vehicle k's name for `channel` (its prefix + channel).
   [[nodiscard]] std::string ChannelOf(size_t k, const std::string& channel) const {
     return vehicles.at(k).prefix + channel;
+  }
+  /// Where vehicle k's depth images and scans go out: sensor_device_prefix + ChannelOf(k, channel).
+  [[nodiscard]] std::string SensorChannelOf(size_t k, const std::string& channel) const {
+    return sensor_device_prefix + ChannelOf(k, channel);
   }
 
   /// Checks every field and the sub-configs. @throws std::invalid_argument naming the field.
@@ -84,8 +98,9 @@ struct SimConfig {
 /// Reads a SimConfig: world_file and vehicle_file are loaded (relative paths against
 /// `base_dir`, e.g. the repository root); absent keys keep their defaults; unknown keys are
 /// errors. Sections: quadrotor, depth (resolution "vga" | "qvga" | "80x60" then overrides),
-/// lidar (model "urg-04lx" | "utm-30lx" then overrides), mocap, imu, channels, vehicles (a list of
-/// {prefix, start_offset_m}).
+/// lidar (model "urg-04lx" | "utm-30lx" then overrides), mocap (outage_at_s and outage_s: the
+/// scheduled loss), imu, channels, vehicles (a list of {prefix, start_offset_m});
+/// sensor_device_prefix at the top level.
 /// @throws ConfigError naming the file, key, value and accepted range.
 [[nodiscard]] SimConfig LoadSimConfig(const ConfigNode& root, const std::string& base_dir);
 
@@ -186,6 +201,8 @@ class Simulator {
     SimFrame frame;
   };
 
+  // Whether a pose acquired at utime falls in the scheduled motion-capture outage.
+  [[nodiscard]] bool InMocapOutage(int64_t utime) const;
   // Time of the k-th sample of a stream at rate_hz (no drift: rounded from the exact time).
   [[nodiscard]] int64_t DueUtime(double rate_hz, int64_t k) const;
   void StepVehicle(Vehicle* v, bool imu_due, bool mocap_due, bool depth_due, bool scan_due);

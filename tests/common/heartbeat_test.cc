@@ -1,6 +1,8 @@
 // Heartbeats over memq:// and the rate-limited drop counter.
 #include "common/heartbeat.h"
 
+#include <map>
+
 #include <gtest/gtest.h>
 
 #include "common/lcm_decode.h"
@@ -8,6 +10,38 @@
 
 namespace kestrel {
 namespace {
+
+// Drops by reason become dropped.<reason> values (spaces as '_'); the listed reasons appear even
+// at 0 (docs/design.md §7.11).
+TEST(Heartbeat, SetDropValuesReportsEveryReason) {
+  lcm::LCM lcm("memq://");
+  SimClock clock(0);
+  Heartbeat hb(lcm, clock, "kestrel-test", "HEARTBEAT_TEST");
+  std::vector<heartbeat_t> got;
+  GuardedSubscriptions subs(lcm);
+  subs.Add<heartbeat_t>(
+      "HEARTBEAT_TEST", [&](const std::string&, const heartbeat_t& m) { got.push_back(m); },
+      nullptr);
+  DropCounter drops(clock);
+  hb.SetDropValues(drops);
+  hb.Publish();
+  drops.Count("invalid pose", "lost");
+  drops.Count("malformed", "POSE: cut");
+  drops.Count("malformed", "POSE: cut");
+  hb.SetDropValues(drops);
+  hb.Publish();
+  while (lcm.handleTimeout(0) > 0) {
+  }
+  ASSERT_EQ(got.size(), 2u);
+  ASSERT_EQ(got[0].num_values, 1);
+  EXPECT_EQ(got[0].values[0].name, "dropped.malformed");
+  EXPECT_EQ(got[0].values[0].value, 0.0);
+  std::map<std::string, double> values;
+  for (const auto& v : got[1].values) values[v.name] = v.value;
+  EXPECT_EQ(values.size(), 2u);
+  EXPECT_EQ(values["dropped.malformed"], 2.0);
+  EXPECT_EQ(values["dropped.invalid_pose"], 1.0);
+}
 
 TEST(Heartbeat, PublishesStateUptimeAndValues) {
   lcm::LCM lcm("memq://");

@@ -9,6 +9,7 @@
 
 #include "common/identity.h"
 #include "kestrel/depth_image_t.hpp"
+#include "kestrel/heartbeat_t.hpp"
 #include "kestrel/imu_t.hpp"
 #include "kestrel/planar_scan_t.hpp"
 #include "kestrel/pose_t.hpp"
@@ -327,6 +328,46 @@ TEST(SimNode, RejectsBadMotorCommands) {
   EXPECT_TRUE(node.simulator().vehicle().on_ground());
 }
 
+// Malformed bytes on the command channel are counted exactly, by reason, in the heartbeat
+// (dropped.malformed; docs/design.md §7.11); a decoded but unusable command is dropped.refused.
+TEST(SimNode, HeartbeatCountsMalformedMessagesByReason) {
+  lcm::LCM lcm("memq://");
+  const SimConfig config = SmallConfig(1);
+  SimClock clock(0);
+  SimNode node(lcm, config, clock);
+  std::vector<heartbeat_t> beats;
+  GuardedSubscriptions subs(lcm);
+  subs.Add<heartbeat_t>(
+      config.heartbeat_channel,
+      [&](const std::string&, const heartbeat_t& m) { beats.push_back(m); }, nullptr);
+  motor_command_t cmd{};
+  cmd.num_motors = 3;
+  cmd.thrust_N.resize(3, 1.0);
+  std::vector<uint8_t> good(static_cast<size_t>(cmd.getEncodedSize()));
+  cmd.encode(good.data(), 0, static_cast<int>(good.size()));
+  const int sent = 7;
+  for (int i = 0; i < sent; ++i) {
+    std::vector<uint8_t> bad = good;
+    bad.resize(static_cast<size_t>(i) * 3);  // truncated, down to nothing
+    lcm.publish(config.motor_channel, bad.data(), static_cast<unsigned>(bad.size()));
+  }
+  lcm.publish(config.motor_channel, &cmd);  // well-formed, 3 motors: refused
+  for (int k = 0; k < 1100; ++k) {
+    while (lcm.handleTimeout(0) > 0) {
+    }
+    node.Step();
+  }
+  while (lcm.handleTimeout(0) > 0) {
+  }
+  ASSERT_FALSE(beats.empty());
+  std::map<std::string, double> values;
+  for (const auto& v : beats.back().values) values[v.name] = v.value;
+  EXPECT_EQ(values["dropped.malformed"], sent);
+  EXPECT_EQ(values["dropped.refused"], 1.0);
+  EXPECT_EQ(values["rejected_messages"], sent + 1.0);
+  EXPECT_EQ(node.drops().count("malformed"), sent);
+}
+
 // Kinematic mode follows TRAJECTORY: after the trajectory's end the vehicle is at its end point.
 TEST(SimNode, KinematicModeFollowsTrajectoryMessages) {
   lcm::LCM lcm("memq://");
@@ -358,6 +399,71 @@ TEST(SimNode, KinematicModeFollowsTrajectoryMessages) {
   EXPECT_EQ(node.rejected_messages(), 0);
 }
 
+// sensor_device_prefix moves the depth images and scans, byte for byte, to the device channels
+// (docs/design.md §7.11); every other message is unchanged and none goes out on the driver
+// channels.
+TEST(SimNode, SensorDevicePrefixMovesOnlyDepthAndScan) {
+  const SimConfig plain = SmallConfig(6);
+  SimConfig device = plain;
+  device.sensor_device_prefix = "DEV_";
+  std::map<std::string, int> plain_count, device_count;
+  const auto a = RunHovering(plain, 400, &plain_count);
+  const auto b = RunHovering(device, 400, &device_count);
+  ASSERT_EQ(a.size(), b.size());
+  int moved = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    const bool sensor = a[i].first == plain.depth_channel || a[i].first == plain.scan_channel;
+    EXPECT_EQ(b[i].first, (sensor ? "DEV_" : "") + a[i].first) << i;
+    EXPECT_TRUE(a[i].second == b[i].second) << "message " << i << " on " << a[i].first;
+    moved += sensor ? 1 : 0;
+  }
+  EXPECT_GT(plain_count[plain.depth_channel], 0);
+  EXPECT_GT(plain_count[plain.scan_channel], 0);
+  EXPECT_EQ(moved, plain_count[plain.depth_channel] + plain_count[plain.scan_channel]);
+  EXPECT_EQ(device_count.count(plain.depth_channel), 0U);
+  EXPECT_EQ(device_count.count(plain.scan_channel), 0U);
+}
+
+// A scheduled motion-capture outage: the poses acquired inside it go out invalid, as the Vicon
+// bridge publishes a lost body (zero position, identity orientation, no velocity); every other
+// pose is the one a run without outage publishes, byte for byte.
+TEST(SimNode, MocapOutagePublishesInvalidPosesForItsDuration) {
+  SimConfig plain = SmallConfig(7);
+  plain.mocap.dropout_probability = 0.0;
+  SimConfig outage = plain;
+  outage.mocap_outage_at_s = 0.2;
+  outage.mocap_outage_s = 0.1;
+  const auto a = RunHovering(plain, 600, nullptr);
+  const auto b = RunHovering(outage, 600, nullptr);
+  ASSERT_EQ(a.size(), b.size());
+  const int64_t begin = 5'000'000 + 200'000, end = begin + 100'000;  // RunHovering starts at 5 s
+  int invalid = 0, valid = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(a[i].first, b[i].first);
+    if (a[i].first != plain.pose_channel) {
+      EXPECT_TRUE(a[i].second == b[i].second) << i;
+      continue;
+    }
+    pose_t p{};
+    ASSERT_EQ(p.decode(b[i].second.data(), 0, static_cast<int>(b[i].second.size())),
+              static_cast<int>(b[i].second.size()));
+    if (p.utime >= begin && p.utime < end) {
+      ++invalid;
+      EXPECT_FALSE(p.valid) << p.utime;
+      EXPECT_EQ(p.position_m[0], 0.0);
+      EXPECT_EQ(p.position_m[2], 0.0);
+      EXPECT_EQ(p.orientation_wxyz[0], 1.0);
+      EXPECT_FALSE(p.has_velocity);
+    } else {
+      ++valid;
+      EXPECT_TRUE(p.valid) << p.utime;
+      EXPECT_TRUE(a[i].second == b[i].second) << "pose at " << p.utime;
+    }
+  }
+  EXPECT_EQ(invalid, 10);  // 100 Hz for 0.1 s
+  EXPECT_GT(valid, 40);
+}
+
 // The shipped config loads; a bad value is refused naming the file and key.
 TEST(SimConfig, LoadsTheShippedFileAndRefusesBadValues) {
   const SimConfig c = LoadSimConfig(ConfigNode::LoadFile(kRoot + "/config/sim/sim.yaml"), kRoot);
@@ -387,6 +493,19 @@ TEST(SimConfig, LoadsTheShippedFileAndRefusesBadValues) {
   EXPECT_EQ(ci.depth.width_px, 80);
   EXPECT_EQ(ci.depth.rate_hz, 15.0);
   EXPECT_EQ(ci.speed_factor, 0.0);
+  EXPECT_EQ(ci.sensor_device_prefix, "");
+  EXPECT_LT(ci.mocap_outage_at_s, 0.0);
+  ConfigNode chaos = ConfigNode::LoadFile(kRoot + "/config/sim/sim_ci.yaml");
+  chaos.ApplyOverride("sensor_device_prefix=DEV_");
+  chaos.ApplyOverride("mocap.outage_at_s=20");
+  chaos.ApplyOverride("mocap.outage_s=1");
+  const SimConfig x = LoadSimConfig(chaos, kRoot);
+  EXPECT_EQ(x.SensorChannelOf(0, x.depth_channel), "DEV_DEPTH_XTION");
+  EXPECT_EQ(x.mocap_outage_at_s, 20.0);
+  EXPECT_EQ(x.mocap_outage_s, 1.0);
+  ConfigNode bad_prefix = ConfigNode::LoadFile(kRoot + "/config/sim/sim_ci.yaml");
+  bad_prefix.ApplyOverride("sensor_device_prefix=DEV-");
+  EXPECT_THROW((void)LoadSimConfig(bad_prefix, kRoot), ConfigError);
 }
 
 }  // namespace
