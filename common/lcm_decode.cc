@@ -331,6 +331,7 @@ void GuardedSubscriptions::AddRaw(
   raw->hold = &hold_;
   raw->pattern = channel;
   raw->subscription = lcm_.subscribe(channel, &Raw::Handle, raw.get());
+  if (raw->subscription != nullptr) raw->subscription->setQueueCapacity(kQueueCapacity);
   subscriptions_.push_back(std::move(raw));
 }
 

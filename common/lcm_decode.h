@@ -60,6 +60,12 @@ template <typename Message>
 /// subscribe, so this owns the callables; destroying it unsubscribes them all.
 class GuardedSubscriptions {
  public:
+  /// Messages LCM keeps waiting per subscription until the node handles them. LCM's own default
+  /// is 30: its receive thread silently drops what comes beyond, which 0.3 s of 100 Hz poses
+  /// fill while a node is busy (a map snapshot, a checkpoint, a slow core). 500 holds 5 s of
+  /// poses and about 16 s of depth images.
+  static constexpr int kQueueCapacity = 500;
+
   explicit GuardedSubscriptions(lcm::LCM& lcm) : lcm_(lcm) {}
   GuardedSubscriptions(const GuardedSubscriptions&) = delete;
   GuardedSubscriptions& operator=(const GuardedSubscriptions&) = delete;

@@ -66,7 +66,9 @@ int CheckFlight(const std::string& url, double seconds, bool until_landed, bool 
       loss->Add(channel, rbuf->data, static_cast<int>(rbuf->data_size));
     }
   } counter{&counts, &loss};
-  lcm.subscribe(".*", &Counter::Handle, &counter);
+  // Every channel at once (IMU and motor commands at hundreds of Hz): a deep queue, so that a busy
+  // moment of this listener is not counted as the system losing messages.
+  lcm.subscribe(".*", &Counter::Handle, &counter)->setQueueCapacity(20000);
   kestrel::GuardedSubscriptions subs(lcm);
   subs.Add<kestrel::heartbeat_t>(
       "HEARTBEAT_.*",
