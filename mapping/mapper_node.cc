@@ -268,8 +268,24 @@ bool MapperNode::AlreadyQueued(const std::string& channel, int64_t epoch, int64_
   return false;
 }
 
+void MapperNode::NoteArrival(const std::string& channel, int64_t epoch, int64_t seq) {
+  const auto [it, first] = last_seen_seq_.try_emplace({channel, epoch}, seq);
+  if (first) return;
+  if (seq - it->second > 10000) {  // not a loss: a corrupt or foreign seq; counted once
+    skipped_.Count("seq_jump", channel + " seq " + std::to_string(it->second) + " -> " +
+                                   std::to_string(seq) + " of epoch " + std::to_string(epoch));
+    return;
+  }
+  for (int64_t missing = it->second + 1; missing < seq; ++missing) {
+    skipped_.Count("lost_in_transport", channel + " seq " + std::to_string(missing) + " of epoch " +
+                                            std::to_string(epoch) + " never arrived");
+  }
+  it->second = std::max(it->second, seq);
+}
+
 void MapperNode::OnDepth(size_t sensor, size_t vehicle, const std::string& channel,
                          const depth_image_t& msg) {
+  NoteArrival(channel, msg.epoch, msg.seq);
   if (AlreadyApplied(channel, msg.epoch, msg.seq) || AlreadyQueued(channel, msg.epoch, msg.seq)) {
     return;
   }
@@ -294,6 +310,7 @@ void MapperNode::OnDepth(size_t sensor, size_t vehicle, const std::string& chann
 
 void MapperNode::OnScan(size_t sensor, size_t vehicle, const std::string& channel,
                         const planar_scan_t& msg) {
+  NoteArrival(channel, msg.epoch, msg.seq);
   if (AlreadyApplied(channel, msg.epoch, msg.seq) || AlreadyQueued(channel, msg.epoch, msg.seq)) {
     return;
   }

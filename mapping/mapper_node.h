@@ -161,6 +161,9 @@ class MapperNode {
   bool AlreadyApplied(const std::string& channel, int64_t epoch, int64_t seq);
   // The same message is waiting in the queue (a message both logged and received live).
   bool AlreadyQueued(const std::string& channel, int64_t epoch, int64_t seq);
+  // Counts the messages of (channel, epoch) that never arrived: a seq above the last one seen
+  // plus one (lost between the publisher and this node: the network, a full queue).
+  void NoteArrival(const std::string& channel, int64_t epoch, int64_t seq);
   // Records (channel, epoch, seq) as applied or skipped for good; logs a new epoch once.
   void Record(const Pending& p);
   void Skip(const Pending& p, const std::string& reason, const std::string& detail);
@@ -193,6 +196,7 @@ class MapperNode {
   std::vector<PoseHistory> poses_;              // by vehicle
   std::vector<int64_t> vehicle_latest_utime_;   // newest input stamp of each vehicle
   std::deque<Pending> queue_;
+  std::map<std::pair<std::string, int64_t>, int64_t> last_seen_seq_;  // NoteArrival
   StreamSequences sequences_;
   DropCounter skipped_;
   DropCounter bad_poses_;

@@ -585,6 +585,26 @@ TEST_F(MapperNodeTest, ScansApplyInStampOrderWhateverTheDelayBetweenSensors) {
   EXPECT_NE(run(0.0, late), run(0.0, events_)) << "arrival order: the delay changes the map";
 }
 
+// Messages lost between a publisher and the mapper (the network, a full queue) show as gaps in
+// their publisher's seq: each is counted as lost_in_transport, and a restart (a new epoch from
+// seq 0) is not a gap.
+TEST_F(MapperNodeTest, SeqGapsAreCountedAsLostInTransport) {
+  std::vector<StreamEvent> events = WithSensorRestart(events_, events_.size() / 2, 0x0badcafe);
+  int depth_seen = 0;
+  std::vector<StreamEvent> lossy;
+  for (const StreamEvent& e : events) {
+    if (e.kind == StreamEvent::Kind::kDepth && ++depth_seen >= 5 && depth_seen <= 7) continue;
+    lossy.push_back(e);
+  }
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  MapperNode node(lcm, config_, clock);
+  Feed(lcm, node, clock, lossy);
+  EXPECT_EQ(node.skipped().count("lost_in_transport"), 3);
+  EXPECT_EQ(node.scans_applied(), 57);
+  EXPECT_FALSE(node.applied_every_message());
+}
+
 /// The message of an event, encoded, with its channel: what lcm-logger writes.
 std::pair<std::string, std::vector<uint8_t>> Encoded(const StreamEvent& e) {
   auto encode = [](const auto& msg) {
