@@ -72,10 +72,10 @@ struct MapperConfig {
   /// Scan order (docs/design.md §3.6, §7.10): a scan is applied only once every configured
   /// stream (vehicle, sensor) has delivered one with a stamp at least as new, or the newest input
   /// is this much newer than the scan (message time, s; 0: no wait, arrival order; a sensor that
-  /// never sends delays the map by this much). So sensors relayed by separate driver processes, and mappers that receive
-  /// the same scans with different delays (one per vehicle, across a network), apply them in one
-  /// order, (stamp, vehicle, sensor), and hold the same map bit for bit. Below max_backlog_s, so
-  /// that the wait alone never decimates.
+  /// never sends delays the map by this much). So sensors relayed by separate driver processes, and
+  /// mappers that receive the same scans with different delays (one per vehicle, across a network),
+  /// apply them in one order, (stamp, vehicle, sensor), and hold the same map bit for bit. Below
+  /// max_backlog_s, so that the wait alone never decimates.
   double order_wait_s{0.3};
 
   /// The run's LCM log (lcm-logger's file; "" = none). A mapper that resumed its checkpoint reads
