@@ -1,6 +1,7 @@
 #include "common/run_state_file.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -66,7 +67,14 @@ bool WriteRunStateFile(const std::string& path, const RunStateFile& state, std::
   }
   const std::string bytes = text.str();
   const std::string tmp = path + ".tmp";
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0 && errno == ENOENT) {  // the run folder does not exist yet: make it (one level)
+    const size_t slash = path.find_last_of('/');
+    if (slash != std::string::npos && slash > 0) {
+      ::mkdir(path.substr(0, slash).c_str(), 0755);
+      fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    }
+  }
   if (fd < 0) {
     *error = SystemError("cannot create", tmp);
     return false;

@@ -34,8 +34,9 @@ struct RunStateFile {
   bool GetDouble(const std::string& key, double* out) const;
 };
 
-/// Writes `state` to `path` atomically (file comment). Keys and values must be non-empty and
-/// hold no whitespace. Returns false with *error (the path and the system's reason) on failure.
+/// Writes `state` to `path` atomically (file comment), making the folder holding it if it is
+/// missing (one level). Keys and values must be non-empty and hold no whitespace. Returns false
+/// with *error (the path and the system's reason) on failure.
 bool WriteRunStateFile(const std::string& path, const RunStateFile& state, std::string* error);
 
 /// What ReadRunStateFile found.

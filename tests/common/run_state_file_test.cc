@@ -62,6 +62,18 @@ TEST_F(RunStateFileTest, RoundTripsAndReplacesAtomically) {
   EXPECT_NE(error.find("bad entry"), std::string::npos) << error;
 }
 
+TEST_F(RunStateFileTest, MakesTheRunFolder) {
+  const std::string folder = dir_ + "/run";
+  const std::string path = folder + "/explorer.state";
+  RunStateFile f = Sample("HOLD");
+  std::string error;
+  ASSERT_TRUE(WriteRunStateFile(path, f, &error)) << error;
+  RunStateFile read;
+  EXPECT_EQ(ReadRunStateFile(path, "controller", f.run_id, &read, &error), RunStateRead::kOk);
+  std::remove(path.c_str());
+  rmdir(folder.c_str());
+}
+
 TEST_F(RunStateFileTest, AnotherRunIsReportedNotUsed) {
   std::string error;
   ASSERT_TRUE(WriteRunStateFile(path_, Sample("TRACK"), &error)) << error;
