@@ -106,6 +106,8 @@ class ControllerNode {
   [[nodiscard]] const FlightOutput& last_output() const { return last_; }
   [[nodiscard]] const DropCounter& drops() const { return drops_; }
   [[nodiscard]] int64_t trajectory_seq() const { return trajectory_seq_; }
+  /// End of the tracked trajectory, s (0 if none).
+  [[nodiscard]] double trajectory_end_s() const { return trajectory_end_s_; }
   /// The epoch of the tracked trajectory's publisher (0 if none).
   [[nodiscard]] int64_t trajectory_epoch() const { return trajectory_epoch_; }
   /// The publisher epoch stamped on CONTROLLER_STATUS (common/identity.h).
