@@ -284,8 +284,7 @@ void ControllerNode::OnTrajectory(const trajectory_t& msg) {
     return;
   }
   if (!flight_.AcceptTrajectory(*trajectory, UtimeToSeconds(clock_.NowUtime()), &error)) {
-    // A far start is counted apart: the explorer replans from the flown state (docs/design.md
-    // §2.5).
+    // Far starts are counted apart; the explorer replans (docs/design.md §2.5).
     drops_.Count(error.rfind(kFarStartReason, 0) == 0 ? "refused trajectory (far start)"
                                                       : "refused trajectory",
                  error);
