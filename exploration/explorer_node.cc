@@ -291,6 +291,10 @@ void ExplorerNode::ReadStateFile() {
   home_xy_ = Eigen::Vector2d(x, y);
   home_yaw_rad_ = yaw;
   lowest_z_m_ = lowest;
+  if (const std::string* rule = file.Find("end_rule")) {
+    end_rule_ = *rule;
+    std::replace(end_rule_.begin(), end_rule_.end(), '_', ' ');
+  }
   resume_status_ = "restarted within run " + run_id_ + " (was " + *state +
                    "): resuming from the flown state once the vehicle is seen airborne";
   Log(LogLevel::kWarning, resume_status_);
@@ -315,6 +319,11 @@ void ExplorerNode::WriteStateFile() {
   put("home_y_m", home_xy_.y());
   put("home_yaw_rad", home_yaw_rad_);
   put("lowest_z_m", lowest_z_m_);
+  if (!end_rule_.empty()) {  // one word in the file: spaces as '_'
+    std::string rule = end_rule_;
+    std::replace(rule.begin(), rule.end(), ' ', '_');
+    file.values["end_rule"] = rule;
+  }
   std::string error;
   if (WriteRunStateFile(config_.state_path, file, &error)) {
     saved_state_ = state_;
@@ -346,7 +355,7 @@ bool ExplorerNode::Resume() {
     SendLand();
   } else if (was == exploration_status_t::STATE_RETURNING) {
     state_ = exploration_status_t::STATE_RETURNING;
-    end_rule_ = "resumed";
+    if (end_rule_.empty()) end_rule_ = "unknown (before a restart)";
     PlanHome("resumed after a restart");
   } else {
     state_ = exploration_status_t::STATE_EXPLORING;

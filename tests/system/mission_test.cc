@@ -156,6 +156,7 @@ TEST(Mission, HoldsWhileTheExplorerIsDownAndResumesTheFlightHome) {
   EXPECT_TRUE(r.explorer_down_held);
   EXPECT_EQ(r.explorer_resume.rfind("resumed RETURNING from the flown state", 0), 0u)
       << r.explorer_resume;
+  EXPECT_EQ(r.end_rule, "gain rule") << "kept across the restart";
 }
 
 // The controller node destroyed mid-exploration, no motor commands for 1 s (the runner's respawn
