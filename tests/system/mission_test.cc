@@ -128,6 +128,7 @@ MissionResult KillTheExplorer(double at_s, double max_left_s) {
       r.explorer_resume.c_str());
   EXPECT_GE(r.explorer_killed_at_s, at_s);
   EXPECT_TRUE(r.explorer_down_flight_kept) << "the controller left TRACK / HOLD";
+  EXPECT_FALSE(r.explorer_startup_after_restart) << "no start-up turn after a restart";
   // The trajectory flown at the kill ends; the controller holds trajectory_timeout_s later.
   EXPECT_EQ(r.explorer_down_held, r.explorer_kill_trajectory_left_s + 1.0 < mc.explorer_down_s);
   EXPECT_LT(r.explorer_down_hold_max_speed_mps, 0.1) << "the vehicle holds still";

@@ -531,7 +531,12 @@ MissionResult RunMission(const MissionConfig& mc) {
         controllers.front()->trajectory_epoch() == explorer().epoch()) {
       r.explorer_first_trajectory_s = t - explorer_restarted_at;
     }
-    if (explorer_restarted_at >= 0) r.explorer_resume = explorer().resume_status();
+    if (explorer_restarted_at >= 0) {
+      r.explorer_resume = explorer().resume_status();
+      if (explorer().state() == exploration_status_t::STATE_STARTUP) {
+        r.explorer_startup_after_restart = true;
+      }
+    }
     {
       const ControllerConfig& cc = controller_configs[0];
       r.max_geofence_excursion_m = std::max(

@@ -181,8 +181,9 @@ struct MissionResult {
   double explorer_down_hold_max_speed_mps{0};  ///< largest true speed in that HOLD, m/s
   /// Restart -> the controller tracks a trajectory of the new explorer, s (-1: never).
   double explorer_first_trajectory_s{-1};
-  std::string explorer_resume;      ///< the new explorer's resume status
-  double explorer_killed_at_s{-1};  ///< when it was killed, s after start (-1: never)
+  std::string explorer_resume;                 ///< the new explorer's resume status
+  bool explorer_startup_after_restart{false};  ///< the new explorer flew a start-up turn
+  double explorer_killed_at_s{-1};             ///< when it was killed, s after start (-1: never)
   /// Far-start trajectories the (last) controller refused, and the explorer's replans after the
   /// controller held without flying its trajectory.
   int64_t far_start_refusals{0};
