@@ -172,14 +172,19 @@ TEST(Mission, ContinuesAfterAControllerKill) {
   const MissionResult r = RunMission(mc);
   std::printf("%s", MissionSummary(r).c_str());
   std::printf(
-      "controller kill: HOLD %.3f s after the kill, height lost %.3f m (%s); %lld "
-      "far-start trajectories refused, %lld explorer replans after a hold\n",
+      "controller kill: HOLD %.3f s after the kill, height lost %.3f m (%s); a trajectory %.3f s "
+      "after the respawn; %lld far-start trajectories refused, %lld explorer replans after a "
+      "hold\n",
       r.controller_time_to_hold_s, r.controller_height_lost_m, r.controller_takeover.c_str(),
-      static_cast<long long>(r.far_start_refusals),
+      r.controller_track_after_s, static_cast<long long>(r.far_start_refusals),
       static_cast<long long>(r.explorer_controller_holds));
   EXPECT_GT(r.controller_time_to_hold_s, 0.0) << r.controller_takeover;
   EXPECT_LT(r.controller_time_to_hold_s, mc.controller_down_s + 0.1) << r.controller_takeover;
   EXPECT_LT(r.controller_height_lost_m, 0.15);
+  // The explorer replans from the flown state once the controller holds without flying its
+  // trajectory (controller_hold_replan_s = 0.5 s), not when its own trajectory ends.
+  EXPECT_GE(r.controller_track_after_s, 0.0);
+  EXPECT_LT(r.controller_track_after_s, 1.5);
   EXPECT_EQ(r.collisions, 0);
   EXPECT_LE(r.max_geofence_excursion_m, 0.0) << "never outside the geofence";
   EXPECT_TRUE(r.landed) << r.end_reason;

@@ -493,6 +493,9 @@ MissionResult RunMission(const MissionConfig& mc) {
       r.controller_height_lost_m = controller_z_kill - controller_z_min;
       if (controllers.front()) {
         r.controller_takeover = controllers.front()->takeover_status();
+        if (r.controller_track_after_s < 0 && controllers.front()->trajectory_seq() >= 0) {
+          r.controller_track_after_s = t - controller_killed_at - mc.controller_down_s;
+        }
         if (r.controller_time_to_hold_s < 0 &&
             controllers.front()->flight().supervisor().mode() == FlightMode::kHold) {
           r.controller_time_to_hold_s = t - controller_killed_at;

@@ -173,6 +173,8 @@ struct MissionResult {
   double controller_time_to_hold_s{-1};  ///< kill -> the new controller in HOLD, s (-1: never)
   double controller_height_lost_m{0};    ///< height at the kill - lowest height in the 3 s after
   std::string controller_takeover;       ///< the new controller's takeover status
+  /// Respawn -> the new controller accepts a trajectory (the explorer replanned), s (-1: never).
+  double controller_track_after_s{-1};
   // The explorer kill (explorer_kill_at_s).
   /// The trajectory flown at the kill ended this long after it, s (< 0: before it).
   double explorer_kill_trajectory_left_s{0};
