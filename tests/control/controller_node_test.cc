@@ -3,13 +3,17 @@
 #include "control/controller_node.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <deque>
+#include <fstream>
 
 #include "common/clock.h"
 #include "common/config.h"
 #include "common/lcm_decode.h"
+#include "common/run_state_file.h"
 #include "control/rigid_body.h"
 #include "kestrel/controller_status_t.hpp"
 #include "kestrel/motor_command_t.hpp"
@@ -267,6 +271,50 @@ TEST_F(ControllerNodeTest, StampsItsEpochs) {
   EXPECT_NE(second.epoch(), node_.epoch());
   EXPECT_NE(second_motor.epoch, 0);
   EXPECT_NE(second_motor.epoch, motor_epoch);
+}
+
+}  // namespace
+}  // namespace kestrel
+
+namespace kestrel {
+namespace {
+
+// The flight-state file at start-up (docs/design.md §2.5): a corrupt file is refused with the
+// reason and the controller starts IDLE and disarmed; an e-stop of the same run stays latched; the
+// first control step rewrites the file with this controller's run and mode.
+TEST(ControllerStateFile, CorruptRefusedEstopLatchedFileRewritten) {
+  char dir[] = "/tmp/kestrel-controller-node-XXXXXX";
+  ASSERT_NE(mkdtemp(dir), nullptr);
+  ControllerConfig config;
+  config.state_path = std::string(dir) + "/controller.state";
+  config.run_id = "run-a";
+  lcm::LCM lcm("memq://");
+  SimClock clock(1'000'000'000);
+  {
+    std::ofstream(config.state_path) << "kestrel-state controller 1\nrun_id run-a\nmode HOLD\n";
+    ControllerNode node(lcm, config, clock);
+    EXPECT_NE(node.takeover_status().find("state file refused"), std::string::npos)
+        << node.takeover_status();
+    node.Tick(clock.NowUtime());
+    EXPECT_EQ(node.flight().supervisor().mode(), FlightMode::kIdle);
+    EXPECT_FALSE(node.last_output().armed);
+  }
+  RunStateFile file;
+  std::string error;
+  ASSERT_EQ(ReadRunStateFile(config.state_path, "controller", "run-a", &file, &error),
+            RunStateRead::kOk)
+      << error;
+  EXPECT_EQ(*file.Find("mode"), "IDLE") << "rewritten at the first control step";
+  file.values["mode"] = "ESTOP";
+  ASSERT_TRUE(WriteRunStateFile(config.state_path, file, &error)) << error;
+  {
+    ControllerNode node(lcm, config, clock);
+    node.Tick(clock.NowUtime());
+    EXPECT_EQ(node.flight().supervisor().mode(), FlightMode::kEstop) << node.takeover_status();
+    EXPECT_FALSE(node.last_output().armed);
+  }
+  std::remove(config.state_path.c_str());
+  rmdir(dir);
 }
 
 }  // namespace
