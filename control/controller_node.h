@@ -80,10 +80,11 @@ struct ControllerConfig {
   void Validate() const;
 };
 
-/// Reads a ControllerConfig from YAML: keys rate_hz, status_decimation, channels.{pose, imu,
-/// trajectory, command, motor, status, heartbeat}, controller.{attitude_error ("large_angle" |
-/// "cdc2010"), k_x_per_s2, ...}, estimator.{...}, safety.{..., takeoff_track_min_rise_m,
-/// geofence_min_m, geofence_max_m}; absent keys keep their defaults. The vehicle comes from its own
+/// Reads a ControllerConfig from YAML: keys rate_hz, status_decimation, state_path, run_id,
+/// takeover_window_s, channels.{pose, imu, trajectory, command, motor, status, heartbeat},
+/// controller.{attitude_error ("large_angle" | "cdc2010"), k_x_per_s2, ...}, estimator.{...},
+/// safety.{..., takeoff_track_min_rise_m, geofence_min_m, geofence_max_m,
+/// max_trajectory_start_offset_m}; absent keys keep their defaults. The vehicle comes from its own
 /// file (LoadVehicleConfigFile). @throws ConfigError naming file, key, range.
 [[nodiscard]] ControllerConfig LoadControllerConfig(const ConfigNode& node,
                                                     const VehicleConfig& vehicle);
