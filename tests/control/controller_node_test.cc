@@ -217,7 +217,8 @@ TEST(LoadControllerConfig, ReadsKeysAndNamesErrors) {
       ConfigNode::FromString("rate_hz: 250\nchannels:\n  pose: POSE_SIM\ncontroller:\n"
                              "  k_x_per_s2: 12.0\n  attitude_error: cdc2010\n  max_tilt_rad: 0.8\n"
                              "safety:\n  land_timeout_s: 3.0\n  blind_land_depth_m: 0.7\n"
-                             "  geofence_max_m: [5, 5, 3]\n",
+                             "  geofence_max_m: [5, 5, 3]\n  max_trajectory_start_offset_m: 0.2\n"
+                             "state_path: /tmp/c.state\nrun_id: run-7\ntakeover_window_s: 2\n",
                              "controller.yaml"),
       vehicle);
   EXPECT_EQ(config.rate_hz, 250.0);
@@ -233,10 +234,15 @@ TEST(LoadControllerConfig, ReadsKeysAndNamesErrors) {
                 .flight.controller.attitude_error,
             AttitudeErrorForm::kLargeAngle);
   EXPECT_EQ(config.flight.safety.geofence_max_m, Eigen::Vector3d(5, 5, 3));
+  EXPECT_EQ(config.flight.safety.max_trajectory_start_offset_m, 0.2);
+  EXPECT_EQ(config.state_path, "/tmp/c.state");
+  EXPECT_EQ(config.run_id, "run-7");
+  EXPECT_EQ(config.takeover_window_s, 2.0);
   for (const char* bad :
        {"rate_hz: 5\n", "controller:\n  k_R_Nm_per_rad: -1\n",
         "controller:\n  attitude_error: lee\n", "safety:\n  blind_land_depth_m: 0.2\n",
-        "safety:\n  pose_timeout_s: 5\n", "typo_key: 1\n"}) {
+        "safety:\n  pose_timeout_s: 5\n", "typo_key: 1\n", "run_id: 'a b'\n",
+        "takeover_window_s: 0\n", "safety:\n  max_trajectory_start_offset_m: 0\n"}) {
     try {
       (void)LoadControllerConfig(ConfigNode::FromString(bad, "controller.yaml"), vehicle);
       ADD_FAILURE() << "accepted: " << bad;
