@@ -233,10 +233,11 @@ void ControllerNode::TryTakeover(int64_t utime) {
   const Eigen::Vector3d& p = estimator.state().position_m;
   char text[200];
   std::snprintf(text, sizeof(text),
-                "TAKEOVER: holding the flying vehicle at (%.2f, %.2f, %.2f) m, %.3f s after the "
-                "first control step",
-                p.x(), p.y(), p.z(), t - UtimeToSeconds(first_tick_utime_));
-  takeover_status_ = std::string(text) + (takeover_landing_ ? "; landing resumed" : "");
+                "TAKEOVER: the flying vehicle taken over in %s at (%.2f, %.2f, %.2f) m, %.3f s "
+                "after the first control step",
+                takeover_landing_ ? "LAND" : "HOLD", p.x(), p.y(), p.z(),
+                t - UtimeToSeconds(first_tick_utime_));
+  takeover_status_ = text;
   Log(LogLevel::kWarning, takeover_status_);
 }
 
