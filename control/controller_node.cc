@@ -3,11 +3,13 @@
 #include "common/trajectory_message.h"
 
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 #include "common/check.h"
 #include "common/config.h"
 #include "common/identity.h"
+#include "common/run_state_file.h"
 #include "common/se3.h"
 #include "kestrel/controller_status_t.hpp"
 #include "kestrel/motor_command_t.hpp"
@@ -50,6 +52,11 @@ void ControllerConfig::Validate() const {
         &status_channel, &heartbeat_channel}) {
     KESTREL_THROW_UNLESS(!channel->empty(), "controller channels: an empty channel name");
   }
+  KESTREL_THROW_UNLESS(run_id.empty() || CheckRunId(run_id).empty(),
+                       "controller.run_id = '" << run_id << "': " << CheckRunId(run_id));
+  KESTREL_THROW_UNLESS(
+      std::isfinite(takeover_window_s) && takeover_window_s > 0.0,
+      "controller.takeover_window_s = " << takeover_window_s << ", accepted (0, inf)");
 }
 
 ControllerConfig LoadControllerConfig(const ConfigNode& node, const VehicleConfig& vehicle) {
@@ -57,6 +64,9 @@ ControllerConfig LoadControllerConfig(const ConfigNode& node, const VehicleConfi
   config.flight.vehicle = vehicle;
   node.Read("rate_hz", &config.rate_hz, Range::Closed(50.0, 2000.0));
   node.Read("status_decimation", &config.status_decimation, Range::Closed(1, 1000));
+  node.Read("state_path", &config.state_path);
+  node.Read("run_id", &config.run_id);
+  node.Read("takeover_window_s", &config.takeover_window_s, Range::Positive());
   if (node.Has("channels")) {
     const ConfigNode channels = node.Child("channels");
     channels.Read("pose", &config.pose_channel);
@@ -117,6 +127,7 @@ ControllerConfig LoadControllerConfig(const ConfigNode& node, const VehicleConfi
     s.Read("geofence_min_m", &c.geofence_min_m);
     s.Read("geofence_max_m", &c.geofence_max_m);
     s.Read("geofence_margin_m", &c.geofence_margin_m, Range::NonNegative());
+    s.Read("max_trajectory_start_offset_m", &c.max_trajectory_start_offset_m, Range::Positive());
   }
   node.CheckNoUnknownKeys();
   try {
@@ -137,8 +148,10 @@ ControllerNode::ControllerNode(lcm::LCM& lcm, const ControllerConfig& config, Cl
       motor_output_(motor_output != nullptr ? motor_output : &lcm_motor_output_),
       drops_(clock),
       subscriptions_(lcm),
-      epoch_(NewPublisherEpoch()) {
+      epoch_(NewPublisherEpoch()),
+      run_id_(config.run_id.empty() ? NewRunId() : config.run_id) {
   config_.Validate();
+  ReadStateFile();
   auto on_error = [this](const std::string& channel, const std::string& reason) {
     drops_.Count("malformed", channel + ": " + reason);
   };
@@ -153,6 +166,90 @@ ControllerNode::ControllerNode(lcm::LCM& lcm, const ControllerConfig& config, Cl
   subscriptions_.Add<command_t>(
       config_.command_channel, [this](const std::string&, const command_t& msg) { OnCommand(msg); },
       on_error);
+}
+
+void ControllerNode::ReadStateFile() {
+  if (config_.state_path.empty()) return;
+  RunStateFile file;
+  std::string why;
+  const RunStateRead read =
+      ReadRunStateFile(config_.state_path, "controller", run_id_, &file, &why);
+  const std::string* mode = file.Find("mode");
+  if (read == RunStateRead::kAbsent) {
+    takeover_status_ = "no state file: starting IDLE";
+  } else if (read == RunStateRead::kCorrupt) {
+    takeover_status_ = "state file refused (" + why + "): starting IDLE";
+    Log(LogLevel::kError, takeover_status_);
+  } else if (read == RunStateRead::kOtherRun) {
+    takeover_status_ = why + ": starting IDLE (a new run never arms itself)";
+    Log(LogLevel::kInfo, takeover_status_);
+  } else if (mode == nullptr || !file.GetDouble("ground_z_m", &takeover_ground_z_m_)) {
+    takeover_status_ = "state file refused (corrupt state file " + config_.state_path +
+                       ": no mode or ground_z_m): starting IDLE";
+    Log(LogLevel::kError, takeover_status_);
+  } else if (*mode == "TAKEOFF" || *mode == "HOLD" || *mode == "TRACK" || *mode == "LAND") {
+    takeover_pending_ = true;
+    takeover_landing_ = *mode == "LAND";
+    takeover_status_ = "controller restarted in flight (run " + run_id_ + ", was " + *mode +
+                       "): taking the vehicle over in " + (takeover_landing_ ? "LAND" : "HOLD") +
+                       " as soon as poses arrive";
+    Log(LogLevel::kWarning, takeover_status_);
+  } else if (*mode == "ESTOP") {
+    // The e-stop stays latched across the restart (docs/design.md §2.3).
+    flight_.HandleCommand(FlightCommand::kEstop, UtimeToSeconds(clock_.NowUtime()));
+    takeover_status_ = "restarted after an e-stop (run " + run_id_ + "): ESTOP stays latched";
+    Log(LogLevel::kWarning, takeover_status_);
+  } else {
+    takeover_status_ =
+        "restarted on the ground (run " + run_id_ + ", was " + *mode + "): starting IDLE";
+    Log(LogLevel::kInfo, takeover_status_);
+  }
+}
+
+void ControllerNode::TryTakeover(int64_t utime) {
+  const double t = UtimeToSeconds(utime);
+  if (t - UtimeToSeconds(first_tick_utime_) > config_.takeover_window_s) {
+    takeover_pending_ = false;
+    takeover_status_ = "no takeover: no fresh pose within takeover_window_s = " +
+                       std::to_string(config_.takeover_window_s) + " s; staying IDLE";
+    Log(LogLevel::kError, takeover_status_);
+    return;
+  }
+  const StateEstimator& estimator = flight_.estimator();
+  if (!estimator.initialized()) return;
+  const SafetyConfig& safety = config_.flight.safety;
+  if (t - estimator.last_pose_time_s() <= safety.pose_timeout_s &&
+      estimator.state().position_m.z() <= takeover_ground_z_m_ + safety.landed_height_m &&
+      estimator.state().velocity_mps.norm() < safety.landed_speed_mps) {
+    takeover_pending_ = false;  // not airborne: never arm on the ground
+    takeover_status_ = "no takeover: the vehicle is on the ground; staying IDLE";
+    Log(LogLevel::kWarning, takeover_status_);
+    return;
+  }
+  std::string why;
+  if (!flight_.Takeover(t, takeover_ground_z_m_, takeover_landing_, &why)) return;  // not yet
+  takeover_pending_ = false;
+  takeover_utime_ = utime;
+  const Eigen::Vector3d& p = estimator.state().position_m;
+  char text[200];
+  std::snprintf(text, sizeof(text),
+                "TAKEOVER: the flying vehicle taken over in %s at (%.2f, %.2f, %.2f) m, %.3f s "
+                "after the first control step",
+                takeover_landing_ ? "LAND" : "HOLD", p.x(), p.y(), p.z(),
+                t - UtimeToSeconds(first_tick_utime_));
+  takeover_status_ = text;
+  Log(LogLevel::kWarning, takeover_status_);
+}
+
+void ControllerNode::WriteStateFile(int64_t utime) {
+  RunStateFile file;
+  file.kind = "controller";
+  file.run_id = run_id_;
+  file.values["mode"] = ToString(last_.decision.mode);
+  file.values["ground_z_m"] = std::to_string(flight_.supervisor().ground_z_m());
+  file.values["utime"] = std::to_string(utime);
+  std::string error;
+  if (!WriteRunStateFile(config_.state_path, file, &error)) drops_.Count("state file", error);
 }
 
 void ControllerNode::OnPose(const pose_t& msg) {
@@ -188,7 +285,10 @@ void ControllerNode::OnTrajectory(const trajectory_t& msg) {
     return;
   }
   if (!flight_.AcceptTrajectory(*trajectory, UtimeToSeconds(clock_.NowUtime()), &error)) {
-    drops_.Count("refused trajectory", error);
+    // Far starts are counted apart; the explorer replans (docs/design.md §2.5).
+    drops_.Count(error.rfind(kFarStartReason, 0) == 0 ? "refused trajectory (far start)"
+                                                      : "refused trajectory",
+                 error);
     return;
   }
   trajectory_seq_ = msg.seq;
@@ -210,8 +310,17 @@ void ControllerNode::OnCommand(const command_t& msg) {
 }
 
 void ControllerNode::Tick(int64_t utime) {
+  if (first_tick_utime_ < 0) first_tick_utime_ = utime;
+  if (takeover_pending_) TryTakeover(utime);
   last_ = flight_.Step(UtimeToSeconds(utime));
   motor_output_->Send(utime, last_);
+  // Not before a pending takeover is decided: a controller killed again meanwhile must still
+  // find "flying" in the file.
+  const int mode = static_cast<int>(last_.decision.mode);
+  if (!config_.state_path.empty() && !takeover_pending_ && mode != saved_mode_) {
+    saved_mode_ = mode;
+    WriteStateFile(utime);
+  }
   if (ticks_++ % config_.status_decimation == 0) PublishStatus(utime);
 }
 

@@ -4,8 +4,12 @@
 /// through the guarded path, bad messages counted and dropped), runs FlightController at the
 /// control rate (Tick, called by the process's NodeLoop timer), sends the rotor thrusts through a
 /// MotorOutput (LCM MOTOR_COMMAND by default; a hardware backend implements the same interface)
-/// and publishes CONTROLLER_STATUS. No YAML, files or sockets inside. Channel names are
-/// configuration.
+/// and publishes CONTROLLER_STATUS. No YAML or sockets inside. Channel names are configuration.
+/// The one file: with state_path set, the flight state (mode, take-off ground height, run id) is
+/// written there atomically at every mode change (common/run_state_file.h), and a controller
+/// started with the same run id whose file says it was flying takes the vehicle over where it is
+/// (HOLD, or LAND if it was landing) as soon as its estimator has a fresh pose
+/// (docs/design.md §2.5); another run, no file or a corrupt one: IDLE, as always.
 
 #include <cstdint>
 #include <memory>
@@ -63,15 +67,24 @@ struct ControllerConfig {
   std::string motor_channel{"MOTOR_COMMAND"};             ///< rotor commands (motor_command_t)
   std::string status_channel{"CONTROLLER_STATUS"};        ///< status (controller_status_t)
   std::string heartbeat_channel{"HEARTBEAT_CONTROLLER"};  ///< kestrel-controller's heartbeat
+  /// The flight-state file ("" = none: a restarted controller always starts IDLE).
+  std::string state_path;
+  /// The run this controller belongs to (common/identity.h); "" = a fresh id, which takes nothing
+  /// over. kestrel-controller fills it from $KESTREL_RUN_ID when unset.
+  std::string run_id;
+  /// A takeover is tried only this long after the first control step, s (> 0): a controller never
+  /// arms itself later (the vehicle has fallen or landed by then).
+  double takeover_window_s{1.0};
 
   /// Throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
 };
 
-/// Reads a ControllerConfig from YAML: keys rate_hz, status_decimation, channels.{pose, imu,
-/// trajectory, command, motor, status, heartbeat}, controller.{attitude_error ("large_angle" |
-/// "cdc2010"), k_x_per_s2, ...}, estimator.{...}, safety.{..., takeoff_track_min_rise_m,
-/// geofence_min_m, geofence_max_m}; absent keys keep their defaults. The vehicle comes from its own
+/// Reads a ControllerConfig from YAML: keys rate_hz, status_decimation, state_path, run_id,
+/// takeover_window_s, channels.{pose, imu, trajectory, command, motor, status, heartbeat},
+/// controller.{attitude_error ("large_angle" | "cdc2010"), k_x_per_s2, ...}, estimator.{...},
+/// safety.{..., takeoff_track_min_rise_m, geofence_min_m, geofence_max_m,
+/// max_trajectory_start_offset_m}; absent keys keep their defaults. The vehicle comes from its own
 /// file (LoadVehicleConfigFile). @throws ConfigError naming file, key, range.
 [[nodiscard]] ControllerConfig LoadControllerConfig(const ConfigNode& node,
                                                     const VehicleConfig& vehicle);
@@ -94,12 +107,23 @@ class ControllerNode {
   [[nodiscard]] const FlightOutput& last_output() const { return last_; }
   [[nodiscard]] const DropCounter& drops() const { return drops_; }
   [[nodiscard]] int64_t trajectory_seq() const { return trajectory_seq_; }
+  /// End of the tracked trajectory, s (0 if none).
+  [[nodiscard]] double trajectory_end_s() const { return trajectory_end_s_; }
   /// The epoch of the tracked trajectory's publisher (0 if none).
   [[nodiscard]] int64_t trajectory_epoch() const { return trajectory_epoch_; }
   /// The publisher epoch stamped on CONTROLLER_STATUS (common/identity.h).
   [[nodiscard]] int64_t epoch() const { return epoch_; }
+  /// The control step at which this controller took a flying vehicle over (-1: none).
+  [[nodiscard]] int64_t takeover_utime() const { return takeover_utime_; }
+  /// What the start-up found in the state file and did (for logs and tests).
+  [[nodiscard]] const std::string& takeover_status() const { return takeover_status_; }
+  /// The run id in use (config run_id, or a fresh one).
+  [[nodiscard]] const std::string& run_id() const { return run_id_; }
 
  private:
+  void ReadStateFile();
+  void TryTakeover(int64_t utime);
+  void WriteStateFile(int64_t utime);
   void OnPose(const pose_t& msg);
   void OnImu(const imu_t& msg);
   void OnTrajectory(const trajectory_t& msg);
@@ -121,6 +145,14 @@ class ControllerNode {
   int64_t trajectory_seq_{-1};
   int64_t trajectory_epoch_{0};
   double trajectory_end_s_{0.0};
+  std::string run_id_;
+  bool takeover_pending_{false};   // the state file says the vehicle was flying
+  bool takeover_landing_{false};   // ... and landing
+  double takeover_ground_z_m_{0};  // its take-off ground height, m
+  int64_t first_tick_utime_{-1};
+  int64_t takeover_utime_{-1};
+  std::string takeover_status_;
+  int saved_mode_{-1};  // the mode last written to the state file (-1: none)
 };
 
 }  // namespace kestrel

@@ -50,6 +50,16 @@ bool FlightController::HandleCommand(FlightCommand command, double time_s,
                                    estimator_.last_pose_time_s(), takeoff_height_m);
 }
 
+bool FlightController::Takeover(double time_s, double ground_z_m, bool landing,
+                                std::string* reason) {
+  if (!estimator_.initialized()) {
+    if (reason != nullptr) *reason = "takeover waits: the estimator has no pose yet";
+    return false;
+  }
+  return supervisor_.Takeover(time_s, estimator_.state(), estimator_.last_pose_time_s(), ground_z_m,
+                              landing, reason);
+}
+
 FlightOutput FlightController::Step(double time_s) {
   FlightOutput out;
   out.time_s = time_s;

@@ -63,6 +63,10 @@ class FlightController {
     return supervisor_.AcceptTrajectory(trajectory, time_s, reason);
   }
 
+  /// Takes a flying vehicle over after a controller restart from the current estimate (see
+  /// SafetySupervisor::Takeover); false with *reason until the estimator has a fresh pose.
+  bool Takeover(double time_s, double ground_z_m, bool landing, std::string* reason);
+
   /// Computes the motor command for time_s (s, non-decreasing across calls).
   [[nodiscard]] FlightOutput Step(double time_s);
 

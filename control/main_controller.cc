@@ -1,11 +1,16 @@
 // kestrel-controller: the geometric SE(3) flight controller process (runs on the vehicle).
 // Reads POSE_VICON, IMU, TRAJECTORY, COMMAND; writes MOTOR_COMMAND, CONTROLLER_STATUS and a
 // heartbeat. See control/controller_node.h.
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/command_line.h"
 #include "common/config_publisher.h"
 #include "common/heartbeat.h"
+#include "common/identity.h"
 #include "common/node_loop.h"
 #include "common/process.h"
 #include "common/sim_truth_clock.h"
@@ -16,8 +21,10 @@ const char* const kUsage =
     "usage: kestrel-controller [--vehicle FILE] [--config FILE] [--set key=value]...\n"
     "                          [--lcm-url URL] [--sim-clock SIM_TRUTH]\n"
     "  --vehicle FILE  vehicle parameters (default config/vehicle/paper.yaml)\n"
-    "  --config FILE   controller YAML (rate_hz, channels, controller, estimator, safety);\n"
-    "                  optional, defaults otherwise\n";
+    "  --config FILE   controller YAML (rate_hz, channels, controller, estimator, safety,\n"
+    "                  state_path, run_id, takeover_window_s); optional, defaults otherwise\n"
+    "  run_id unset: $KESTREL_RUN_ID; with state_path set, a controller respawned within the same\n"
+    "  run takes a flying vehicle over in HOLD (docs/design.md §2.5)\n";
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -30,6 +37,17 @@ int main(int argc, char** argv) {
         kestrel::ControllerConfig config = kestrel::LoadControllerConfig(node, vehicle);
         config.flight.vehicle = vehicle;
         node.CheckNoUnknownKeys();
+        // No run_id set: the run's, from the runner that started it; a respawn within the run
+        // takes a flying vehicle over (docs/design.md §2.5).
+        const char* run_id = std::getenv(kestrel::kRunIdEnvironmentVariable);
+        if (config.run_id.empty() && run_id != nullptr && *run_id != '\0') {
+          const std::string problem = kestrel::CheckRunId(run_id);
+          if (!problem.empty()) {
+            throw std::invalid_argument(std::string("$") + kestrel::kRunIdEnvironmentVariable +
+                                        " = '" + run_id + "': " + problem);
+          }
+          config.run_id = run_id;
+        }
         config.Validate();
         lcm::LCM lcm(args.lcm_url);
         if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");

@@ -75,6 +75,9 @@ void SafetyConfig::Validate() const {
                            << geofence_max_m.transpose() << "]: accepted finite with min < max");
   KESTREL_THROW_UNLESS(std::isfinite(geofence_margin_m) && geofence_margin_m >= 0.0,
                        "safety.geofence_margin_m = " << geofence_margin_m << ", accepted [0, inf)");
+  KESTREL_THROW_UNLESS(CheckPositive(max_trajectory_start_offset_m),
+                       "safety.max_trajectory_start_offset_m = " << max_trajectory_start_offset_m
+                                                                 << ", accepted (0, inf)");
 }
 
 SafetySupervisor::SafetySupervisor(const SafetyConfig& config)
@@ -187,11 +190,56 @@ bool SafetySupervisor::AcceptTrajectory(const PiecewisePolynomialTrajectory& tra
       return false;
     }
   }
+  const bool flown_now = (decision_.mode == FlightMode::kHold && !failsafe_hold_) ||
+                         decision_.mode == FlightMode::kTrack;
+  if (flown_now) {
+    // No set-point step (docs/design.md §2.5): the trajectory must start near the set point.
+    const FlatOutput next = trajectory.Evaluate(std::max(time_s, trajectory.start_time_s()));
+    const double offset = (next.position_m - decision_.setpoint.position_m).norm();
+    if (!(offset <= config_.max_trajectory_start_offset_m)) {
+      if (reason != nullptr) {
+        *reason = std::string(kFarStartReason) + ": its set point now is " +
+                  std::to_string(offset) +
+                  " m from the current one (max_trajectory_start_offset_m = " +
+                  std::to_string(config_.max_trajectory_start_offset_m) + " m)";
+      }
+      return false;
+    }
+  }
   trajectory_ = trajectory;
   if ((decision_.mode == FlightMode::kHold && !failsafe_hold_) ||
       decision_.mode == FlightMode::kTrack || decision_.mode == FlightMode::kTakeoff) {
     Enter(FlightMode::kTrack, time_s, "new trajectory");
   }
+  if (reason != nullptr) reason->clear();
+  return true;
+}
+
+bool SafetySupervisor::Takeover(double time_s, const VehicleState& state, double last_pose_time_s,
+                                double ground_z_m, bool landing, std::string* reason) {
+  std::string why;
+  if (decision_.mode != FlightMode::kIdle) {
+    why = std::string("takeover refused in mode ") + ToString(decision_.mode);
+  } else if (!std::isfinite(time_s) || !state.IsValid(1e-3)) {
+    why = "takeover refused: no valid state estimate";
+  } else if (!PoseFresh(time_s, last_pose_time_s, config_.pose_timeout_s)) {
+    why = "takeover refused: no fresh pose";
+  } else if (!std::isfinite(ground_z_m)) {
+    why = "takeover refused: non-finite ground height";
+  }
+  if (!why.empty()) {
+    if (reason != nullptr) *reason = why;
+    return false;
+  }
+  ground_z_m_ = ground_z_m;
+  trajectory_.reset();
+  // Where the vehicle is, at rest: no set-point step (the law brakes what motion there is).
+  decision_.setpoint = Clamp(FlatOutput::Hover(state.position_m, YawOfRotation(state.R_WB)));
+  Enter(landing ? FlightMode::kLand : FlightMode::kHold, time_s,
+        landing ? "takeover after a controller restart: landing resumed"
+                : "takeover after a controller restart: holding");
+  decision_.motors_enabled = true;
+  decision_.reset_integrals = true;
   if (reason != nullptr) reason->clear();
   return true;
 }

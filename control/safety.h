@@ -16,7 +16,12 @@
 ///  4. the vehicle outside the geofence by more than geofence_margin_m: LAND;
 ///  5. TRACK without a trajectory, or trajectory_timeout_s past its end: HOLD.
 /// Set points are always finite and inside the geofence (clamped); trajectories that leave the
-/// geofence are refused when they arrive.
+/// geofence are refused when they arrive, and so are trajectories that would be flown at once
+/// (HOLD, TRACK) but start farther than max_trajectory_start_offset_m from the current set point:
+/// the set point never jumps (docs/design.md §2.5: a far-start trajectory, e.g. planned before a
+/// controller takeover, is refused and the explorer replans from the flown state).
+/// A controller respawned within the same run takes a flying vehicle over where it is
+/// (Takeover: HOLD, or LAND if it was landing; docs/design.md §2.5).
 
 #include <Eigen/Core>
 #include <optional>
@@ -29,6 +34,9 @@ namespace kestrel {
 
 /// Flight modes (values as controller_status_t MODE_*: they go into the status message).
 enum class FlightMode { kIdle = 0, kTakeoff = 1, kTrack = 2, kHold = 3, kLand = 4, kEstop = 5 };
+
+/// How a refused far-start trajectory's reason begins (AcceptTrajectory; counted apart).
+inline constexpr const char* kFarStartReason = "far start";
 
 /// Operator / explorer commands (values as command_t COMMAND_*).
 enum class FlightCommand { kIdle = 0, kTakeoff = 1, kTrack = 2, kHold = 3, kLand = 4, kEstop = 5 };
@@ -66,6 +74,9 @@ struct SafetyConfig {
   Eigen::Vector3d geofence_min_m{-4.0, -6.0, -0.2};  ///< geofence lower corner, W, m
   Eigen::Vector3d geofence_max_m{4.0, 6.0, 2.5};     ///< geofence upper corner, W, m
   double geofence_margin_m{0.3};  ///< tolerated excursion of the vehicle outside the fence, m
+  /// A trajectory that would be flown at once (HOLD, TRACK) is refused when its set point now is
+  /// farther than this from the current set point (no set-point step), m (> 0).
+  double max_trajectory_start_offset_m{0.3};
 
   /// Throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
@@ -99,6 +110,16 @@ class SafetySupervisor {
   /// previous trajectory stays).
   bool AcceptTrajectory(const PiecewisePolynomialTrajectory& trajectory, double time_s,
                         std::string* reason);
+
+  /// Takes a flying vehicle over after a controller restart (docs/design.md §2.5): from IDLE
+  /// only, with a valid `state` and a pose fresher than pose_timeout_s, the set point becomes the
+  /// estimate (position, yaw; zero velocity) and the mode HOLD, or LAND when `landing`;
+  /// `ground_z_m` (m, finite) is the take-off ground height the landing ends on. Returns false
+  /// with *reason when refused.
+  bool Takeover(double time_s, const VehicleState& state, double last_pose_time_s,
+                double ground_z_m, bool landing, std::string* reason);
+  /// The ground height the landing ends on (the take-off point's, or default_ground_z_m), m.
+  [[nodiscard]] double ground_z_m() const { return ground_z_m_; }
 
   /// One step: failsafes, mode progress, set point. `state` may be nullptr (no estimate yet);
   /// last_pose_time_s is the stamp of the latest valid pose (-inf if none). A non-finite time_s

@@ -1,7 +1,12 @@
 // kestrel-explorer: entropy-based exploration (docs/algorithms.md §6-§9).
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/config_publisher.h"
+#include "common/identity.h"
 #include "common/node_loop.h"
 #include "common/process.h"
 #include "common/sim_truth_clock.h"
@@ -20,8 +25,19 @@ int main(int argc, char** argv) {
   return kestrel::RunProcess(
       "kestrel-explorer", argc, argv, kUsage,
       [](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
-        const kestrel::ExplorerConfig config = kestrel::LoadExplorerConfig(node);
+        kestrel::ExplorerConfig config = kestrel::LoadExplorerConfig(node);
         node.CheckNoUnknownKeys();
+        // No run_id set: the run's, from the runner that started it; a respawn within the run
+        // resumes from its state file (docs/design.md §2.5).
+        const char* run_id = std::getenv(kestrel::kRunIdEnvironmentVariable);
+        if (config.run_id.empty() && run_id != nullptr && *run_id != '\0') {
+          const std::string problem = kestrel::CheckRunId(run_id);
+          if (!problem.empty()) {
+            throw std::invalid_argument(std::string("$") + kestrel::kRunIdEnvironmentVariable +
+                                        " = '" + run_id + "': " + problem);
+          }
+          config.run_id = run_id;
+        }
         lcm::LCM lcm(args.lcm_url);
         if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");
         const std::unique_ptr<kestrel::Clock> clock =

@@ -10,6 +10,8 @@
 #include "common/check.h"
 #include "common/config.h"
 #include "common/identity.h"
+#include "common/log.h"
+#include "common/run_state_file.h"
 #include "common/trajectory_message.h"
 #include "common/vehicle_prefixes.h"
 #include "exploration/planner_config_io.h"
@@ -66,6 +68,11 @@ void ExplorerConfig::Validate() const {
                                              << peer_prefixes[i] << "'");
     }
   }
+  KESTREL_THROW_UNLESS(run_id.empty() || CheckRunId(run_id).empty(),
+                       "explorer.run_id = '" << run_id << "': " << CheckRunId(run_id));
+  KESTREL_THROW_UNLESS(
+      controller_hold_replan_s > 0,
+      "explorer.controller_hold_replan_s = " << controller_hold_replan_s << " must be > 0");
   KESTREL_THROW_UNLESS(max_status_candidates >= 1, "explorer.max_status_candidates = "
                                                        << max_status_candidates << " must be >= 1");
 }
@@ -120,6 +127,9 @@ ExplorerConfig LoadExplorerConfig(const ConfigNode& node) {
     e.Read("min_separation_m", &c.min_separation_m, Range::Positive());
     e.Read("min_vertical_separation_m", &c.min_vertical_separation_m, Range::Positive());
     e.Read("max_yield_s", &c.max_yield_s, Range::Positive());
+    e.Read("state_path", &c.state_path);
+    e.Read("run_id", &c.run_id);
+    e.Read("controller_hold_replan_s", &c.controller_hold_replan_s, Range::Positive());
   }
   // Last: the planner's reader also checks that no key of the file is left unread.
   c.planner = LoadPlannerConfig(node);
@@ -221,6 +231,139 @@ ExplorerNode::ExplorerNode(lcm::LCM& lcm, const ExplorerConfig& config, const Cl
       },
       on_error);
   heartbeat_.SetState(heartbeat_t::STATE_OK);
+  run_id_ = config_.run_id.empty() ? NewRunId() : config_.run_id;
+  ReadStateFile();
+}
+
+namespace {
+const char* StateName(int8_t state) {
+  switch (state) {
+    case exploration_status_t::STATE_WAITING:
+      return "WAITING";
+    case exploration_status_t::STATE_STARTUP:
+      return "STARTUP";
+    case exploration_status_t::STATE_EXPLORING:
+      return "EXPLORING";
+    case exploration_status_t::STATE_RETURNING:
+      return "RETURNING";
+    case exploration_status_t::STATE_DONE:
+      return "DONE";
+    default:
+      return "FAILED";
+  }
+}
+}  // namespace
+
+void ExplorerNode::ReadStateFile() {
+  if (config_.state_path.empty()) return;
+  RunStateFile file;
+  std::string why;
+  const RunStateRead read = ReadRunStateFile(config_.state_path, "explorer", run_id_, &file, &why);
+  if (read != RunStateRead::kOk) {
+    resume_status_ = why + ": starting as on a first start";
+    Log(read == RunStateRead::kCorrupt ? LogLevel::kError : LogLevel::kInfo, resume_status_);
+    return;
+  }
+  const std::string* state = file.Find("state");
+  double x = 0, y = 0, yaw = 0, lowest = 0;
+  if (state == nullptr || !file.GetDouble("home_x_m", &x) || !file.GetDouble("home_y_m", &y) ||
+      !file.GetDouble("home_yaw_rad", &yaw) || !file.GetDouble("lowest_z_m", &lowest)) {
+    resume_status_ = "corrupt state file " + config_.state_path +
+                     ": no state, home or lowest height; starting as on a first start";
+    Log(LogLevel::kError, resume_status_);
+    return;
+  }
+  for (int8_t s : {exploration_status_t::STATE_STARTUP, exploration_status_t::STATE_EXPLORING,
+                   exploration_status_t::STATE_RETURNING, exploration_status_t::STATE_DONE}) {
+    if (*state == StateName(s)) resume_state_ = s;
+  }
+  if (resume_state_ < 0) {
+    resume_status_ =
+        "restarted before exploring (was " + *state + "): starting as on a first start";
+    Log(LogLevel::kInfo, resume_status_);
+    return;
+  }
+  home_xy_ = Eigen::Vector2d(x, y);
+  home_yaw_rad_ = yaw;
+  lowest_z_m_ = lowest;
+  if (const std::string* rule = file.Find("end_rule")) {
+    end_rule_ = *rule;
+    std::replace(end_rule_.begin(), end_rule_.end(), '_', ' ');
+  }
+  resume_status_ = "restarted within run " + run_id_ + " (was " + *state +
+                   "): resuming from the flown state once the vehicle is seen airborne";
+  Log(LogLevel::kWarning, resume_status_);
+}
+
+void ExplorerNode::WriteStateFile() {
+  if (config_.state_path.empty() || state_ == saved_state_) return;
+  // Before the start-up nothing is resumable: no take-off point yet.
+  if (state_ == exploration_status_t::STATE_WAITING && resume_state_ < 0 && saved_state_ < 0) {
+    return;
+  }
+  RunStateFile file;
+  file.kind = "explorer";
+  file.run_id = run_id_;
+  file.values["state"] = StateName(state_);
+  char number[64];
+  const auto put = [&](const char* key, double v) {
+    std::snprintf(number, sizeof(number), "%.17g", v);
+    file.values[key] = number;
+  };
+  put("home_x_m", home_xy_.x());
+  put("home_y_m", home_xy_.y());
+  put("home_yaw_rad", home_yaw_rad_);
+  put("lowest_z_m", lowest_z_m_);
+  if (!end_rule_.empty()) {  // one word in the file: spaces as '_'
+    std::string rule = end_rule_;
+    std::replace(rule.begin(), rule.end(), ' ', '_');
+    file.values["end_rule"] = rule;
+  }
+  std::string error;
+  if (WriteRunStateFile(config_.state_path, file, &error)) {
+    saved_state_ = state_;
+  } else {
+    drops_.Count("state_file", error);
+  }
+}
+
+bool ExplorerNode::Resume() {
+  const bool airborne = controller_mode_ == controller_status_t::MODE_HOLD ||
+                        controller_mode_ == controller_status_t::MODE_TRACK;
+  if (!airborne) {
+    if (controller_mode_ == controller_status_t::MODE_LAND &&
+        resume_state_ == exploration_status_t::STATE_DONE) {
+      state_ = exploration_status_t::STATE_DONE;  // landing as asked before the restart
+      resume_state_ = -1;
+    }
+    return false;  // on the ground, taking off or landing: as on a first start
+  }
+  const int8_t was = resume_state_;
+  resume_state_ = -1;
+  trajectory_.reset();
+  resume_status_ = std::string("resumed ") + StateName(was) + " from the flown state at (" +
+                   std::to_string(pose_.p.x()) + ", " + std::to_string(pose_.p.y()) + ", " +
+                   std::to_string(pose_.p.z()) + ") m, controller in " +
+                   (controller_mode_ == controller_status_t::MODE_HOLD ? "HOLD" : "TRACK");
+  Log(LogLevel::kWarning, resume_status_);
+  if (was == exploration_status_t::STATE_DONE) {
+    SendLand();
+  } else if (was == exploration_status_t::STATE_RETURNING) {
+    state_ = exploration_status_t::STATE_RETURNING;
+    if (end_rule_.empty()) end_rule_ = "unknown (before a restart)";
+    PlanHome("resumed after a restart");
+  } else {
+    state_ = exploration_status_t::STATE_EXPLORING;
+    Plan("resumed after a restart");
+  }
+  return true;
+}
+
+bool ExplorerNode::ControllerHoldsWithoutOurTrajectory(double t) const {
+  return have_controller_ && controller_mode_ == controller_status_t::MODE_HOLD &&
+         trajectory_.has_value() && t < trajectory_->end_time_s() &&
+         t - last_publish_s_ >= config_.controller_hold_replan_s &&
+         !(controller_trajectory_seq_ == trajectory_seq_ && controller_trajectory_epoch_ == epoch_);
 }
 
 void ExplorerNode::OnPose(const pose_t& msg) {
@@ -315,6 +458,7 @@ void ExplorerNode::PublishFrom(const PiecewisePolynomialTrajectory& next) {
 
 void ExplorerNode::Publish(const PiecewisePolynomialTrajectory& trajectory) {
   trajectory_ = trajectory;
+  last_publish_s_ = now_s();
   const trajectory_t msg = ToMessage(trajectory, clock_.NowUtime(), ++trajectory_seq_, epoch_);
   lcm_.publish(config_.trajectory_channel, &msg);
 }
@@ -677,6 +821,7 @@ void ExplorerNode::Step() {
   switch (state_) {
     case exploration_status_t::STATE_WAITING: {
       if (!have_pose_ || !have_controller_ || !replica_.current() || t < next_attempt_s_) break;
+      if (resume_state_ >= 0 && Resume()) break;
       const bool at_height = std::abs(pose_.p.z() - h) < config_.height_tolerance_m;
       const bool risen = pose_.p.z() >= lowest_z_m_ + config_.startup_min_rise_m;
       // The controller flies trajectories in HOLD and, once off the ground, in TAKEOFF
@@ -717,6 +862,17 @@ void ExplorerNode::Step() {
       }
       break;
     case exploration_status_t::STATE_EXPLORING: {
+      if (ControllerHoldsWithoutOurTrajectory(t)) {
+        // A controller that took over after a restart, or refused a far-start trajectory, holds:
+        // plan again from where the vehicle is (docs/design.md §2.5).
+        ++controller_holds_;
+        drops_.Count("controller_holds",
+                     "the controller holds without flying the latest trajectory: replanning from "
+                     "the flown state");
+        trajectory_.reset();
+        Plan("the controller holds");
+        break;
+      }
       if (t < next_attempt_s_) break;
       const bool ended = !trajectory_.has_value() || t >= trajectory_->end_time_s();
       if (last_plan_ && last_plan_->status == PlanStatus::kGoal && last_plan_->chosen >= 0) {
@@ -748,6 +904,15 @@ void ExplorerNode::Step() {
       break;
     }
     case exploration_status_t::STATE_RETURNING:
+      if (home_trajectory_ && ControllerHoldsWithoutOurTrajectory(t)) {
+        ++controller_holds_;
+        drops_.Count("controller_holds",
+                     "the controller holds without flying the flight home: planning it again");
+        trajectory_.reset();
+        home_trajectory_ = false;
+        PlanHome("the controller holds");
+        break;
+      }
       if (!home_trajectory_) {
         if (t >= next_attempt_s_) PlanHome("retrying the flight home");
         break;
@@ -770,6 +935,7 @@ void ExplorerNode::Step() {
     default:
       break;
   }
+  WriteStateFile();
 }
 
 void ExplorerNode::PublishStatus(const PlanResult& result, const std::string& reason) {

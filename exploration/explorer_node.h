@@ -17,6 +17,15 @@
 ///             failing): flies back to the take-off point;
 ///   DONE      sends a land command on COMMAND (the only command the explorer may send).
 ///
+/// Restarts (docs/design.md §2.5): with state_path set, the state and the take-off point are
+/// written there (common/run_state_file.h) at every change of state; an explorer started with
+/// the same run id whose file says it had started exploring, and that finds the vehicle airborne
+/// (controller in HOLD or TRACK), resumes from the flown state without a start-up turn: EXPLORING
+/// plans at once from the current pose (the map from the mapper's next snapshot), RETURNING
+/// plans home, DONE sends the land command again. While exploring or returning, a controller
+/// that holds without flying the explorer's latest trajectory (a takeover after a controller
+/// restart, or a refused far-start trajectory) makes it replan from the flown state.
+///
 /// Publishes EXPLORATION_STATUS after every plan, the 2D maps (MAP2D_COLLISION, MAP2D_COMBINED,
 /// MAP2D_ENTROPY in two-map mode) and a heartbeat. Step() does the work; it is cheap when
 /// nothing is due, so a lockstep simulation may call it every step.
@@ -138,6 +147,15 @@ struct ExplorerConfig {
   /// at the map's resolution (lasr: 165 kB per message); at 1 Hz replans that traffic crowded the
   /// receive buffers of every process on the multicast group.
   double map2d_period_s{5.0};
+  /// The explorer's state file ("" = none: a restarted explorer starts WAITING, as on a first
+  /// start); see the file comment.
+  std::string state_path;
+  /// The run this explorer belongs to; "" = a fresh id, which resumes nothing. kestrel-explorer
+  /// fills it from $KESTREL_RUN_ID when unset.
+  std::string run_id;
+  /// While exploring or returning: the controller holding this long after the latest trajectory
+  /// was sent without flying it makes the explorer replan from the flown state, s (> 0).
+  double controller_hold_replan_s{0.5};
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
@@ -203,6 +221,10 @@ class ExplorerNode {
   [[nodiscard]] const std::string& end_rule() const { return end_rule_; }
   /// How the flight ended ("" until the land command): "returned home" or "landed elsewhere: ...".
   [[nodiscard]] const std::string& landing() const { return landing_; }
+  /// What the start-up found in the state file ("" without one) and, once resumed, how.
+  [[nodiscard]] const std::string& resume_status() const { return resume_status_; }
+  /// Times the controller held without flying the latest trajectory (a replan followed).
+  [[nodiscard]] int64_t controller_holds() const { return controller_holds_; }
   /// Plans whose trajectory the separation check refused (the vehicle yielded).
   [[nodiscard]] int64_t yields() const { return yields_; }
   /// "" if `trajectory` keeps min_separation_m from every other vehicle from from_s (or its start,
@@ -213,6 +235,12 @@ class ExplorerNode {
 
  private:
   void OnPose(const pose_t& msg);
+  void ReadStateFile();
+  void WriteStateFile();
+  // WAITING with a resumable state file and the vehicle airborne: takes up where it stopped.
+  bool Resume();
+  // The controller holds without flying our latest trajectory (controller_hold_replan_s).
+  [[nodiscard]] bool ControllerHoldsWithoutOurTrajectory(double t) const;
   // A refused plan (the separation check): true if it is still a yield (max_yield_s), false once
   // it counts as a failure. Keeps or stops the flight.
   bool Yield(const std::string& why);
@@ -291,6 +319,12 @@ class ExplorerNode {
   int64_t yields_{0};
   double yielding_since_s_{-1.0};  // start of the current run of yields (-1: not yielding)
   double last_separation_check_s_{-1e300};
+  double last_publish_s_{-1e300};
+  std::string run_id_;
+  int8_t resume_state_{-1};  // the state file's state to resume (-1: none)
+  std::string resume_status_;
+  int8_t saved_state_{-1};  // the state last written to the state file
+  int64_t controller_holds_{0};
   // Starts a spliced replan from `trajectory_` at now + lookahead, if one is being flown.
   [[nodiscard]] bool Splicing(double now) const;
   // True when the known cells grew by less than end_stall_min_growth over the stall window.

@@ -45,8 +45,10 @@ struct SimConfig {
   double physics_step_s{0.001};  ///< lockstep period, s, [1e-5, 0.01]
   double speed_factor{0.0};    ///< simulated s per wall s for kestrel-sim; 0 = as fast as possible
   double run_duration_s{0.0};  ///< kestrel-sim stops after this much simulated time; 0 = never
-  double vehicle_height_m{0.15};            ///< height of the vehicle's collision cylinder, m, > 0
-  double motor_command_timeout_s{0.5};      ///< rotors stop this long after the last command, s
+  double vehicle_height_m{0.15};  ///< height of the vehicle's collision cylinder, m, > 0
+  /// The ESC watchdog: the last motor command is held this long, then the rotors stop, s. The
+  /// sheets' sim configs set 1.5 s, longer than a controller respawn (docs/design.md §2.5).
+  double motor_command_timeout_s{0.5};
   double ray_bin_m{0.5};                    ///< ray caster grid bin edge, m, > 0
   QuadrotorConfig quadrotor;                ///< integrator and floor options
   bool depth_enabled{true};                 ///< simulate the depth camera

@@ -3,13 +3,17 @@
 #include "control/controller_node.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <deque>
+#include <fstream>
 
 #include "common/clock.h"
 #include "common/config.h"
 #include "common/lcm_decode.h"
+#include "common/run_state_file.h"
 #include "control/rigid_body.h"
 #include "kestrel/controller_status_t.hpp"
 #include "kestrel/motor_command_t.hpp"
@@ -213,7 +217,8 @@ TEST(LoadControllerConfig, ReadsKeysAndNamesErrors) {
       ConfigNode::FromString("rate_hz: 250\nchannels:\n  pose: POSE_SIM\ncontroller:\n"
                              "  k_x_per_s2: 12.0\n  attitude_error: cdc2010\n  max_tilt_rad: 0.8\n"
                              "safety:\n  land_timeout_s: 3.0\n  blind_land_depth_m: 0.7\n"
-                             "  geofence_max_m: [5, 5, 3]\n",
+                             "  geofence_max_m: [5, 5, 3]\n  max_trajectory_start_offset_m: 0.2\n"
+                             "state_path: /tmp/c.state\nrun_id: run-7\ntakeover_window_s: 2\n",
                              "controller.yaml"),
       vehicle);
   EXPECT_EQ(config.rate_hz, 250.0);
@@ -229,10 +234,15 @@ TEST(LoadControllerConfig, ReadsKeysAndNamesErrors) {
                 .flight.controller.attitude_error,
             AttitudeErrorForm::kLargeAngle);
   EXPECT_EQ(config.flight.safety.geofence_max_m, Eigen::Vector3d(5, 5, 3));
+  EXPECT_EQ(config.flight.safety.max_trajectory_start_offset_m, 0.2);
+  EXPECT_EQ(config.state_path, "/tmp/c.state");
+  EXPECT_EQ(config.run_id, "run-7");
+  EXPECT_EQ(config.takeover_window_s, 2.0);
   for (const char* bad :
        {"rate_hz: 5\n", "controller:\n  k_R_Nm_per_rad: -1\n",
         "controller:\n  attitude_error: lee\n", "safety:\n  blind_land_depth_m: 0.2\n",
-        "safety:\n  pose_timeout_s: 5\n", "typo_key: 1\n"}) {
+        "safety:\n  pose_timeout_s: 5\n", "typo_key: 1\n", "run_id: 'a b'\n",
+        "takeover_window_s: 0\n", "safety:\n  max_trajectory_start_offset_m: 0\n"}) {
     try {
       (void)LoadControllerConfig(ConfigNode::FromString(bad, "controller.yaml"), vehicle);
       ADD_FAILURE() << "accepted: " << bad;
@@ -267,6 +277,50 @@ TEST_F(ControllerNodeTest, StampsItsEpochs) {
   EXPECT_NE(second.epoch(), node_.epoch());
   EXPECT_NE(second_motor.epoch, 0);
   EXPECT_NE(second_motor.epoch, motor_epoch);
+}
+
+}  // namespace
+}  // namespace kestrel
+
+namespace kestrel {
+namespace {
+
+// The flight-state file at start-up (docs/design.md §2.5): a corrupt file is refused with the
+// reason and the controller starts IDLE and disarmed; an e-stop of the same run stays latched; the
+// first control step rewrites the file with this controller's run and mode.
+TEST(ControllerStateFile, CorruptRefusedEstopLatchedFileRewritten) {
+  char dir[] = "/tmp/kestrel-controller-node-XXXXXX";
+  ASSERT_NE(mkdtemp(dir), nullptr);
+  ControllerConfig config;
+  config.state_path = std::string(dir) + "/controller.state";
+  config.run_id = "run-a";
+  lcm::LCM lcm("memq://");
+  SimClock clock(1'000'000'000);
+  {
+    std::ofstream(config.state_path) << "kestrel-state controller 1\nrun_id run-a\nmode HOLD\n";
+    ControllerNode node(lcm, config, clock);
+    EXPECT_NE(node.takeover_status().find("state file refused"), std::string::npos)
+        << node.takeover_status();
+    node.Tick(clock.NowUtime());
+    EXPECT_EQ(node.flight().supervisor().mode(), FlightMode::kIdle);
+    EXPECT_FALSE(node.last_output().armed);
+  }
+  RunStateFile file;
+  std::string error;
+  ASSERT_EQ(ReadRunStateFile(config.state_path, "controller", "run-a", &file, &error),
+            RunStateRead::kOk)
+      << error;
+  EXPECT_EQ(*file.Find("mode"), "IDLE") << "rewritten at the first control step";
+  file.values["mode"] = "ESTOP";
+  ASSERT_TRUE(WriteRunStateFile(config.state_path, file, &error)) << error;
+  {
+    ControllerNode node(lcm, config, clock);
+    node.Tick(clock.NowUtime());
+    EXPECT_EQ(node.flight().supervisor().mode(), FlightMode::kEstop) << node.takeover_status();
+    EXPECT_FALSE(node.last_output().armed);
+  }
+  std::remove(config.state_path.c_str());
+  rmdir(dir);
 }
 
 }  // namespace

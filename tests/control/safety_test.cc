@@ -277,3 +277,61 @@ TEST(SafetyConfig, ValidateNamesFieldAndRange) {
 
 }  // namespace
 }  // namespace kestrel
+
+namespace kestrel {
+namespace {
+
+// The far-start rule (docs/design.md §2.5): in HOLD and TRACK a trajectory whose set point now is
+// farther than max_trajectory_start_offset_m from the current set point is refused, with a reason
+// that begins with kFarStartReason, and the set point does not move; one that starts at the set
+// point is flown.
+TEST_F(SafetyTest, RefusesATrajectoryThatWouldStepTheSetPoint) {
+  TakeOffToHold();
+  const Eigen::Vector3d held = supervisor_.last_decision().setpoint.position_m;
+  std::string reason;
+  const Eigen::Vector3d far = held + Eigen::Vector3d(0.5, 0.0, 0.0);
+  EXPECT_FALSE(supervisor_.AcceptTrajectory(Line(far, far + Eigen::Vector3d(1, 0, 0), 3.0, 2.0),
+                                            3.0, &reason));
+  EXPECT_EQ(reason.rfind(kFarStartReason, 0), 0u) << reason;
+  SafetyDecision d = RunFresh(3.0, 3.5);
+  EXPECT_EQ(d.mode, FlightMode::kHold);
+  EXPECT_LT((d.setpoint.position_m - held).norm(), 1e-9) << "the set point moved";
+  // Within the offset (0.2 m < 0.3 m): flown.
+  const Eigen::Vector3d near = held + Eigen::Vector3d(0.2, 0.0, 0.0);
+  ASSERT_TRUE(supervisor_.AcceptTrajectory(Line(near, near + Eigen::Vector3d(1, 0, 0), 3.5, 2.0),
+                                           3.5, &reason))
+      << reason;
+  EXPECT_EQ(RunFresh(3.5, 3.6).mode, FlightMode::kTrack);
+  // In TRACK, against the flown set point: a trajectory starting 1 m behind it is refused.
+  const Eigen::Vector3d now = supervisor_.last_decision().setpoint.position_m;
+  EXPECT_FALSE(supervisor_.AcceptTrajectory(Line(now - Eigen::Vector3d(1, 0, 0), now, 3.6, 2.0),
+                                            3.6, &reason));
+  EXPECT_EQ(reason.rfind(kFarStartReason, 0), 0u) << reason;
+  EXPECT_EQ(RunFresh(3.6, 3.7).mode, FlightMode::kTrack);
+}
+
+// A takeover (a controller restarted in flight) holds where the vehicle is, with zero velocity,
+// from IDLE only and with a fresh pose; "landing" resumes LAND, and the landing ends at the given
+// ground height.
+TEST_F(SafetyTest, TakeoverHoldsWhereTheVehicleIs) {
+  state_.position_m = Eigen::Vector3d(1.0, 2.0, 0.9);
+  state_.velocity_mps = Eigen::Vector3d(0.3, 0.0, -0.5);
+  std::string reason;
+  EXPECT_FALSE(supervisor_.Takeover(10.0, state_, 9.0, 0.0, false, &reason)) << "stale pose";
+  EXPECT_NE(reason.find("no fresh pose"), std::string::npos) << reason;
+  ASSERT_TRUE(supervisor_.Takeover(10.0, state_, 10.0, 0.1, false, &reason)) << reason;
+  SafetyDecision d = supervisor_.Update(10.0, &state_, 10.0);
+  EXPECT_EQ(d.mode, FlightMode::kHold);
+  EXPECT_TRUE(d.motors_enabled);
+  EXPECT_LT((d.setpoint.position_m - Eigen::Vector3d(1.0, 2.0, 0.9)).norm(), 1e-12);
+  EXPECT_EQ(d.setpoint.velocity_mps.norm(), 0.0);
+  EXPECT_DOUBLE_EQ(supervisor_.ground_z_m(), 0.1);
+  EXPECT_FALSE(supervisor_.Takeover(10.1, state_, 10.1, 0.0, false, &reason)) << "not from HOLD";
+
+  SafetySupervisor landing(config_);
+  ASSERT_TRUE(landing.Takeover(10.0, state_, 10.0, 0.0, true, &reason)) << reason;
+  EXPECT_EQ(landing.Update(10.0, &state_, 10.0).mode, FlightMode::kLand);
+}
+
+}  // namespace
+}  // namespace kestrel

@@ -2,10 +2,13 @@
 // trajectory from a predecessor's with the same number (docs/design.md §3.4).
 #include "exploration/explorer_node.h"
 
+#include <cstdio>
+#include <fstream>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "common/config.h"
 #include "common/lcm_decode.h"
@@ -102,6 +105,51 @@ TEST_F(ExplorerNodeTest, TellsItsTrajectoryFromAPredecessorsWithTheSameSeq) {
     EXPECT_EQ(node.state(), predecessor ? exploration_status_t::STATE_WAITING
                                         : exploration_status_t::STATE_STARTUP);
   }
+}
+
+// Restarts (docs/design.md §2.5): an explorer of the same run finds its predecessor's state file
+// (written at the start-up) and, the vehicle airborne, explores at once without a start-up turn;
+// an explorer of another run, or one finding a corrupt file, starts as on a first start.
+TEST_F(ExplorerNodeTest, ResumesFromItsStateFileOnlyInTheSameRun) {
+  char dir[] = "/tmp/kestrel-explorer-node-XXXXXX";
+  ASSERT_NE(mkdtemp(dir), nullptr);
+  config_.state_path = std::string(dir) + "/explorer.state";
+  config_.run_id = "run-a";
+  {
+    ExplorerNode first(lcm_, config_, clock_);
+    SendWorld(controller_status_t::MODE_HOLD, -1, 0);
+    first.Step();
+    ASSERT_EQ(first.state(), exploration_status_t::STATE_STARTUP);
+  }
+  {
+    ExplorerNode same_run(lcm_, config_, clock_);
+    EXPECT_NE(same_run.resume_status().find("(was STARTUP)"), std::string::npos)
+        << same_run.resume_status();
+    clock_.AdvanceUtime(100000);
+    SendWorld(controller_status_t::MODE_HOLD, -1, 0);
+    same_run.Step();
+    EXPECT_EQ(same_run.state(), exploration_status_t::STATE_EXPLORING) << same_run.resume_status();
+    EXPECT_EQ(same_run.resume_status().rfind("resumed STARTUP from the flown state", 0), 0u)
+        << same_run.resume_status();
+  }
+  config_.run_id = "run-b";
+  {
+    ExplorerNode other_run(lcm_, config_, clock_);
+    SendWorld(controller_status_t::MODE_HOLD, -1, 0);
+    other_run.Step();
+    EXPECT_EQ(other_run.state(), exploration_status_t::STATE_STARTUP) << other_run.resume_status();
+  }
+  std::ofstream(config_.state_path) << "kestrel-state explorer 1\nrun_id run-b\nstate EXPLORING\n";
+  {
+    ExplorerNode corrupt(lcm_, config_, clock_);
+    EXPECT_NE(corrupt.resume_status().find("corrupt state file"), std::string::npos)
+        << corrupt.resume_status();
+    SendWorld(controller_status_t::MODE_HOLD, -1, 0);
+    corrupt.Step();
+    EXPECT_EQ(corrupt.state(), exploration_status_t::STATE_STARTUP);
+  }
+  std::remove(config_.state_path.c_str());
+  rmdir(dir);
 }
 
 // Two explorers in one process are two publishers.

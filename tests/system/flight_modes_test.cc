@@ -12,6 +12,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "common/config.h"
 #include "common/trajectory_message.h"
@@ -80,11 +81,21 @@ class SimFlight {
     sim_->Step();
     Drain();
     while (clock_.NowUtime() >= next_tick_us_) {
-      controller_->Tick(next_tick_us_);
+      if (controller_) controller_->Tick(next_tick_us_);  // none while "killed"
       next_tick_us_ += period_us_;
     }
     Drain();
   }
+  // The controller process killed (-9): no more control steps, no motor commands.
+  void KillController() { controller_.reset(); }
+  // A controller (re)started now with `config` (the test's wiring and geofence kept).
+  void StartController(const ControllerConfig& config) {
+    controller_.reset();
+    config_ = config;
+    controller_ = std::make_unique<ControllerNode>(lcm_, config_, clock_, &motors_);
+    next_tick_us_ = clock_.NowUtime();
+  }
+  const ControllerNode& controller() const { return *controller_; }
   void StepFor(double duration_s) {
     const int64_t end = clock_.NowUtime() + SecondsToUtime(duration_s);
     while (clock_.NowUtime() < end) Step();
@@ -137,6 +148,7 @@ class SimFlight {
   Simulator& simulator() { return sim_->mutable_simulator(); }
   const FlightOutput& last_output() const { return controller_->last_output(); }
   const ControllerConfig& config() const { return config_; }
+  const SimConfig& sim_config() const { return sim_config_; }
   const std::vector<RecordingMotorOutput::Command>& commands() const { return motors_.commands; }
   int64_t last_command_arrival_us() const { return command_arrival_us_; }
   int64_t poses_dropped() const { return poses_dropped_; }
@@ -508,6 +520,122 @@ TEST(FlightModes, MotionCaptureLostLongerThanLandTimeoutLands) {
   EXPECT_EQ(flight.vehicle().collision_count(), 0);
   EXPECT_EQ(flight.mode(), FlightMode::kIdle);
   EXPECT_FALSE(flight.commands().back().armed);
+}
+
+// --- The controller killed in flight and respawned (docs/design.md §2.5). ---
+
+// What a kill and a respawn did to the flight.
+struct RestartFigures {
+  double time_to_hold_s{-1};    // kill -> the new controller in HOLD (-1: never)
+  double height_lost_m{0};      // height at the kill - lowest true height after it
+  double max_speed_after_s{0};  // largest true speed in the last second (2 s after the takeover)
+  double excursion_m{0};        // farthest the true vehicle went outside the geofence, m
+  int collisions{0};
+  bool armed_after_restart{false};  // any armed motor command from the new controller
+  FlightMode final_mode{FlightMode::kIdle};
+  std::string status;  // the new controller's takeover status
+};
+
+// Flies a line in TRACK at 0.5 m/s, kills the controller, lets `gap_s` of simulated time pass
+// without motor commands (the runner's respawn), starts a controller with run id `new_run_id` and
+// the same state file, and flies 3 s more.
+RestartFigures KillAndRespawnController(double gap_s, const std::string& new_run_id) {
+  SimFlight flight;
+  char dir[] = "/tmp/kestrel-controller-restart-XXXXXX";
+  EXPECT_NE(mkdtemp(dir), nullptr);
+  ControllerConfig config = flight.config();
+  config.state_path = std::string(dir) + "/controller.state";
+  config.run_id = "run-a";
+  flight.StartController(config);
+  RestartFigures fig;
+  EXPECT_TRUE(flight.TakeOffAndHold(0.8));
+  const Eigen::Vector3d start = flight.last_output().decision.setpoint.position_m;
+  flight.Publish(Line(flight.now_s(), start, 0.5, 3.0));
+  flight.StepFor(1.0);
+  EXPECT_EQ(flight.mode(), FlightMode::kTrack);
+  const double z_kill = flight.truth().p_W.z();
+  const double t_kill = flight.now_s();
+  const Eigen::Vector3d lo = config.flight.safety.geofence_min_m;
+  const Eigen::Vector3d hi = config.flight.safety.geofence_max_m;
+  double z_min = z_kill;
+  auto watch = [&] {
+    const Eigen::Vector3d p = flight.truth().p_W;
+    z_min = std::min(z_min, p.z());
+    fig.excursion_m = std::max({fig.excursion_m, (lo - p).maxCoeff(), (p - hi).maxCoeff()});
+  };
+  flight.KillController();
+  const size_t commands_before = flight.commands().size();
+  flight.StepUntil(
+      [&] {
+        watch();
+        return false;
+      },
+      gap_s);
+  config.run_id = new_run_id;
+  flight.StartController(config);
+  fig.status = flight.controller().takeover_status();
+  flight.StepUntil(
+      [&] {
+        watch();
+        if (fig.time_to_hold_s < 0 && flight.mode() == FlightMode::kHold) {
+          fig.time_to_hold_s = flight.now_s() - t_kill;
+        }
+        return false;
+      },
+      2.0);
+  flight.StepUntil(
+      [&] {
+        watch();
+        fig.max_speed_after_s = std::max(fig.max_speed_after_s, flight.truth().v_W.norm());
+        return false;
+      },
+      1.0);
+  fig.status = flight.controller().takeover_status();
+  fig.height_lost_m = z_kill - z_min;
+  fig.collisions = flight.vehicle().collision_count();
+  fig.final_mode = flight.mode();
+  for (size_t i = commands_before; i < flight.commands().size(); ++i) {
+    fig.armed_after_restart = fig.armed_after_restart || flight.commands()[i].armed;
+  }
+  std::remove(config.state_path.c_str());
+  rmdir(dir);
+  std::printf(
+      "respawn gap %.2f s, run %s: time to HOLD %.3f s after the kill, height lost %.3f m, "
+      "speed after %.3f m/s, excursion %.3f m, collisions %d, mode %s (%s)\n",
+      gap_s, new_run_id.c_str(), fig.time_to_hold_s, fig.height_lost_m, fig.max_speed_after_s,
+      fig.excursion_m, fig.collisions, ToString(fig.final_mode), fig.status.c_str());
+  return fig;
+}
+
+// The respawn gap the runner gives the controller: respawn_backoff_min_s = 0.5 s, plus its poll
+// period (0.1 s) and the process's start-up, bounded at 1 s of simulated time at speed 1.
+constexpr double kRespawnGapS = 1.0;
+
+// Same run: the new controller holds where the vehicle is, within the sim's ESC watchdog
+// (motor_command_timeout_s, config/sim/sim_ci.yaml), without touching the floor.
+TEST(ControllerRestart, SameRunTakesTheFlyingVehicleOverInHold) {
+  const RestartFigures f = KillAndRespawnController(kRespawnGapS, "run-a");
+  EXPECT_EQ(f.final_mode, FlightMode::kHold) << f.status;
+  EXPECT_GT(f.time_to_hold_s, 0.0) << f.status;
+  EXPECT_LT(f.time_to_hold_s, kRespawnGapS + 0.1) << "HOLD within 0.1 s of the respawn";
+  EXPECT_LT(f.height_lost_m, 0.15);
+  EXPECT_LT(f.max_speed_after_s, 0.1) << "the vehicle holds still";
+  EXPECT_LE(f.excursion_m, 0.0) << "never outside the geofence";
+  EXPECT_EQ(f.collisions, 0);
+}
+
+// Another run (a new runner, or no run id): the new controller never arms itself; it stays IDLE
+// with the motors off.
+TEST(ControllerRestart, AnotherRunStaysIdleAndDisarmed) {
+  const RestartFigures f = KillAndRespawnController(kRespawnGapS, "run-b");
+  EXPECT_EQ(f.final_mode, FlightMode::kIdle) << f.status;
+  EXPECT_FALSE(f.armed_after_restart);
+  EXPECT_NE(f.status.find("belongs to run run-a"), std::string::npos) << f.status;
+}
+
+// How the gap and the ESC watchdog trade (figures for docs/design.md §2.5).
+TEST(ControllerRestart, HeightLostAgainstTheRespawnGap) {
+  for (double gap : {0.3, 0.6, 0.8, 1.0, 1.2, 1.4, 1.6}) KillAndRespawnController(gap, "run-a");
 }
 
 }  // namespace

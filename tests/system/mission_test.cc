@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 namespace kestrel {
 namespace {
 
@@ -101,6 +103,93 @@ TEST(Mission, SameSeedSameMap) {
   // A different seed (sensor noise) gives a different map: the hash can fail.
   mc.seed = 2;
   EXPECT_NE(RunMission(mc).map_hash, a.map_hash);
+}
+
+// Process kills (docs/design.md §2.5): the explorer node destroyed and built again 2 s later with
+// its state file. While it is down the controller flies the trajectory it has to its end and then
+// holds (trajectory_timeout_s = 1 s later); the new explorer resumes from the flown state (no
+// start-up turn; the map from the mapper's next snapshot, snapshot_period_s = 5 s) and the
+// mission ends as usual. Killed at the first moment after `at_s` while exploring when the flown
+// trajectory ends within `max_left_s` (infinite: at `at_s`); `resumed` is what the new explorer
+// must resume.
+MissionResult KillTheExplorer(double at_s, double max_left_s) {
+  MissionConfig mc = CiProfile();
+  mc.max_time_s = 700;
+  mc.explorer_kill_at_s = at_s;
+  mc.explorer_kill_max_left_s = max_left_s;
+  mc.explorer_down_s = 2.0;
+  const MissionResult r = RunMission(mc);
+  std::printf("%s", MissionSummary(r).c_str());
+  std::printf(
+      "explorer killed at %.2f s: trajectory left %.2f s, flight kept %d, held %d (max "
+      "speed %.3f m/s), first trajectory %.2f s after the restart (%s)\n",
+      r.explorer_killed_at_s, r.explorer_kill_trajectory_left_s, r.explorer_down_flight_kept,
+      r.explorer_down_held, r.explorer_down_hold_max_speed_mps, r.explorer_first_trajectory_s,
+      r.explorer_resume.c_str());
+  EXPECT_GE(r.explorer_killed_at_s, at_s);
+  EXPECT_TRUE(r.explorer_down_flight_kept) << "the controller left TRACK / HOLD";
+  EXPECT_FALSE(r.explorer_startup_after_restart) << "no start-up turn after a restart";
+  // The trajectory flown at the kill ends; the controller holds trajectory_timeout_s later.
+  EXPECT_EQ(r.explorer_down_held, r.explorer_kill_trajectory_left_s + 1.0 < mc.explorer_down_s);
+  EXPECT_LT(r.explorer_down_hold_max_speed_mps, 0.1) << "the vehicle holds still";
+  EXPECT_GE(r.explorer_first_trajectory_s, 0.0) << "the new explorer never flew";
+  EXPECT_LT(r.explorer_first_trajectory_s, 6.0) << "the mapper's next snapshot and a plan";
+  EXPECT_EQ(r.collisions, 0);
+  EXPECT_LE(r.max_geofence_excursion_m, 0.0) << "never outside the geofence";
+  EXPECT_TRUE(r.landed) << r.end_reason;
+  EXPECT_EQ(r.landing.rfind("returned home", 0), 0u) << r.landing;
+  EXPECT_GE(r.quality.known_fraction, 0.9);
+  return r;
+}
+
+// Mid-exploration (40 s): the controller keeps flying the trajectory while the explorer is down;
+// the new explorer explores on.
+TEST(Mission, ResumesExploringAfterAnExplorerKill) {
+  const MissionResult r = KillTheExplorer(40.0, std::numeric_limits<double>::infinity());
+  EXPECT_EQ(r.explorer_resume.rfind("resumed EXPLORING from the flown state", 0), 0u)
+      << r.explorer_resume;
+}
+
+// Where the flown trajectory is about to end (in non-stop flight that first happens on the way
+// home here): the controller holds still while the explorer is down, and the new one flies home.
+TEST(Mission, HoldsWhileTheExplorerIsDownAndResumesTheFlightHome) {
+  const MissionResult r = KillTheExplorer(40.0, 0.5);
+  EXPECT_TRUE(r.explorer_down_held);
+  EXPECT_EQ(r.explorer_resume.rfind("resumed RETURNING from the flown state", 0), 0u)
+      << r.explorer_resume;
+  EXPECT_EQ(r.end_rule, "gain rule") << "kept across the restart";
+}
+
+// The controller node destroyed mid-exploration, no motor commands for 1 s (the runner's respawn
+// gap, inside the simulator's 1.5 s ESC watchdog), then built again with its state file: it takes
+// the vehicle over in HOLD, the explorer replans from the flown state, and the mission ends as
+// usual.
+TEST(Mission, ContinuesAfterAControllerKill) {
+  MissionConfig mc = CiProfile();
+  mc.max_time_s = 700;
+  mc.controller_kill_at_s = 40.0;
+  mc.controller_down_s = 1.0;
+  const MissionResult r = RunMission(mc);
+  std::printf("%s", MissionSummary(r).c_str());
+  std::printf(
+      "controller kill: HOLD %.3f s after the kill, height lost %.3f m (%s); a trajectory %.3f s "
+      "after the respawn; %lld far-start trajectories refused, %lld explorer replans after a "
+      "hold\n",
+      r.controller_time_to_hold_s, r.controller_height_lost_m, r.controller_takeover.c_str(),
+      r.controller_track_after_s, static_cast<long long>(r.far_start_refusals),
+      static_cast<long long>(r.explorer_controller_holds));
+  EXPECT_GT(r.controller_time_to_hold_s, 0.0) << r.controller_takeover;
+  EXPECT_LT(r.controller_time_to_hold_s, mc.controller_down_s + 0.1) << r.controller_takeover;
+  EXPECT_LT(r.controller_height_lost_m, 0.15);
+  // The explorer replans from the flown state once the controller holds without flying its
+  // trajectory (controller_hold_replan_s = 0.5 s), not when its own trajectory ends.
+  EXPECT_GE(r.controller_track_after_s, 0.0);
+  EXPECT_LT(r.controller_track_after_s, 1.5);
+  EXPECT_EQ(r.collisions, 0);
+  EXPECT_LE(r.max_geofence_excursion_m, 0.0) << "never outside the geofence";
+  EXPECT_TRUE(r.landed) << r.end_reason;
+  EXPECT_EQ(r.landing.rfind("returned home", 0), 0u) << r.landing;
+  EXPECT_GE(r.quality.known_fraction, 0.9);
 }
 
 // In every world, the first plan after the start-up turn chooses a goal

@@ -9,6 +9,8 @@
 #include <random>
 #include <sstream>
 
+#include <unistd.h>
+
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/check.h"
@@ -221,6 +223,25 @@ MissionResult RunMission(const MissionConfig& mc) {
   KESTREL_THROW_UNLESS(lcm.good(), "memq:// LCM unavailable");
   SimClock clock(1700000000000000);  // a fixed, plausible epoch: stamps are the same every run
   SimNode sim(lcm, sim_config, clock);
+  // Process kills: the state files (docs/design.md §2.5) in a folder of the run, one run id.
+  const bool kills = mc.controller_kill_at_s >= 0 || mc.explorer_kill_at_s >= 0;
+  KESTREL_THROW_UNLESS(!kills || mc.vehicles == 1, "process kills apply to one vehicle only");
+  std::string state_dir = mc.state_dir;
+  bool remove_state_dir = false;
+  if (kills && state_dir.empty()) {
+    char dir[] = "/tmp/kestrel-mission-XXXXXX";
+    KESTREL_THROW_UNLESS(mkdtemp(dir) != nullptr, "cannot make a state folder under /tmp");
+    state_dir = dir;
+    remove_state_dir = true;
+  }
+  if (kills) {
+    controller_config.state_path = state_dir + "/controller.state";
+    controller_config.run_id = "mission-" + std::to_string(mc.seed);
+    explorer_config.state_path = state_dir + "/explorer.state";
+    explorer_config.run_id = controller_config.run_id;
+  }
+  std::vector<ControllerConfig> controller_configs;
+  std::vector<ExplorerConfig> explorer_configs;
   std::vector<std::unique_ptr<ControllerNode>> controllers;
   for (const std::string& p : prefixes) {
     ControllerConfig c = controller_config;
@@ -229,6 +250,7 @@ MissionResult RunMission(const MissionConfig& mc) {
           &c.motor_channel, &c.status_channel, &c.heartbeat_channel}) {
       *channel = p + *channel;
     }
+    controller_configs.push_back(c);
     controllers.push_back(std::make_unique<ControllerNode>(lcm, c, clock));
   }
   MapperNode mapper(lcm, mapper_config, clock);
@@ -239,10 +261,11 @@ MissionResult RunMission(const MissionConfig& mc) {
     for (const std::string& q : prefixes) {
       if (q != p) e.peer_prefixes.push_back(q);
     }
+    explorer_configs.push_back(e);
     explorers.push_back(std::make_unique<ExplorerNode>(lcm, e, clock));
   }
-  ControllerNode& controller = *controllers.front();
-  ExplorerNode& explorer = *explorers.front();
+  // The first vehicle's nodes (replaced when killed and respawned: no references kept).
+  const auto explorer = [&]() -> ExplorerNode& { return *explorers.front(); };
 
   // Every message in publication order, as lcm-logger would record it (stamped with the
   // simulated time), so the run can be replayed into fresh processes.
@@ -425,8 +448,10 @@ MissionResult RunMission(const MissionConfig& mc) {
   }
   auto all_explorers = [&](int8_t state) {
     return std::all_of(explorers.begin(), explorers.end(),
-                       [state](const auto& e) { return e->state() == state; });
+                       [state](const auto& e) { return e && e->state() == state; });
   };
+  double controller_killed_at = -1, controller_z_kill = 0, controller_z_min = 0;
+  double explorer_killed_at = -1, explorer_restarted_at = -1;
   auto drain = [&] {
     while (lcm.handleTimeout(0) > 0) {
     }
@@ -450,8 +475,81 @@ MissionResult RunMission(const MissionConfig& mc) {
       takeoff_utime = now;
       drain();
     }
+    // Process kills (first vehicle): destroyed, nothing for the gap, then built again.
+    const Eigen::Vector3d truth_p = sim.simulator().vehicle().state().p_W;
+    if (mc.controller_kill_at_s >= 0 && controller_killed_at < 0 && t >= mc.controller_kill_at_s) {
+      controllers.front().reset();
+      controller_killed_at = t;
+      controller_z_kill = controller_z_min = truth_p.z();
+    }
+    if (controller_killed_at >= 0 && !controllers.front() &&
+        t >= controller_killed_at + mc.controller_down_s) {
+      controllers.front() = std::make_unique<ControllerNode>(lcm, controller_configs[0], clock);
+      next_control = now;
+      r.controller_takeover = controllers.front()->takeover_status();
+    }
+    if (controller_killed_at >= 0 && t <= controller_killed_at + mc.controller_down_s + 3.0) {
+      controller_z_min = std::min(controller_z_min, truth_p.z());
+      r.controller_height_lost_m = controller_z_kill - controller_z_min;
+      if (controllers.front()) {
+        r.controller_takeover = controllers.front()->takeover_status();
+        if (r.controller_track_after_s < 0 && controllers.front()->trajectory_seq() >= 0) {
+          r.controller_track_after_s = t - controller_killed_at - mc.controller_down_s;
+        }
+        if (r.controller_time_to_hold_s < 0 &&
+            controllers.front()->flight().supervisor().mode() == FlightMode::kHold) {
+          r.controller_time_to_hold_s = t - controller_killed_at;
+        }
+      }
+    }
+    if (mc.explorer_kill_at_s >= 0 && explorer_killed_at < 0 && t >= mc.explorer_kill_at_s) {
+      const ControllerNode* c = controllers.front().get();
+      const double left_s = c != nullptr && c->trajectory_seq() >= 0
+                                ? c->trajectory_end_s() - UtimeToSeconds(now)
+                                : std::numeric_limits<double>::infinity();
+      const bool exploring = explorer().state() == exploration_status_t::STATE_EXPLORING;
+      if (left_s <= mc.explorer_kill_max_left_s && (exploring || t >= mc.explorer_kill_at_s + 60)) {
+        r.explorer_kill_trajectory_left_s = left_s;
+        explorers.front().reset();
+        explorer_killed_at = t;
+        r.explorer_killed_at_s = t;
+      }
+    }
+    if (explorer_killed_at >= 0 && !explorers.front()) {
+      const ControllerNode* c = controllers.front().get();
+      const FlightMode m = c != nullptr ? c->flight().supervisor().mode() : FlightMode::kIdle;
+      if (m != FlightMode::kTrack && m != FlightMode::kHold) r.explorer_down_flight_kept = false;
+      if (m == FlightMode::kHold) {
+        r.explorer_down_held = true;
+        r.explorer_down_hold_max_speed_mps = std::max(r.explorer_down_hold_max_speed_mps,
+                                                      sim.simulator().vehicle().state().v_W.norm());
+      }
+      if (t >= explorer_killed_at + mc.explorer_down_s) {
+        explorers.front() = std::make_unique<ExplorerNode>(lcm, explorer_configs[0], clock);
+        explorer_restarted_at = t;
+        next_explore = now;
+      }
+    }
+    if (explorer_restarted_at >= 0 && r.explorer_first_trajectory_s < 0 && controllers.front() &&
+        controllers.front()->trajectory_epoch() == explorer().epoch()) {
+      r.explorer_first_trajectory_s = t - explorer_restarted_at;
+    }
+    if (explorer_restarted_at >= 0) {
+      r.explorer_resume = explorer().resume_status();
+      if (explorer().state() == exploration_status_t::STATE_STARTUP) {
+        r.explorer_startup_after_restart = true;
+      }
+    }
+    {
+      const ControllerConfig& cc = controller_configs[0];
+      r.max_geofence_excursion_m = std::max(
+          {r.max_geofence_excursion_m, (cc.flight.safety.geofence_min_m - truth_p).maxCoeff(),
+           (truth_p - cc.flight.safety.geofence_max_m).maxCoeff()});
+    }
     while (now >= next_control) {
-      for (auto& c : controllers) c->Tick(next_control);
+      for (auto& c : controllers) {
+        if (c) c->Tick(next_control);
+      }
       next_control += control_period_us;
     }
     drain();
@@ -462,13 +560,14 @@ MissionResult RunMission(const MissionConfig& mc) {
     if (now >= next_explore) {
       // In vehicle order, each one's messages delivered before the next plans (deterministic).
       for (auto& e : explorers) {
+        if (!e) continue;  // killed
         e->Step();
         drain();
       }
       next_explore += 50000;
     }
-    if (outage_begin >= 0 && now > outage_end + SecondsToUtime(1.0) &&
-        controller.flight().supervisor().mode() == FlightMode::kTrack) {
+    if (outage_begin >= 0 && now > outage_end + SecondsToUtime(1.0) && controllers.front() &&
+        controllers.front()->flight().supervisor().mode() == FlightMode::kTrack) {
       r.tracked_after_outage = true;
     }
     const Eigen::Vector3d p = sim.simulator().vehicle().state().p_W;
@@ -490,8 +589,8 @@ MissionResult RunMission(const MissionConfig& mc) {
           ((p.head<2>() - world.map_min_m.head<2>()) / alpha_c).array().floor();
       r.left_start_collision_cell = cell_now != start_cell;
     }
-    if (explorer.state() == exploration_status_t::STATE_EXPLORING ||
-        explorer.state() == exploration_status_t::STATE_RETURNING) {
+    if (explorers.front() && (explorer().state() == exploration_status_t::STATE_EXPLORING ||
+                              explorer().state() == exploration_status_t::STATE_RETURNING)) {
       r.max_height_error_m = std::max(
           r.max_height_error_m, std::abs(p.z() - explorer_config.planner.projection.height_m));
     }
@@ -522,7 +621,7 @@ MissionResult RunMission(const MissionConfig& mc) {
       s.time_s = t;
       s.entropy_nats = mapper.entropy_nats();
       s.position_m = p;
-      s.explorer_state = explorer.state();
+      s.explorer_state = explorers.front() ? explorer().state() : -1;
       if (mc.compute_quality) {
         const MapQuality q = quality();
         s.known_fraction = q.known_fraction;
@@ -552,11 +651,11 @@ MissionResult RunMission(const MissionConfig& mc) {
       }
     }
     if (land_utime >= 0 && std::all_of(controllers.begin(), controllers.end(), [](const auto& c) {
-          return c->flight().supervisor().mode() == FlightMode::kIdle;
+          return c && c->flight().supervisor().mode() == FlightMode::kIdle;
         })) {
       r.landed = true;
-      r.end_reason = "exploration ended by the " + explorer.end_rule() + "; " + explorer.landing() +
-                     "; landed";
+      r.end_reason = "exploration ended by the " + explorer().end_rule() + "; " +
+                     explorer().landing() + "; landed";
       if (num_vehicles > 1) r.end_reason = "every vehicle landed (" + r.end_reason + ")";
       break;
     }
@@ -571,6 +670,17 @@ MissionResult RunMission(const MissionConfig& mc) {
     }
   }
   r.sim_time_s = UtimeToSeconds(clock.NowUtime() - t0);
+  // A run that ended while a node was down: built again so that the figures below can be read.
+  if (!explorers.front()) {
+    explorers.front() = std::make_unique<ExplorerNode>(lcm, explorer_configs[0], clock);
+  }
+  if (remove_state_dir) {
+    for (const char* f : {"/controller.state", "/explorer.state", "/controller.state.tmp",
+                          "/explorer().state.tmp"}) {
+      std::remove((state_dir + f).c_str());
+    }
+    rmdir(state_dir.c_str());
+  }
   r.sensor_messages_dropped = r_sensor_dropped_;
   r.poses_dropped = r_poses_dropped_;
   r.collisions = 0;
@@ -586,24 +696,28 @@ MissionResult RunMission(const MissionConfig& mc) {
     v.landed = r.landed;
   }
   r.inter_vehicle_contacts = sim.simulator().inter_vehicle_collision_count();
+  if (controllers.front()) {
+    r.far_start_refusals = controllers.front()->drops().count("refused trajectory (far start)");
+  }
+  r.explorer_controller_holds = explorer().controller_holds();
   r.vertical_separation_m = explorer_config.min_vertical_separation_m;
   r.plans = 0;
   for (const auto& e : explorers) r.plans += static_cast<int>(e->plans());
-  r.planning_wall_s = explorer.total_planning_s();
-  r.end_rule = explorer.end_rule();
-  r.landing = explorer.landing();
-  if (!explorer.plan_times_s().empty()) {
-    std::vector<double> times = explorer.plan_times_s();
+  r.planning_wall_s = explorer().total_planning_s();
+  r.end_rule = explorer().end_rule();
+  r.landing = explorer().landing();
+  if (!explorer().plan_times_s().empty()) {
+    std::vector<double> times = explorer().plan_times_s();
     std::sort(times.begin(), times.end());
     r.plan_median_s = times[times.size() / 2];
     r.plan_max_s = times.back();
-    std::vector<double> cpu = explorer.plan_cpu_times_s();
+    std::vector<double> cpu = explorer().plan_cpu_times_s();
     std::sort(cpu.begin(), cpu.end());
     r.plan_cpu_median_s = cpu[cpu.size() / 2];
     r.plan_cpu_max_s = cpu.back();
     auto stage_median = [&](double PlanTimings::*stage) {
       std::vector<double> v;
-      for (const PlanTimings& t : explorer.plan_timings()) v.push_back(t.*stage);
+      for (const PlanTimings& t : explorer().plan_timings()) v.push_back(t.*stage);
       return Median(std::move(v));
     };
     r.plan_stage_median_s.projection_s = stage_median(&PlanTimings::projection_s);
@@ -613,7 +727,7 @@ MissionResult RunMission(const MissionConfig& mc) {
     r.plan_stage_median_s.total_s = stage_median(&PlanTimings::total_s);
     std::vector<double> bounded, gained;
     long rays = 0, hits = 0;
-    for (const VolumetricGainStats& g : explorer.plan_gain_stats()) {
+    for (const VolumetricGainStats& g : explorer().plan_gain_stats()) {
       bounded.push_back(static_cast<double>(g.poses_bounded));
       gained.push_back(static_cast<double>(g.poses_gained));
       rays += g.rays;
@@ -636,9 +750,9 @@ MissionResult RunMission(const MissionConfig& mc) {
     std::ofstream out(mc.plans_csv_path);
     out << "plan,total_ms,projection_ms,distance_field_ms,gain_ms,trajectory_ms,positions,"
            "positions_bounded,positions_evaluated,cpu_ms\n";
-    const std::vector<PlanTimings>& t = explorer.plan_timings();
-    const std::vector<VolumetricGainStats>& g = explorer.plan_gain_stats();
-    const std::vector<double>& cpu = explorer.plan_cpu_times_s();
+    const std::vector<PlanTimings>& t = explorer().plan_timings();
+    const std::vector<VolumetricGainStats>& g = explorer().plan_gain_stats();
+    const std::vector<double>& cpu = explorer().plan_cpu_times_s();
     for (size_t i = 0; i < t.size() && i < g.size(); ++i) {
       out << i << "," << 1e3 * t[i].total_s << "," << 1e3 * t[i].projection_s << ","
           << 1e3 * t[i].dijkstra_s << "," << 1e3 * t[i].gain_s << "," << 1e3 * t[i].trajectory_s

@@ -48,6 +48,21 @@ struct MissionConfig {
   double sensor_drop_fraction{0.0};  ///< drop this fraction of depth images and scans (seeded)
   double mocap_outage_at_s{-1.0};    ///< motion capture lost from this time (s after start)...
   double mocap_outage_s{0.0};        ///< ...for this long (poses not delivered)
+  /// Process kills (docs/design.md §2.5), first vehicle only: the controller node destroyed at
+  /// this time (s after start; < 0: never), no motor commands for controller_down_s (the
+  /// runner's respawn gap), then a new controller node with the same state file and run id.
+  double controller_kill_at_s{-1.0};
+  double controller_down_s{1.0};  ///< s
+  /// The same for the explorer node (its state file kept; the map comes from the mapper).
+  double explorer_kill_at_s{-1.0};
+  double explorer_down_s{2.0};  ///< s
+  /// The explorer is killed at the first moment after explorer_kill_at_s, while it explores (or
+  /// 60 s later whatever it does), when the trajectory the controller flies ends within this, s
+  /// (so that the controller's hold is seen while it is down; infinite: at explorer_kill_at_s).
+  double explorer_kill_max_left_s{std::numeric_limits<double>::infinity()};
+  /// Folder of the controller's and the explorer's state files when a kill is asked ("": a new
+  /// folder under /tmp, removed at the end).
+  std::string state_dir;
   /// Several vehicles (docs/exploration.md, "Several vehicles"), 1 to 4: vehicle k has the
   /// channel prefix V<k+1>_, its own controller and explorer; one mapper fuses them all. With 1,
   /// the run is the one-vehicle run (no prefixes).
@@ -151,6 +166,30 @@ struct MissionResult {
   double min_distance_3d_m{std::numeric_limits<double>::infinity()};
   double vertical_separation_m{0.0};  ///< the explorers' min_vertical_separation_m, m
   int inter_vehicle_contacts{0};      ///< contacts between vehicles (the simulator's count)
+  /// Farthest the first vehicle went outside the controller's geofence over the run, m (<= 0:
+  /// never outside).
+  double max_geofence_excursion_m{-1e9};
+  // The controller kill (controller_kill_at_s).
+  double controller_time_to_hold_s{-1};  ///< kill -> the new controller in HOLD, s (-1: never)
+  double controller_height_lost_m{0};    ///< height at the kill - lowest height in the 3 s after
+  std::string controller_takeover;       ///< the new controller's takeover status
+  /// Respawn -> the new controller accepts a trajectory (the explorer replanned), s (-1: never).
+  double controller_track_after_s{-1};
+  // The explorer kill (explorer_kill_at_s).
+  /// The trajectory flown at the kill ended this long after it, s (< 0: before it).
+  double explorer_kill_trajectory_left_s{0};
+  bool explorer_down_held{false};              ///< the controller reached HOLD while it was down
+  bool explorer_down_flight_kept{true};        ///< ...and was in TRACK or HOLD all the while
+  double explorer_down_hold_max_speed_mps{0};  ///< largest true speed in that HOLD, m/s
+  /// Restart -> the controller tracks a trajectory of the new explorer, s (-1: never).
+  double explorer_first_trajectory_s{-1};
+  std::string explorer_resume;                 ///< the new explorer's resume status
+  bool explorer_startup_after_restart{false};  ///< the new explorer flew a start-up turn
+  double explorer_killed_at_s{-1};             ///< when it was killed, s after start (-1: never)
+  /// Far-start trajectories the (last) controller refused, and the explorer's replans after the
+  /// controller held without flying its trajectory.
+  int64_t far_start_refusals{0};
+  int64_t explorer_controller_holds{0};
 };
 
 /// Runs a mission. @throws ConfigError / std::invalid_argument on bad configuration.
