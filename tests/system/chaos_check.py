@@ -4,8 +4,10 @@ stayed inside the geofence and never touched anything, came home and landed; for
 killed, how long it was down and what the vehicle did meanwhile (the controller's mode, the
 height lost, the speed); and each process's drops by reason from its last heartbeat.
 
-Usage: chaos_check.py LOG KILLS --fence-min X,Y,Z --fence-max X,Y,Z
+Usage: chaos_check.py LOG KILLS --fence-min X,Y,Z --fence-max X,Y,Z [--burst BURST]
   KILLS: lines "<heartbeat channel of the process> <wall time of the kill, us>".
+  BURST: kestrel-fault malformed's output ("<CHANNEL> (<type>): N sent, ..."): each process's
+  last heartbeat must count exactly the malformed messages sent on the channels it reads.
 Needs Kestrel's Python message types on PYTHONPATH (<build>/lcmtypes/python) and read_log.py
 (tools/python) beside them or on the path. Exits 1 when a check fails.
 """
@@ -21,6 +23,18 @@ from read_log import decoders, events  # noqa: E402
 
 MODES = {0: "IDLE", 1: "TAKEOFF", 2: "TRACK", 3: "HOLD", 4: "LAND", 5: "ESTOP"}
 
+# What each process of the chaos sheet reads, by the heartbeat value that counts what it refuses.
+READS = {
+    "HEARTBEAT_SIM": {"dropped.malformed": ["MOTOR_COMMAND"]},
+    "HEARTBEAT_STANDIN_DEPTH": {"dropped.malformed": ["DEV_DEPTH_XTION"]},
+    "HEARTBEAT_STANDIN_SCAN": {"dropped.malformed": ["DEV_SCAN_HOKUYO"]},
+    "HEARTBEAT_MAPPER": {"dropped.malformed": ["DEPTH_XTION", "SCAN_HOKUYO"],
+                         "dropped.malformed_pose": ["POSE_VICON"]},
+    "HEARTBEAT_CONTROLLER": {"dropped.malformed": ["POSE_VICON", "IMU", "TRAJECTORY", "COMMAND"]},
+    "HEARTBEAT_EXPLORER": {"dropped.malformed": ["MAP3D", "MAP3D_DELTA", "POSE_VICON",
+                                                 "CONTROLLER_STATUS"]},
+}
+
 
 def vector(text):
     return [float(v) for v in text.strip("[]").split(",")]
@@ -32,6 +46,7 @@ def main():
     parser.add_argument("kills")
     parser.add_argument("--fence-min", type=vector, required=True)
     parser.add_argument("--fence-max", type=vector, required=True)
+    parser.add_argument("--burst")
     args = parser.parse_args()
     table = decoders()
     truth, status, beats, explorer = [], [], {}, []
@@ -119,13 +134,23 @@ def main():
             lost = drops.get("dropped.link_loss", 0)
             if frames < 100 or not 0.05 <= lost / frames <= 0.15:
                 failures.append(f"{process}: {lost:g} of {frames:g} frames lost, not about 10%")
-    for process in ("HEARTBEAT_SIM", "HEARTBEAT_CONTROLLER", "HEARTBEAT_MAPPER", "HEARTBEAT_EXPLORER",
-                    "HEARTBEAT_STANDIN_DEPTH", "HEARTBEAT_STANDIN_SCAN"):
-        _, last = beats.get(process, [(0, None)])[-1]
-        malformed = 0 if last is None else sum(
-            v.value for v in last.values if v.name.startswith("dropped.malformed"))
-        if malformed < 1:
-            failures.append(f"{process} counted no malformed message after the burst")
+    if args.burst:
+        sent = {}
+        with open(args.burst) as f:
+            for line in f:
+                words = line.split()
+                if len(words) >= 4 and words[1].startswith("(") and words[3].startswith("sent"):
+                    sent[words[0]] = int(words[2])
+        print(f"burst: {sum(sent.values())} malformed messages on {len(sent)} channels")
+        for process, reads in READS.items():
+            _, last = beats.get(process, [(0, None)])[-1]
+            values = {} if last is None else {v.name: v.value for v in last.values}
+            for name, channels in reads.items():
+                expected = sum(sent.get(c, 0) for c in channels)
+                got = values.get(name, 0)
+                if got != expected:
+                    failures.append(f"{process}: {name} = {got:g}, but {expected} malformed "
+                                    f"messages were sent on {', '.join(channels)}")
 
     for f in failures:
         print(f"FAIL: {f}")

@@ -9,7 +9,8 @@
 # least MIN_KNOWN known), the vehicle never left the geofence, never touched anything, came home
 # and landed, the controller held (no LAND, ESTOP or IDLE) while the explorer or the controller
 # was down and the respawned controller took over in HOLD (chaos_check.py), every process counted
-# the malformed messages in its heartbeat, each stand-in lost about 10% of its frames, and the
+# in its heartbeat exactly the malformed messages sent on the channels it reads, each stand-in
+# lost about 10% of its frames, and the
 # mapper's final map equals the run's log replayed into a fresh mapper bit for bit.
 # Usage: chaos_test.sh BUILD_DIR ROOT IN_NETNS SECONDS WORLD MIN_KNOWN
 set -euo pipefail
@@ -88,7 +89,8 @@ exec "$in_netns" bash -c '
     echo "FAIL: known fraction $known below $min_known"; status=1
   fi
   PYTHONPATH="$build/lcmtypes/python" python3 tests/system/chaos_check.py "$KESTREL_RUN/run.lcmlog" \
-    "$KESTREL_RUN/kills.txt" --fence-min "$KESTREL_FENCE_MIN" --fence-max "$KESTREL_FENCE_MAX" || status=1
+    "$KESTREL_RUN/kills.txt" --fence-min "$KESTREL_FENCE_MIN" --fence-max "$KESTREL_FENCE_MAX" \
+    --burst "$KESTREL_RUN/burst.txt" || status=1
   if [[ $status -ne 0 ]]; then
     cat "$KESTREL_RUN/flight.txt"
     for f in "$KESTREL_RUN"/logs/*.log; do echo "== $f"; tail -8 "$f"; done
