@@ -87,16 +87,19 @@ std::string CheckRunId(const std::string& run_id) {
   return "";
 }
 
-std::string EnsureRunIdInEnvironment() {
+std::string RunIdFromEnvironment() {
   const char* value = std::getenv(kRunIdEnvironmentVariable);
-  if (value != nullptr && value[0] != '\0') {
-    const std::string run_id = value;
-    if (const std::string why = CheckRunId(run_id); !why.empty()) {
-      throw std::invalid_argument(std::string("$") + kRunIdEnvironmentVariable + " = '" + run_id +
-                                  "': " + why);
-    }
-    return run_id;
+  if (value == nullptr || value[0] == '\0') return "";
+  const std::string run_id = value;
+  if (const std::string why = CheckRunId(run_id); !why.empty()) {
+    throw std::invalid_argument(std::string("$") + kRunIdEnvironmentVariable + " = '" + run_id +
+                                "': " + why);
   }
+  return run_id;
+}
+
+std::string EnsureRunIdInEnvironment() {
+  if (std::string run_id = RunIdFromEnvironment(); !run_id.empty()) return run_id;
   const std::string run_id = NewRunId();
   if (setenv(kRunIdEnvironmentVariable, run_id.c_str(), 1) != 0) {
     throw std::runtime_error(std::string("cannot set $") + kRunIdEnvironmentVariable);

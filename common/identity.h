@@ -44,4 +44,8 @@ inline constexpr const char* kRunIdEnvironmentVariable = "KESTREL_RUN_ID";
 /// $KESTREL_RUN_ID is set to an unusable id (CheckRunId).
 std::string EnsureRunIdInEnvironment();
 
+/// The run id a process sheet gave this process: $KESTREL_RUN_ID, "" when unset or empty.
+/// @throws std::invalid_argument if it is set to an unusable id (CheckRunId).
+[[nodiscard]] std::string RunIdFromEnvironment();
+
 }  // namespace kestrel

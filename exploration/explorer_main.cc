@@ -29,15 +29,7 @@ int main(int argc, char** argv) {
         node.CheckNoUnknownKeys();
         // No run_id set: the run's, from the runner that started it; a respawn within the run
         // resumes from its state file (docs/design.md §2.5).
-        const char* run_id = std::getenv(kestrel::kRunIdEnvironmentVariable);
-        if (config.run_id.empty() && run_id != nullptr && *run_id != '\0') {
-          const std::string problem = kestrel::CheckRunId(run_id);
-          if (!problem.empty()) {
-            throw std::invalid_argument(std::string("$") + kestrel::kRunIdEnvironmentVariable +
-                                        " = '" + run_id + "': " + problem);
-          }
-          config.run_id = run_id;
-        }
+        if (config.run_id.empty()) config.run_id = kestrel::RunIdFromEnvironment();
         lcm::LCM lcm(args.lcm_url);
         if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");
         const std::unique_ptr<kestrel::Clock> clock =

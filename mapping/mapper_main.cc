@@ -133,15 +133,7 @@ int main(int argc, char** argv) {
         kestrel::MapperConfig config = kestrel::LoadMapperConfig(node);
         node.CheckNoUnknownKeys();
         // No run_id set: the run's, from the runner that started it (docs/design.md §3.5).
-        const char* run_id = std::getenv(kestrel::kRunIdEnvironmentVariable);
-        if (config.run_id.empty() && run_id != nullptr && *run_id != '\0') {
-          const std::string problem = kestrel::CheckRunId(run_id);
-          if (!problem.empty()) {
-            throw std::invalid_argument(std::string("$") + kestrel::kRunIdEnvironmentVariable +
-                                        " = '" + run_id + "': " + problem);
-          }
-          config.run_id = run_id;
-        }
+        if (config.run_id.empty()) config.run_id = kestrel::RunIdFromEnvironment();
         if (!replay_path.empty())
           return Replay(replay_path, config, save_path, octomap_path, ply_path);
         lcm::LCM lcm(args.lcm_url);
