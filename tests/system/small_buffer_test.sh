@@ -21,13 +21,7 @@ exec "$in_netns" bash -c '
   export KESTREL_SPEED=${KESTREL_SPEED:-1}
   trap "kill -TERM \$(jobs -p) 2>/dev/null || true; sleep 2; kill -9 \$(jobs -p) 2>/dev/null || true; rm -rf \$KESTREL_RUN" EXIT
   # The world'"'"'s map limits, height and geofence (as scripts/demo).
-  limits=$(grep -E "^map_limits:" "$world")
-  KESTREL_MAP_MIN=$(echo "$limits" | sed -E "s/.*min_m: *(\[[^]]*\]).*/\1/" | tr -d " ")
-  KESTREL_MAP_MAX=$(echo "$limits" | sed -E "s/.*max_m: *(\[[^]]*\]).*/\1/" | tr -d " ")
-  KESTREL_HEIGHT=$(grep -E "^exploration_height_m:" "$world" | sed -E "s/[^:]*: *([0-9.]+).*/\1/")
-  KESTREL_FENCE_MIN=$(echo "$KESTREL_MAP_MIN" | awk -F"[][,]" "{ printf \"[%g,%g,%g]\", \$2 - 0.2, \$3 - 0.2, \$4 - 0.2 }")
-  KESTREL_FENCE_MAX=$(echo "$KESTREL_MAP_MAX" | awk -F"[][,]" "{ printf \"[%g,%g,%g]\", \$2 + 0.2, \$3 + 0.2, \$4 + 1.0 }")
-  export KESTREL_MAP_MIN KESTREL_MAP_MAX KESTREL_HEIGHT KESTREL_FENCE_MIN KESTREL_FENCE_MAX
+  eval "$(scripts/world-env "$world")"
   rcvbuf_errors() { awk "/^Udp: [0-9]/ { print \$6 }" /proc/net/snmp; }
   before=$(rcvbuf_errors)
   start_s=$(date +%s)
