@@ -213,7 +213,8 @@ TEST(SimNode, MessagesCarryTheDriverFields) {
 // the commands stop, the rotors stop after the time-out and the vehicle falls back to the floor.
 TEST(SimNode, HoverReadsGravityAndMotorTimeoutLands) {
   lcm::LCM lcm("memq://");
-  const SimConfig config = SmallConfig(9);
+  SimConfig config = SmallConfig(9);
+  config.motor_command_timeout_s = 0.5;  // a stock ESC watchdog (the sheets hold 1.5 s)
   SimClock clock(0);
   SimNode node(lcm, config, clock);
   std::vector<double> specific_force_z;
