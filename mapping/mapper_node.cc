@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "common/check.h"
+#include "common/fnv1a.h"
 #include "common/identity.h"
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
@@ -460,20 +461,10 @@ void MapperNode::Apply(const Pending& p, const Pose3& X_WB) {
 }
 
 namespace {
-// FNV-1a over a message's channel and bytes: the identity of a message in the log and live.
+// FNV-1a over a message's channel, a NUL and its bytes: the identity of a message in the log and
+// live.
 uint64_t MessageHash(const std::string& channel, const void* data, size_t size) {
-  uint64_t h = 1469598103934665603ull;
-  auto mix = [&h](const uint8_t* p, size_t n) {
-    for (size_t i = 0; i < n; ++i) {
-      h ^= p[i];
-      h *= 1099511628211ull;
-    }
-  };
-  mix(reinterpret_cast<const uint8_t*>(channel.data()), channel.size());
-  const uint8_t separator = 0;
-  mix(&separator, 1);
-  mix(static_cast<const uint8_t*>(data), size);
-  return h;
+  return Fnv1a(data, size, Fnv1a(channel.c_str(), channel.size() + 1));
 }
 }  // namespace
 

@@ -6,6 +6,7 @@
 #include <type_traits>
 
 #include "common/check.h"
+#include "common/fnv1a.h"
 #include "mapping/kernels/kernels.h"
 #include "mapping/lanes.h"
 
@@ -285,26 +286,16 @@ double OccupancyMap<Grid>::ProbabilityAt(const CellIndex& cell) const {
   return updater_->ProbabilityOf(grid_.Get(cell));
 }
 
-namespace {
-void HashBytes(const void* data, size_t size, uint64_t* h) {
-  const auto* bytes = static_cast<const unsigned char*>(data);
-  for (size_t i = 0; i < size; ++i) {
-    *h ^= bytes[i];
-    *h *= 1099511628211ull;  // FNV-1a 64
-  }
-}
-}  // namespace
-
 template <class Grid>
 uint64_t OccupancyMap<Grid>::Hash() const {
-  uint64_t h = 14695981039346656037ull;
+  uint64_t h = kFnv1aOffset;
   if constexpr (std::is_same_v<Grid, GrowingGrid>) {
     grid_.ForEachBlock([&](const CellIndex& origin, const GrowingGrid::Block& block) {
-      HashBytes(&origin, sizeof(origin), &h);
-      HashBytes(block.values, sizeof(block.values), &h);
+      h = Fnv1a(&origin, sizeof(origin), h);
+      h = Fnv1a(block.values, sizeof(block.values), h);
     });
   } else {
-    HashBytes(grid_.values().data(), grid_.values().size() * sizeof(float), &h);
+    h = Fnv1a(grid_.values().data(), grid_.values().size() * sizeof(float), h);
   }
   return h;
 }

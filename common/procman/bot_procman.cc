@@ -3,15 +3,13 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "common/fnv1a.h"
+
 namespace kestrel::procman {
 
 int32_t SheetSheriffId(const std::string& host, const std::string& command_id) {
   // FNV-1a over "host/command_id", folded into [1, 2^31 - 1].
-  uint64_t h = 14695981039346656037ULL;
-  for (const char c : host + "/" + command_id) {
-    h ^= static_cast<unsigned char>(c);
-    h *= 1099511628211ULL;
-  }
+  const uint64_t h = Fnv1a(host + "/" + command_id);
   const auto id = static_cast<int32_t>((h ^ (h >> 31)) & 0x7fffffffULL);
   return id == 0 ? 1 : id;
 }

@@ -11,6 +11,7 @@
 #include "bot_procman/orders2_t.hpp"
 #include "bot_procman/printf_t.hpp"
 #include "bot_procman/sheriff_cmd2_t.hpp"
+#include "common/fnv1a.h"
 #include "common/lcm_decode.h"
 #include "kestrel/candidate_t.hpp"
 #include "kestrel/command_t.hpp"
@@ -54,13 +55,6 @@ const std::vector<std::pair<std::string, int64_t>>& Types() {
                 bot_procman::discovery_t, bot_procman::info2_t, bot_procman::orders2_t,
                 bot_procman::printf_t, bot_procman::sheriff_cmd2_t>();
   return table;
-}
-
-// FNV-1a: a stable hash of the channel name (std::hash is not the same everywhere).
-uint64_t Fnv1a(const std::string& text) {
-  uint64_t h = 0xcbf29ce484222325ULL;
-  for (const char c : text) h = (h ^ static_cast<uint8_t>(c)) * 0x100000001b3ULL;
-  return h;
 }
 
 // Uniform in [0, n) for n >= 1 (modulo: the tiny bias does not matter here, the sequence is
