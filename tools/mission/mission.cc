@@ -675,8 +675,8 @@ MissionResult RunMission(const MissionConfig& mc) {
     explorers.front() = std::make_unique<ExplorerNode>(lcm, explorer_configs[0], clock);
   }
   if (remove_state_dir) {
-    for (const char* f : {"/controller.state", "/explorer.state", "/controller.state.tmp",
-                          "/explorer().state.tmp"}) {
+    for (const char* f :
+         {"/controller.state", "/explorer.state", "/controller.state.tmp", "/explorer.state.tmp"}) {
       std::remove((state_dir + f).c_str());
     }
     rmdir(state_dir.c_str());
