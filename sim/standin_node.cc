@@ -105,10 +105,7 @@ void StandinNode::PublishHeartbeat() {
   heartbeat_.SetValue("device_frames", static_cast<double>(device_frames_));
   heartbeat_.SetValue("relayed", static_cast<double>(relayed_));
   heartbeat_.SetValue("drop_fraction", config_.drop_fraction);
-  for (const char* reason : {"link_loss", "malformed"}) {
-    heartbeat_.SetValue(std::string("dropped.") + reason,
-                        static_cast<double>(drops_.count(reason)));
-  }
+  heartbeat_.SetDropValues(drops_, {"link_loss", "malformed"});
   heartbeat_.Publish();
 }
 
