@@ -1,13 +1,13 @@
 #pragma once
 /// @file
-/// The run loop of every Kestrel process: LCM handleTimeout, periodic timers on an injected Clock,
+/// The run loop of every Kestrel process: LCM messages, periodic timers on an injected Clock,
 /// and a clean exit on SIGINT/SIGTERM that runs the shutdown hooks (final flush: checkpoint,
 /// last heartbeat) before returning.
 ///
-/// With a WallClock, Run() blocks in lcm.handleTimeout until the next timer is due (or 100 ms),
-/// and a timer that fell behind by whole periods skips them (counted in skipped_ticks()).
-/// With a simulated clock, timers catch up exactly: every due tick fires once, in time order,
-/// with its scheduled time, so a lockstep simulation is deterministic.
+/// With a WallClock, Run() waits on LCM's descriptor until the next timer is due (or 100 ms), to
+/// the microsecond (RunOnceMicroseconds), and a timer that fell behind by whole periods skips them
+/// (counted in skipped_ticks()). With a simulated clock, timers catch up exactly: every due tick
+/// fires once, in time order, with its scheduled time, so a lockstep simulation is deterministic.
 
 #include <csignal>
 #include <cstdint>
@@ -39,6 +39,9 @@ class NodeLoop {
   /// Handles LCM messages for at most timeout_ms (0: only what is queued), then fires due timers.
   /// Returns false if LCM reported an error.
   bool RunOnce(int timeout_ms);
+  /// As RunOnce, with the wait in microseconds (ppoll on LCM's descriptor; RunOnce's rounding to
+  /// whole milliseconds where LCM has no descriptor).
+  bool RunOnceMicroseconds(int64_t timeout_us);
   /// Fires the timers due at the clock's current time without touching LCM (lockstep simulation).
   void FireDueTimers();
   /// Loops until RequestStop() or SIGINT/SIGTERM (after InstallSignalHandlers), then runs the

@@ -56,6 +56,29 @@ TEST(NodeLoop, HandlesMessagesThenStopsOnRequestAndRunsShutdownHooks) {
   EXPECT_TRUE(flushed);
 }
 
+// The microsecond wait: a queued message is handled at once; with nothing queued the loop waits
+// the whole time-out (not less, and not rounded down to whole milliseconds).
+TEST(NodeLoop, RunOnceMicrosecondsHandlesWhatIsQueuedAndWaitsTheWholeTimeout) {
+  lcm::LCM lcm("memq://");
+  ASSERT_TRUE(lcm.good());
+  WallClock clock;
+  NodeLoop loop(lcm, clock);
+  int received = 0;
+  struct Handler {
+    int* count;
+    void On(const lcm::ReceiveBuffer*, const std::string&) { ++*count; }
+  } handler{&received};
+  lcm.subscribe("PING", &Handler::On, &handler);
+  const uint8_t byte = 1;
+  lcm.publish("PING", &byte, 1);
+  ASSERT_TRUE(loop.RunOnceMicroseconds(0));
+  EXPECT_EQ(received, 1);
+  const int64_t start = clock.NowUtime();
+  ASSERT_TRUE(loop.RunOnceMicroseconds(1500));
+  EXPECT_GE(clock.NowUtime() - start, 1500) << "returned before its time-out";
+  EXPECT_EQ(received, 1);
+}
+
 // A child process runs the loop; SIGTERM makes it run its shutdown hook and exit 0.
 TEST(NodeLoop, ExitsCleanlyOnSigterm) {
   int pipe_fds[2];
