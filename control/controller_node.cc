@@ -2,6 +2,7 @@
 
 #include "common/trajectory_message.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -272,7 +273,9 @@ void ControllerNode::OnImu(const imu_t& msg) {
       msg.angular_velocity_radps[0], msg.angular_velocity_radps[1], msg.angular_velocity_radps[2]);
   sample.specific_force_mps2 = Eigen::Vector3d(
       msg.specific_force_mps2[0], msg.specific_force_mps2[1], msg.specific_force_mps2[2]);
-  if (!flight_.AddImu(sample) && flight_.estimator().initialized()) {
+  if (flight_.AddImu(sample)) {
+    last_imu_utime_ = std::max(last_imu_utime_, msg.utime);
+  } else if (flight_.estimator().initialized()) {
     drops_.Count("rejected imu", "non-finite or out-of-order IMU sample");
   }
 }

@@ -117,6 +117,9 @@ class ControllerNode {
   [[nodiscard]] int64_t takeover_utime() const { return takeover_utime_; }
   /// What the start-up found in the state file and did (for logs and tests).
   [[nodiscard]] const std::string& takeover_status() const { return takeover_status_; }
+  /// The stamp of the newest IMU sample the estimator took, us (-1: none yet): a motor command
+  /// sent at t acts on inertial data t - last_imu_utime() old (docs/design.md §2.6).
+  [[nodiscard]] int64_t last_imu_utime() const { return last_imu_utime_; }
   /// The run id in use (config run_id, or a fresh one).
   [[nodiscard]] const std::string& run_id() const { return run_id_; }
 
@@ -144,6 +147,7 @@ class ControllerNode {
   int64_t status_seq_{0};
   int64_t trajectory_seq_{-1};
   int64_t trajectory_epoch_{0};
+  int64_t last_imu_utime_{-1};
   double trajectory_end_s_{0.0};
   std::string run_id_;
   bool takeover_pending_{false};   // the state file says the vehicle was flying
