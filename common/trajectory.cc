@@ -273,4 +273,31 @@ std::optional<PiecewisePolynomialTrajectory> Splice(const PiecewisePolynomialTra
   return PiecewisePolynomialTrajectory::Create(now_s, std::move(pieces), nullptr);
 }
 
+std::optional<PiecewisePolynomialTrajectory> RestToRest(double start_time_s,
+                                                        const Eigen::Vector3d& from_m,
+                                                        const Eigen::Vector3d& to_m, double yaw_rad,
+                                                        double duration_s, std::string* error) {
+  if (!from_m.allFinite() || !to_m.allFinite() || !std::isfinite(yaw_rad) || !(duration_s > 0.0) ||
+      !std::isfinite(duration_s)) {
+    if (error != nullptr) *error = "rest-to-rest move: non-finite point or yaw, or duration <= 0";
+    return std::nullopt;
+  }
+  PolynomialSegment segment;
+  segment.duration_s = duration_s;
+  const double t4 = std::pow(duration_s, 4);
+  for (int axis = 0; axis < 3; ++axis) {
+    const double d = to_m[axis] - from_m[axis];
+    segment.coefficients[axis] = {from_m[axis],
+                                  0.0,
+                                  0.0,
+                                  0.0,
+                                  35.0 * d / t4,
+                                  -84.0 * d / (t4 * duration_s),
+                                  70.0 * d / (t4 * duration_s * duration_s),
+                                  -20.0 * d / (t4 * duration_s * duration_s * duration_s)};
+  }
+  segment.coefficients[3] = {yaw_rad};
+  return PiecewisePolynomialTrajectory::Create(start_time_s, {segment}, error);
+}
+
 }  // namespace kestrel

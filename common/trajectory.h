@@ -159,4 +159,12 @@ struct TrajectoryStart {
     const PiecewisePolynomialTrajectory& old, double now_s,
     const PiecewisePolynomialTrajectory& next);
 
+/// A straight rest-to-rest move from `from_m` to `to_m` in `duration_s` (> 0) at constant yaw: one
+/// degree-7 segment x(tau) = from + (to - from) (35 s^4 - 84 s^5 + 70 s^6 - 20 s^7), s = tau / T,
+/// whose velocity, acceleration and jerk are zero at both ends (the operator's go-to,
+/// kestrel-cmd goto). std::nullopt and *error for a non-finite input or a duration <= 0.
+[[nodiscard]] std::optional<PiecewisePolynomialTrajectory> RestToRest(
+    double start_time_s, const Eigen::Vector3d& from_m, const Eigen::Vector3d& to_m, double yaw_rad,
+    double duration_s, std::string* error);
+
 }  // namespace kestrel

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -414,6 +415,36 @@ TEST(Splice, RejectsANextTrajectoryStartingBeforeNow) {
   EXPECT_FALSE(Splice(old, 1.2, next).has_value());
   EXPECT_FALSE(Splice(old, std::numeric_limits<double>::quiet_NaN(), next).has_value());
   EXPECT_TRUE(Splice(old, 1.0, next).has_value());
+}
+
+// The go-to move: at rest at both ends (velocity, acceleration and jerk zero), the end point
+// reached at the duration, the midpoint half way (the polynomial is symmetric), and the peak speed
+// 35/16 of the mean speed (the degree-7 rest-to-rest profile's maximum, at s = 1/2).
+TEST(RestToRest, StartsAndEndsAtRestAndPeaksAtTheKnownSpeed) {
+  const Eigen::Vector3d from(1.0, -2.0, 0.8), to(2.5, -1.0, 1.2);
+  std::string error;
+  const auto move = RestToRest(10.0, from, to, 0.3, 4.0, &error);
+  ASSERT_TRUE(move.has_value()) << error;
+  for (const double t : {10.0, 14.0}) {
+    const FlatOutput f = move->Evaluate(t);
+    EXPECT_LT(f.velocity_mps.norm(), 1e-12) << t;
+    EXPECT_LT(f.acceleration_mps2.norm(), 1e-12) << t;
+    EXPECT_LT(f.jerk_mps3.norm(), 1e-12) << t;
+    EXPECT_DOUBLE_EQ(f.yaw_rad, 0.3);
+  }
+  EXPECT_LT((move->Evaluate(10.0).position_m - from).norm(), 1e-12);
+  EXPECT_LT((move->Evaluate(14.0).position_m - to).norm(), 1e-12);
+  EXPECT_LT((move->Evaluate(12.0).position_m - 0.5 * (from + to)).norm(), 1e-12);
+  const double mean_speed = (to - from).norm() / 4.0;
+  EXPECT_NEAR(move->Evaluate(12.0).velocity_mps.norm(), 35.0 / 16.0 * mean_speed, 1e-12);
+  double fastest = 0.0;
+  for (double t = 10.0; t <= 14.0; t += 0.01) {
+    fastest = std::max(fastest, move->Evaluate(t).velocity_mps.norm());
+  }
+  EXPECT_LE(fastest, 35.0 / 16.0 * mean_speed + 1e-12);
+  EXPECT_FALSE(RestToRest(0.0, from, to, 0.0, 0.0, &error).has_value());
+  EXPECT_FALSE(RestToRest(0.0, from, Eigen::Vector3d(NAN, 0, 0), 0.0, 1.0, &error).has_value());
+  EXPECT_NE(error.find("rest-to-rest"), std::string::npos);
 }
 
 }  // namespace

@@ -2,7 +2,9 @@
 // process-sheet orders to the runners on every host, and a one-screen status of every process.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <map>
 #include <string>
@@ -21,12 +23,16 @@
 #include "common/process.h"
 #include "common/procman/operator_status.h"
 #include "common/procman/sheriff.h"
+#include "common/trajectory.h"
+#include "common/trajectory_message.h"
 #include "kestrel/command_t.hpp"
+#include "kestrel/trajectory_t.hpp"
 
 namespace {
 const char* const kUsage =
     "usage: kestrel-cmd takeoff [--height M] | hold | land | estop | idle | track\n"
     "                   [--vehicle PREFIX|all | --channel COMMAND] [--wait SECONDS]\n"
+    "       kestrel-cmd goto X Y Z [--duration S] [--vehicle PREFIX] [--wait SECONDS]\n"
     "       kestrel-cmd status [--seconds S]\n"
     "       kestrel-cmd params [PROCESS] [--seconds S]\n"
     "       kestrel-cmd procman list [--seconds S]\n"
@@ -42,6 +48,10 @@ const char* const kUsage =
     "  --vehicle PREFIX: command the vehicle whose channels carry PREFIX (PREFIXCOMMAND, its\n"
     "            status on PREFIXCONTROLLER_STATUS); all: every controller that reports a\n"
     "            status within 0.3 s (each *CONTROLLER_STATUS channel), each on its own channel\n"
+    "  goto: a straight rest-to-rest move (common/trajectory.h RestToRest) from the flying\n"
+    "        controller's set point to X Y Z (world frame, m) at its heading, on TRAJECTORY;\n"
+    "        --duration S (default: 0.5 m/s on average, at least 2 s); --wait S: until the\n"
+    "        controller reports it flown, exit 1 if not\n"
     "  params: asks every process (or PROCESS, e.g. kestrel-mapper) for the configuration it runs\n"
     "          with and prints each answer that comes within S seconds; exit 1 if none does\n";
 
@@ -69,6 +79,80 @@ kestrel::procman::OperatorView Listen(lcm::LCM& lcm, double seconds) {
   while (std::chrono::steady_clock::now() < end) lcm.handleTimeout(50);
   return view;
 }
+/// kestrel-cmd goto: waits up to 1 s for the controller's status, sends a rest-to-rest move from
+/// its set point (estimate minus position error) to words[1..3], and with wait_s > 0 waits for the
+/// controller to report that trajectory done. Returns the exit code.
+int GoTo(lcm::LCM& lcm, const kestrel::Clock& clock, const std::string& prefix,
+         const std::vector<std::string>& words, double duration_s, double wait_s) {
+  using namespace kestrel;
+  Eigen::Vector3d to;
+  for (int i = 0; i < 3; ++i) {
+    char* end = nullptr;
+    to[i] = std::strtod(words[1 + i].c_str(), &end);
+    if (end == words[1 + i].c_str() || *end != '\0' || !std::isfinite(to[i])) {
+      std::fprintf(stderr, "kestrel-cmd: goto: '%s' is not a coordinate in m\n",
+                   words[1 + i].c_str());
+      return 2;
+    }
+  }
+  const std::string status_channel = prefix + "CONTROLLER_STATUS";
+  controller_status_t status{};
+  bool have_status = false;
+  GuardedSubscriptions subs(lcm);
+  subs.Add<controller_status_t>(
+      status_channel,
+      [&](const std::string&, const controller_status_t& m) {
+        status = m;
+        have_status = true;
+      },
+      nullptr);
+  const auto handle_until = [&](double seconds, const std::function<bool()>& done) {
+    const auto end = std::chrono::steady_clock::now() +
+                     std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000));
+    while (!done() && std::chrono::steady_clock::now() < end) lcm.handleTimeout(20);
+  };
+  handle_until(1.0, [&] { return have_status; });
+  if (!have_status) {
+    std::fprintf(stderr, "kestrel-cmd: goto: no status on %s within 1 s\n", status_channel.c_str());
+    return 1;
+  }
+  if (status.mode != controller_status_t::MODE_HOLD &&
+      status.mode != controller_status_t::MODE_TRACK) {
+    std::fprintf(stderr, "kestrel-cmd: goto: the controller is not flying (mode %d): take off\n",
+                 status.mode);
+    return 1;
+  }
+  // The set point x_d = x - e_x; the heading from the estimated attitude (hovering: the set one).
+  Eigen::Vector3d from;
+  for (int i = 0; i < 3; ++i) from[i] = status.position_m[i] - status.e_x_m[i];
+  const double* q = status.orientation_wxyz;
+  const double yaw =
+      std::atan2(2.0 * (q[0] * q[3] + q[1] * q[2]), 1.0 - 2.0 * (q[2] * q[2] + q[3] * q[3]));
+  if (duration_s <= 0.0) duration_s = std::max(2.0, (to - from).norm() / 0.5);
+  const int64_t now = clock.NowUtime();
+  std::string error;
+  const auto move = RestToRest(UtimeToSeconds(now), from, to, yaw, duration_s, &error);
+  if (!move.has_value()) {
+    std::fprintf(stderr, "kestrel-cmd: goto: %s\n", error.c_str());
+    return 1;
+  }
+  const trajectory_t msg = ToMessage(*move, now, now, NewPublisherEpoch());
+  lcm.publish(prefix + "TRAJECTORY", &msg);
+  std::printf("sent goto (%.2f, %.2f, %.2f) -> (%.2f, %.2f, %.2f) in %.1f s on %sTRAJECTORY\n",
+              from.x(), from.y(), from.z(), to.x(), to.y(), to.z(), duration_s, prefix.c_str());
+  if (wait_s <= 0) return 0;
+  bool flown = false;
+  subs.Add<controller_status_t>(
+      status_channel,
+      [&](const std::string&, const controller_status_t& m) {
+        flown = flown || (m.trajectory_seq == msg.seq && m.trajectory_epoch == msg.epoch &&
+                          m.trajectory_done);
+      },
+      nullptr);
+  handle_until(wait_s, [&] { return flown; });
+  std::printf("%s\n", flown ? "controller flew it" : "controller did NOT fly it");
+  return flown ? 0 : 1;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -81,6 +165,7 @@ int main(int argc, char** argv) {
   std::string vehicle_prefix;
   bool vehicle_given = false;
   std::string host;
+  double duration_s = 0.0;  // goto: 0 = from the distance
   return kestrel::RunProcess(
       "kestrel-cmd", argc, argv, kUsage,
       [&](CLI::App& app) {
@@ -94,6 +179,7 @@ int main(int argc, char** argv) {
             ->each([&](const std::string&) { vehicle_given = true; })
             ->excludes(channel_option);
         app.add_option("--host", host);
+        app.add_option("--duration", duration_s)->check(kestrel::cli::Positive());
         app.add_option("words", p);
       },
       [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
@@ -180,6 +266,9 @@ int main(int argc, char** argv) {
                         prefixes.size() > 1 || vehicle_given ? (" (" + ch + ")").c_str() : "");
           }
           return all_reached() ? 0 : 1;
+        }
+        if (verb == "goto" && p.size() == 4) {
+          return GoTo(lcm, clock, vehicle_prefix, p, duration_s, wait_s);
         }
         if (verb == "status") {
           const auto view = Listen(lcm, seconds);
