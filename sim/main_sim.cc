@@ -46,13 +46,17 @@ int main(int argc, char** argv) {
           std::fprintf(stderr, "kestrel-sim: LCM initialisation failed\n");
           return 1;
         }
+        // Simulated time starts at the wall time, and the pacing below counts from the same
+        // moment: building the world takes a while, which the simulation catches up on at
+        // once, so that its stamps are wall time (a controller on the wall clock, as on the
+        // vehicle, would otherwise see every pose and IMU sample that much old).
         kestrel::SimClock clock(kestrel::WallClock().NowUtime());
+        const auto wall_start = std::chrono::steady_clock::now();
         kestrel::SimNode node(lcm, sim_config, clock);
         const kestrel::ConfigPublisher params(
             lcm, clock, "kestrel-sim", kestrel::ParamsChannelFor(sim_config.heartbeat_channel),
             args, config);
         const int64_t start_utime = clock.NowUtime();
-        const auto wall_start = std::chrono::steady_clock::now();
         while (!kestrel::NodeLoop::signal_received()) {
           while (lcm.handleTimeout(0) > 0) {
           }
