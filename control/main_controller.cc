@@ -40,12 +40,13 @@ int main(int argc, char** argv) {
       "kestrel-controller", argc, argv, kUsage,
       [&](CLI::App& app) { app.add_option("--vehicle", vehicle_path); },
       [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
-        const kestrel::VehicleConfig vehicle = kestrel::LoadVehicleConfigFile(vehicle_path, node);
-        kestrel::ControllerConfig config = kestrel::LoadControllerConfig(node, vehicle);
-        config.flight.vehicle = vehicle;
+        // The process's own keys first: LoadControllerConfig refuses any key it does not know.
         const kestrel::RealtimeConfig realtime = kestrel::ReadRealtimeConfig(node);
         std::string loop_timing_path;  // "": none; else the whole run's histograms, CSV, at exit
         node.Read("loop_timing_path", &loop_timing_path);
+        const kestrel::VehicleConfig vehicle = kestrel::LoadVehicleConfigFile(vehicle_path, node);
+        kestrel::ControllerConfig config = kestrel::LoadControllerConfig(node, vehicle);
+        config.flight.vehicle = vehicle;
         node.CheckNoUnknownKeys();
         // No run_id set: the run's, from the runner that started it; a respawn within the run
         // takes a flying vehicle over (docs/design.md §2.5).
