@@ -112,8 +112,7 @@ TEST(Mission, SameSeedSameMap) {
 // mission ends as usual. Killed at the first moment after `at_s` while exploring when the flown
 // trajectory ends within `max_left_s` (infinite: at `at_s`); `resumed` is what the new explorer
 // must resume.
-MissionResult KillTheExplorer(double at_s, double max_left_s) {
-  MissionConfig mc = CiProfile();
+MissionResult KillTheExplorer(double at_s, double max_left_s, MissionConfig mc = CiProfile()) {
   mc.max_time_s = 700;
   mc.explorer_kill_at_s = at_s;
   mc.explorer_kill_max_left_s = max_left_s;
@@ -142,14 +141,6 @@ MissionResult KillTheExplorer(double at_s, double max_left_s) {
   return r;
 }
 
-// Mid-exploration (40 s): the controller keeps flying the trajectory while the explorer is down;
-// the new explorer explores on.
-TEST(Mission, ResumesExploringAfterAnExplorerKill) {
-  const MissionResult r = KillTheExplorer(40.0, std::numeric_limits<double>::infinity());
-  EXPECT_EQ(r.explorer_resume.rfind("resumed EXPLORING from the flown state", 0), 0u)
-      << r.explorer_resume;
-}
-
 // Where the flown trajectory is about to end (in non-stop flight that first happens on the way
 // home here): the controller holds still while the explorer is down, and the new one flies home.
 TEST(Mission, HoldsWhileTheExplorerIsDownAndResumesTheFlightHome) {
@@ -160,17 +151,16 @@ TEST(Mission, HoldsWhileTheExplorerIsDownAndResumesTheFlightHome) {
   EXPECT_EQ(r.end_rule, "gain rule") << "kept across the restart";
 }
 
-// The controller node destroyed mid-exploration, no motor commands for 1 s (the runner's respawn
-// gap, inside the simulator's 1.5 s ESC watchdog), then built again with its state file: it takes
-// the vehicle over in HOLD, the explorer replans from the flown state, and the mission ends as
-// usual.
-TEST(Mission, ContinuesAfterAControllerKill) {
+// Two kills in one flight. First the controller node, destroyed mid-exploration (25 s): no motor
+// commands for 1 s (the runner's respawn gap, inside the simulator's 1.5 s ESC watchdog), then
+// built again with its state file: it takes the vehicle over in HOLD and the explorer replans from
+// the flown state. Then the explorer, mid-exploration (40 s): the controller keeps flying the
+// trajectory while it is down, and the new explorer explores on. The mission ends as usual.
+TEST(Mission, ContinuesAfterAControllerKillThenResumesExploringAfterAnExplorerKill) {
   MissionConfig mc = CiProfile();
-  mc.max_time_s = 700;
-  mc.controller_kill_at_s = 40.0;
+  mc.controller_kill_at_s = 25.0;
   mc.controller_down_s = 1.0;
-  const MissionResult r = RunMission(mc);
-  std::printf("%s", MissionSummary(r).c_str());
+  const MissionResult r = KillTheExplorer(40.0, std::numeric_limits<double>::infinity(), mc);
   std::printf(
       "controller kill: HOLD %.3f s after the kill, height lost %.3f m (%s); a trajectory %.3f s "
       "after the respawn; %lld far-start trajectories refused, %lld explorer replans after a "
@@ -185,11 +175,8 @@ TEST(Mission, ContinuesAfterAControllerKill) {
   // trajectory (controller_hold_replan_s = 0.5 s), not when its own trajectory ends.
   EXPECT_GE(r.controller_track_after_s, 0.0);
   EXPECT_LT(r.controller_track_after_s, 1.5);
-  EXPECT_EQ(r.collisions, 0);
-  EXPECT_LE(r.max_geofence_excursion_m, 0.0) << "never outside the geofence";
-  EXPECT_TRUE(r.landed) << r.end_reason;
-  EXPECT_EQ(r.landing.rfind("returned home", 0), 0u) << r.landing;
-  EXPECT_GE(r.quality.known_fraction, 0.9);
+  EXPECT_EQ(r.explorer_resume.rfind("resumed EXPLORING from the flown state", 0), 0u)
+      << r.explorer_resume;
 }
 
 // In every world, the first plan after the start-up turn chooses a goal
