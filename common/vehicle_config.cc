@@ -79,6 +79,13 @@ void VehicleConfig::Validate() const {
                        "vehicle.max_rotor_thrust_N = " << max_rotor_thrust_N
                                                        << ", accepted (min_rotor_thrust_N = "
                                                        << min_rotor_thrust_N << ", inf)");
+  KESTREL_THROW_UNLESS(
+      std::isfinite(esc.full_command_thrust_N) && esc.full_command_thrust_N >= max_rotor_thrust_N,
+      "vehicle.esc.full_command_thrust_N = " << esc.full_command_thrust_N
+                                             << " must reach max_rotor_thrust_N = "
+                                             << max_rotor_thrust_N);
+  KESTREL_THROW_UNLESS(esc.idle_command >= 0.0 && esc.idle_command <= 0.3,
+                       "vehicle.esc.idle_command = " << esc.idle_command << " is not in [0, 0.3]");
   KESTREL_THROW_UNLESS(4.0 * max_rotor_thrust_N > mass_kg * kGravity_mps2,
                        "vehicle.max_rotor_thrust_N = "
                            << max_rotor_thrust_N << " cannot lift mass_kg = " << mass_kg
@@ -144,6 +151,11 @@ VehicleConfig LoadVehicleConfig(const ConfigNode& node) {
   node.Read("min_rotor_thrust_N", &config.min_rotor_thrust_N, Range::NonNegative());
   node.Read("linear_drag_Ns_per_m", &config.linear_drag_Ns_per_m, Range::NonNegative());
   node.Read("diameter_m", &config.diameter_m, Range{0.0, 10.0, false, true});
+  if (node.Has("esc")) {
+    const ConfigNode esc = node.Child("esc");
+    esc.Read("full_command_thrust_N", &config.esc.full_command_thrust_N, Range::Positive());
+    esc.Read("idle_command", &config.esc.idle_command, Range::Closed(0.0, 0.3));
+  }
   if (node.Has("sensors")) {
     const ConfigNode sensors = node.Child("sensors");
     ReadExtrinsic(sensors, "xtion", &config.X_BS_xtion);

@@ -29,6 +29,17 @@ class ConfigNode;
 inline constexpr double kGravity_mps2 = 9.81;
 
 /// Physical vehicle parameters. Defaults are the paper-sized vehicle (config/vehicle/paper.yaml).
+/// The ESCs' static thrust map (kestrel-motors and its emulator; docs/protocols.md §6.3): a rotor's
+/// thrust at the normalised ESC command u in [0, 1] (set point / full scale) is
+/// T(u) = full_command_thrust_N u^2 (static thrust grows with the square of the rotor speed, and
+/// the speed of a sensorless ESC with its duty cycle, i.e. u).
+struct EscMap {
+  double full_command_thrust_N{25.0};  ///< T(1), N; at least the vehicle's max_rotor_thrust_N
+  /// Armed with no thrust asked, the command keeps this much (0..0.3 of full scale): the rotors
+  /// turn at idle instead of stopping and restarting. 0: they stop.
+  double idle_command{0.05};
+};
+
 struct VehicleConfig {
   double mass_kg{4.34};  ///< total mass m, kg
   /// Diagonal of the inertia J about the centre of mass in body axes, kg m^2.
@@ -52,6 +63,7 @@ struct VehicleConfig {
   Pose3 X_BS_xtion{Eigen::Vector3d(0.15, 0.0, 0.05), Eigen::Quaterniond(0.5, -0.5, 0.5, -0.5)};
   /// 2D LIDAR (Hokuyo) in the body: x forward, z up.
   Pose3 X_BS_hokuyo{Eigen::Vector3d(0.10, 0.0, 0.12), Eigen::Quaterniond::Identity()};
+  EscMap esc;  ///< the ESCs' thrust map (esc: in the file)
 
   /// Throws std::invalid_argument naming the field, its value and the accepted range when a field
   /// is out of range or the fields disagree (e.g. 4 * max_rotor_thrust_N cannot lift mass_kg,
