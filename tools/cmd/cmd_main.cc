@@ -32,7 +32,7 @@ namespace {
 const char* const kUsage =
     "usage: kestrel-cmd takeoff [--height M] | hold | land | estop | idle | track\n"
     "                   [--vehicle PREFIX|all | --channel COMMAND] [--wait SECONDS]\n"
-    "       kestrel-cmd goto X Y Z [--duration S] [--vehicle PREFIX] [--wait SECONDS]\n"
+    "       kestrel-cmd goto X Y Z [--relative] [--duration S] [--vehicle PREFIX] [--wait S]\n"
     "       kestrel-cmd status [--seconds S]\n"
     "       kestrel-cmd params [PROCESS] [--seconds S]\n"
     "       kestrel-cmd procman list [--seconds S]\n"
@@ -50,7 +50,8 @@ const char* const kUsage =
     "            status within 0.3 s (each *CONTROLLER_STATUS channel), each on its own channel\n"
     "  goto: a straight rest-to-rest move (common/trajectory.h RestToRest) from the flying\n"
     "        controller's set point to X Y Z (world frame, m) at its heading, on TRAJECTORY;\n"
-    "        --duration S (default: 0.5 m/s on average, at least 2 s); --wait S: until the\n"
+    "        --relative: X Y Z from the set point; --duration S (default: 0.5 m/s on\n"
+    "        average, at least 2 s); --wait S: until the\n"
     "        controller reports it flown, exit 1 if not\n"
     "  params: asks every process (or PROCESS, e.g. kestrel-mapper) for the configuration it runs\n"
     "          with and prints each answer that comes within S seconds; exit 1 if none does\n";
@@ -83,7 +84,7 @@ kestrel::procman::OperatorView Listen(lcm::LCM& lcm, double seconds) {
 /// its set point (estimate minus position error) to words[1..3], and with wait_s > 0 waits for the
 /// controller to report that trajectory done. Returns the exit code.
 int GoTo(lcm::LCM& lcm, const kestrel::Clock& clock, const std::string& prefix,
-         const std::vector<std::string>& words, double duration_s, double wait_s) {
+         const std::vector<std::string>& words, bool relative, double duration_s, double wait_s) {
   using namespace kestrel;
   Eigen::Vector3d to;
   for (int i = 0; i < 3; ++i) {
@@ -128,6 +129,7 @@ int GoTo(lcm::LCM& lcm, const kestrel::Clock& clock, const std::string& prefix,
   const double* q = status.orientation_wxyz;
   const double yaw =
       std::atan2(2.0 * (q[0] * q[3] + q[1] * q[2]), 1.0 - 2.0 * (q[2] * q[2] + q[3] * q[3]));
+  if (relative) to += from;
   if (duration_s <= 0.0) duration_s = std::max(2.0, (to - from).norm() / 0.5);
   const int64_t now = clock.NowUtime();
   std::string error;
@@ -166,6 +168,7 @@ int main(int argc, char** argv) {
   bool vehicle_given = false;
   std::string host;
   double duration_s = 0.0;  // goto: 0 = from the distance
+  bool relative = false;    // goto: X Y Z from the set point
   return kestrel::RunProcess(
       "kestrel-cmd", argc, argv, kUsage,
       [&](CLI::App& app) {
@@ -180,6 +183,7 @@ int main(int argc, char** argv) {
             ->excludes(channel_option);
         app.add_option("--host", host);
         app.add_option("--duration", duration_s)->check(kestrel::cli::Positive());
+        app.add_flag("--relative", relative);
         app.add_option("words", p);
       },
       [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
@@ -268,7 +272,7 @@ int main(int argc, char** argv) {
           return all_reached() ? 0 : 1;
         }
         if (verb == "goto" && p.size() == 4) {
-          return GoTo(lcm, clock, vehicle_prefix, p, duration_s, wait_s);
+          return GoTo(lcm, clock, vehicle_prefix, p, relative, duration_s, wait_s);
         }
         if (verb == "status") {
           const auto view = Listen(lcm, seconds);

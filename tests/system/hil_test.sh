@@ -1,0 +1,115 @@
+#!/usr/bin/env bash
+# Hardware in the loop (docs/design.md §7.12), in a private network namespace: the same scripted
+# flight (take-off, hover, a 1 m go-to, landing; kestrel-cmd) twice in WORLD at real time:
+#  1. all on LCM: kestrel-sim and kestrel-controller (on the wall clock, as on the vehicle);
+#  2. through the drivers: scripts/sheets/hil_sim.procman (the simulator, kestrel-imu-emulator on
+#     a pty, kestrel-esc-emulator on an I2C socket) and scripts/sheets/vehicle.procman unchanged
+#     (kestrel-imu, kestrel-motors, kestrel-controller), both under kestrel-procman.
+# Asserts (hil_check.py on each run's log): both take off, hold, fly the go-to and land without
+# touching anything; through the drivers the hover and go-to errors (true position against the
+# set point) stay within bounds and within HOVER_MARGIN of the all-LCM run's; the controller
+# flew on kestrel-imu's samples and the simulator on what the ESCs received; the drivers counted
+# no dropped frame and no bus error.
+# Usage: hil_test.sh BUILD_DIR ROOT IN_NETNS WORLD
+set -euo pipefail
+build=$1; root=$2; in_netns=$3; world=$4
+exec "$in_netns" bash -c '
+  set -euo pipefail
+  build=$1; root=$2; world=$3
+  cd "$root"
+  export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304"
+  export KESTREL_BIN="$build/bin" KESTREL_WORLD="$world" PYTHONPATH="$build/lcmtypes/python"
+  eval "$(scripts/world-env "$world")"
+  base=$(mktemp -d)
+  trap "kill -TERM \$(jobs -p) 2>/dev/null || true; sleep 1; kill -9 \$(jobs -p) 2>/dev/null || true; rm -rf \$base" EXIT
+  fail() { echo "FAIL: $*"; for f in "$base"/*/*.log "$base"/*/logs/*.log; do [[ -f $f ]] && { echo "== $f"; tail -n 6 "$f"; }; done; exit 1; }
+  # The flight, the same in both runs: take-off, hover 6 s, 1 m along x in 3 s, landing.
+  flight() {
+    "$build/bin/kestrel-cmd" takeoff --height "$KESTREL_HEIGHT" --wait 20 >"$1/cmd.txt" || fail "$2: no take-off"
+    sleep 8
+    "$build/bin/kestrel-cmd" goto 1 0 0 --relative --duration 3 --wait 8 >>"$1/cmd.txt" || fail "$2: go-to not flown"
+    sleep 1
+    "$build/bin/kestrel-cmd" land --wait 5 >>"$1/cmd.txt" || fail "$2: no landing"
+    sleep 6
+  }
+  # 1. All on LCM.
+  run=$base/lcm; mkdir -p "$run"
+  lcm-logger --quiet --force "$run/run.lcmlog" &
+  logger=$!
+  "$build/bin/kestrel-sim" --config config/sim/sim_ci.yaml --set speed_factor=1 \
+    --set world_file="$world" >"$run/sim.log" 2>&1 &
+  sim=$!
+  "$build/bin/kestrel-controller" --vehicle config/vehicle/paper.yaml >"$run/controller.log" 2>&1 &
+  controller=$!
+  sleep 2
+  flight "$run" "all-LCM"
+  kill -TERM $controller $sim; wait $controller $sim || true
+  kill -INT $logger; wait $logger || true
+  # 2. Through the drivers and their emulators, both sheets as shipped.
+  export KESTREL_RUN=$base/hil KESTREL_RUN_ID=hil-test
+  export KESTREL_IMU_PORT=$KESTREL_RUN/imu.tty KESTREL_ESC_BUS=unix:$KESTREL_RUN/esc.sock
+  mkdir -p "$KESTREL_RUN"
+  "$build/common/procman/kestrel-procman" scripts/sheets/hil_sim.procman --host sim \
+    --start cmd:logger --start cmd:sim --start cmd:imu-emulator --start cmd:esc-emulator \
+    --log-dir "$KESTREL_RUN/logs" 2>"$KESTREL_RUN/sim-runner.log" &
+  sim_runner=$!
+  "$build/common/procman/kestrel-procman" scripts/sheets/vehicle.procman --host jetson \
+    --start cmd:imu --start cmd:motors --start cmd:controller \
+    --log-dir "$KESTREL_RUN/logs" 2>"$KESTREL_RUN/vehicle-runner.log" &
+  vehicle_runner=$!
+  sleep 4
+  "$build/bin/kestrel-cmd" status --seconds 1.5 >"$KESTREL_RUN/status.txt" || true
+  flight "$KESTREL_RUN" "hardware in the loop"
+  "$build/bin/kestrel-cmd" status --seconds 1.5 >"$KESTREL_RUN/status-end.txt" || true
+  kill -TERM $vehicle_runner; wait $vehicle_runner || true
+  kill -TERM $sim_runner; wait $sim_runner || true
+  lcm=$(tests/system/hil_check.py "$base/lcm/run.lcmlog" --max-hover-rms 0.05 --max-track-rms 0.10) ||
+    fail "all-LCM flight: $lcm"
+  echo "all-LCM:              $lcm"
+  hover_lcm=$(echo "$lcm" | sed -E "s/.*hover_rms_m ([0-9.]+).*/\1/")
+  bound=$(python3 -c "print(min(0.05, $hover_lcm + 0.02))")
+  hil=$(tests/system/hil_check.py "$KESTREL_RUN/run.lcmlog" --motor-channel DEV_MOTOR_COMMAND \
+          --max-hover-rms "$bound" --max-track-rms 0.10) || fail "hardware in the loop: $hil"
+  echo "hardware in the loop: $hil"
+  python3 - "$KESTREL_RUN/run.lcmlog" <<EOF || fail "the drivers"
+import sys
+sys.path.insert(0, "tools/python")
+import kestrel
+from read_log import decoders, events
+table = decoders()
+beats, imu_epochs, controller_imu = {}, set(), 0
+for _, channel, data in events(sys.argv[1]):
+    t = table.get(data[:8])
+    if t is None:
+        continue
+    m = t.decode(data)
+    if channel.startswith("HEARTBEAT_"):
+        beats[channel] = {v.name: v.value for v in m.values}
+    elif channel == "IMU":
+        imu_epochs.add(m.epoch)
+failed = []
+imu, motors = beats.get("HEARTBEAT_IMU"), beats.get("HEARTBEAT_MOTORS")
+if imu is None or motors is None:
+    failed.append("no heartbeat of kestrel-imu or kestrel-motors")
+else:
+    print("kestrel-imu: %d frames published, clock offset %.0f us, sample to publish p50 %.0f us; "
+          "kestrel-motors: %d commands, %d writes, command to write p50 %.0f us" % (
+              imu["published"], imu["clock_offset_us"], imu["sample_to_publish_p50_us"],
+              motors["commands"], motors["writes"], motors["command_to_write_p50_us"]))
+    dropped = {k: v for k, v in imu.items() if k.startswith("dropped.") and v and
+               k not in ("dropped.open", "dropped.garbage", "dropped.bad_checksum")}
+    if dropped:
+        failed.append("kestrel-imu dropped %s" % dropped)
+    if imu["published"] < 300 * 20:
+        failed.append("kestrel-imu published %d samples, fewer than 400 Hz for the flight" % imu["published"])
+    if motors["bus_errors"] or motors["watchdog_trips"]:
+        failed.append("kestrel-motors: %d bus errors, %d watchdog trips" % (motors["bus_errors"], motors["watchdog_trips"]))
+if len(imu_epochs) != 1:
+    failed.append("IMU came from %d publishers, not kestrel-imu alone" % len(imu_epochs))
+for f in failed:
+    print("FAIL: " + f)
+sys.exit(1 if failed else 0)
+EOF
+  grep -h "rate loop\|refused" "$KESTREL_RUN"/logs/controller*.log | sed -E "s/^\[[0-9.]*\] //" | head -2 || true
+  echo PASS
+' _ "$build" "$root" "$world"
