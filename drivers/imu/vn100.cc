@@ -149,12 +149,13 @@ std::vector<Vn100Message> Vn100Parser::Feed(std::string_view bytes) {
       continue;
     }
     if (b[0] == '$') {
-      const size_t end = buffer_.find("\r\n");
+      // A line ends within kMaxAsciiLine bytes, or the '$' was not a line's start: the same
+      // decision however the bytes were split across reads.
+      size_t end = buffer_.find("\r\n");
+      if (end != std::string::npos && end + 2 > kMaxAsciiLine) end = std::string::npos;
       if (end == std::string::npos) {
-        if (buffer_.size() > kMaxAsciiLine)
-          Drop("garbage", 1);
-        else
-          break;
+        if (buffer_.size() < kMaxAsciiLine) break;
+        Drop("garbage", 1);
         continue;
       }
       const std::string line = buffer_.substr(1, end - 1);
