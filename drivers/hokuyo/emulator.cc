@@ -2,8 +2,6 @@
 
 #include <fcntl.h>
 #include <poll.h>
-#include <pty.h>
-#include <termios.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -61,7 +59,8 @@ void SyntheticRoomRanges(const HokuyoModel& model, std::vector<uint32_t>* ranges
   }
 }
 
-HokuyoEmulator::HokuyoEmulator(HokuyoEmulatorOptions options) : options_(std::move(options)) {
+HokuyoEmulator::HokuyoEmulator(HokuyoEmulatorOptions options)
+    : options_(std::move(options)), pty_(options_.link_path) {
   KESTREL_THROW_UNLESS(options_.model.scan_rpm > 0 && options_.model.ares > 0,
                        "bad model " << options_.model.name);
   start_utime_ = WallClock().NowUtime();
@@ -80,7 +79,7 @@ HokuyoEmulator::~HokuyoEmulator() {
 std::string HokuyoEmulator::device_path() const {
   if (!options_.link_path.empty()) return options_.link_path;
   std::lock_guard<std::mutex> lock(mutex_);
-  return slave_path_;
+  return pty_.slave_path();
 }
 
 uint32_t HokuyoEmulator::SensorTimeMs(int64_t utime) const {
@@ -146,37 +145,12 @@ std::vector<EmulatedScan> HokuyoEmulator::sent_scans() const {
 }
 
 void HokuyoEmulator::Plug() {
-  termios raw{};
-  cfmakeraw(&raw);  // the slave must not echo what the driver writes back to us
-  char name[256] = {};
-  if (openpty(&master_fd_, &slave_fd_, name, &raw, nullptr) != 0) {
-    throw std::runtime_error(std::string("HokuyoEmulator: openpty: ") + std::strerror(errno));
-  }
-  ::fcntl(master_fd_, F_SETFL, ::fcntl(master_fd_, F_GETFL) | O_NONBLOCK);
-  ::fcntl(master_fd_, F_SETFD, FD_CLOEXEC);
-  ::fcntl(slave_fd_, F_SETFD, FD_CLOEXEC);
-  slave_path_ = name;
-  if (!options_.link_path.empty()) {
-    const std::string tmp = options_.link_path + ".tmp";
-    ::unlink(tmp.c_str());
-    if (::symlink(slave_path_.c_str(), tmp.c_str()) != 0 ||
-        ::rename(tmp.c_str(), options_.link_path.c_str()) != 0) {
-      throw std::runtime_error("HokuyoEmulator: cannot link " + options_.link_path + ": " +
-                               std::strerror(errno));
-    }
-  }
+  pty_.Plug();  // a no-op the first time: the pty opened with the emulator
   ResetToPowerOn();
   ++plug_count_;
 }
 
-void HokuyoEmulator::Unplug() {
-  if (master_fd_ < 0) return;
-  if (!options_.link_path.empty()) ::unlink(options_.link_path.c_str());
-  ::close(master_fd_);
-  ::close(slave_fd_);
-  master_fd_ = -1;
-  slave_fd_ = -1;
-}
+void HokuyoEmulator::Unplug() { pty_.Unplug(); }
 
 void HokuyoEmulator::ResetToPowerOn() {
   scip2_ = !options_.model.starts_in_scip11;
@@ -203,7 +177,7 @@ int64_t HokuyoEmulator::RevolutionStartUtime(int64_t revolution) const {
 }
 
 void HokuyoEmulator::Send(std::string reply) {
-  if (master_fd_ < 0) return;
+  if (pty_.master_fd() < 0) return;
   const int64_t now = WallClock().NowUtime();
   if (stalled_forever_ || now < stall_until_utime_) return;
   if (corrupt_sums_ > 0 && reply.size() >= 3) {
@@ -218,7 +192,7 @@ void HokuyoEmulator::Send(std::string reply) {
   }
   size_t done = 0;
   while (done < reply.size()) {
-    const ssize_t n = ::write(master_fd_, reply.data() + done, reply.size() - done);
+    const ssize_t n = ::write(pty_.master_fd(), reply.data() + done, reply.size() - done);
     if (n > 0) {
       done += static_cast<size_t>(n);
     } else if (n < 0 && errno == EINTR) {
@@ -411,11 +385,11 @@ void HokuyoEmulator::Run() {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       const int64_t now = WallClock().NowUtime();
-      if (master_fd_ < 0 && replug_at_utime_ >= 0 && now >= replug_at_utime_) {
+      if (pty_.master_fd() < 0 && replug_at_utime_ >= 0 && now >= replug_at_utime_) {
         replug_at_utime_ = -1;
         Plug();
       }
-      fd = master_fd_;
+      fd = pty_.master_fd();
       if (fd >= 0) ServeStream(now);
     }
     if (fd < 0) {
@@ -426,7 +400,7 @@ void HokuyoEmulator::Run() {
     const int r = ::poll(&p, 1, 2);
     if (r <= 0 || (p.revents & POLLIN) == 0) continue;
     std::lock_guard<std::mutex> lock(mutex_);
-    if (master_fd_ != fd) continue;  // unplugged meanwhile
+    if (pty_.master_fd() != fd) continue;  // unplugged meanwhile
     char buf[512];
     const ssize_t n = ::read(fd, buf, sizeof(buf));
     if (n <= 0) continue;

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "drivers/hokuyo/hokuyo_model.h"
+#include "drivers/serial/pseudo_terminal.h"
 
 namespace kestrel {
 
@@ -135,9 +136,7 @@ class HokuyoEmulator {
   int64_t period_us_{0};
 
   mutable std::mutex mutex_;  // guards the fields below this line and the fds across threads
-  int master_fd_{-1};
-  int slave_fd_{-1};
-  std::string slave_path_;
+  PseudoTerminal pty_;        // the device's side; closed while unplugged
   int corrupt_sums_{0};
   std::string garbage_;
   int64_t stall_until_utime_{0};
