@@ -2,20 +2,20 @@
 /// @file
 /// The VectorNav VN-100 serial protocol, pure (docs/protocols.md §7): no port, no clock inside.
 ///
-/// Binary output (§7.2): 0xFA, a byte of output groups, one little-endian 16-bit field word per
-/// group present, the fields' values little endian in bit order, and a CRC-16-CCITT (polynomial
-/// 0x1021, initial value 0) of everything after the sync byte, sent most significant byte first,
-/// so that the CRC of everything after the sync byte including the CRC is 0. Kestrel asks for the
-/// common group (1) with TimeStartup (ns since power-on, u64), AngularRate (rad/s, 3 float32)
-/// and Accel (m/s^2, 3 float32).
+/// Binary output (docs/protocols.md §7.2): 0xFA, a byte of output groups, one little-endian
+/// 16-bit field word per group present, the fields' values little endian in bit order, and a
+/// CRC-16-CCITT (polynomial 0x1021, initial value 0) of everything after the sync byte, sent
+/// most significant byte first, so that the CRC of everything after the sync byte including the
+/// CRC is 0. Kestrel asks for the common group (1) with TimeStartup (ns since power-on, u64),
+/// AngularRate (rad/s, 3 float32) and Accel (m/s^2, 3 float32).
 ///
-/// ASCII commands (§7.3): "$VN<command>,<fields>*<checksum>\r\n", checksum the XOR of the bytes
-/// between '$' and '*' as two upper-case hex digits. The device echoes a register write with its
-/// own checksum, and answers an error with "$VNERR,<code>".
+/// ASCII commands (docs/protocols.md §7.3): "$VN<command>,<fields>*<checksum>\r\n", the
+/// checksum the XOR of the bytes between '$' and '*' as two upper-case hex digits. The device
+/// echoes a register write with its own checksum, and answers an error with "$VNERR,<code>".
 ///
-/// Frames (§7.4): the VN-100's body frame is x forward, y right, z down, and its Accel is
-/// specific force (at rest, level, it reads about (0, 0, -9.8)); Kestrel's body is x forward,
-/// y left, z up: y and z change sign both ways.
+/// Frames (docs/protocols.md §7.4): the VN-100 body frame is x forward, y right, z down, and its
+/// Accel is specific force (at rest, level, it reads about (0, 0, -9.8)); Kestrel's body is
+/// x forward, y left, z up: y and z change sign both ways.
 
 #include <array>
 #include <cstdint>

@@ -43,6 +43,10 @@ declare -A numeric=(
   [drivers/hokuyo/kestrel-hokuyo]=""
   [drivers/hokuyo/kestrel-hokuyo-emulator]=""
   [drivers/xtion/kestrel-xtion]=""
+  [drivers/imu/kestrel-imu]=""
+  [drivers/imu/kestrel-imu-emulator]=""
+  [drivers/motors/kestrel-motors]=""
+  [drivers/motors/kestrel-esc-emulator]=""
   [viewer/bridge/kestrel-viewer]=""
 )
 checked=0
@@ -65,6 +69,8 @@ done
 # No own positional arguments: a stray word is refused (the mapper once ignored everything).
 expect 2 "unexpected argument .stray." "$build/mapping/kestrel-mapper" stray
 expect 2 "unexpected argument .stray." "$build/sim/kestrel-sim" --set a=1 stray
+# kestrel-cmd goto: a coordinate that is not a number is named.
+expect 2 "not a coordinate" "$build/tools/cmd/kestrel-cmd" goto 1 x 0
 # A choice outside its set is named.
 expect 2 "--compression" "$build/viewer/foxglove/kestrel-mcap-export" --log a --out b --compression lz4
 
