@@ -111,5 +111,7 @@ for f in failed:
 sys.exit(1 if failed else 0)
 EOF
   grep -h "rate loop\|refused" "$KESTREL_RUN"/logs/controller*.log | sed -E "s/^\[[0-9.]*\] //" | head -2 || true
+  echo "the controller through the drivers (loop lateness; IMU sample age at each motor command):"
+  tools/python/loop_timing.py "$KESTREL_RUN/controller_timing.csv" || fail "no loop timing written"
   echo PASS
 ' _ "$build" "$root" "$world"
