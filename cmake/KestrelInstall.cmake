@@ -58,6 +58,7 @@ install(FILES ${PROJECT_SOURCE_DIR}/scripts/sheets/vehicle.procman
 install(FILES ${PROJECT_SOURCE_DIR}/scripts/sheets/host.procman
               ${PROJECT_SOURCE_DIR}/scripts/sheets/sim.procman
               ${PROJECT_SOURCE_DIR}/scripts/sheets/chaos_sim.procman
+              ${PROJECT_SOURCE_DIR}/scripts/sheets/hil_sim.procman
               ${PROJECT_SOURCE_DIR}/scripts/sheets/two_vehicles_sim.procman
         DESTINATION ${KESTREL_INSTALL_DATADIR}/sheets COMPONENT host)
 

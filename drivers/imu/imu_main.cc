@@ -43,6 +43,10 @@ int main(int argc, char** argv) {
           loop.RunOnceMicroseconds(0);
         }
         node.PublishHeartbeat();
+        kestrel::Log(kestrel::LogLevel::kInfo,
+                     "stopped: " + std::to_string(node.published()) + " samples published, " +
+                         std::to_string(node.drops().total()) + " drops, " +
+                         std::to_string(node.opens()) + " opens");
         return 0;
       });
 }

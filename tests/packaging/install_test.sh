@@ -14,7 +14,8 @@ need() {  # path under the prefix that must exist
   if [[ ! -e "$prefix/$1" ]]; then echo "FAIL: missing $1"; failures=$((failures + 1)); fi
 }
 for p in kestrel-procman kestrel-controller kestrel-mapper kestrel-explorer kestrel-sim \
-         kestrel-sim-standin kestrel-cmd kestrel-flight-check kestrel-map-score kestrel-mission; do
+         kestrel-sim-standin kestrel-cmd kestrel-flight-check kestrel-map-score kestrel-mission \
+         kestrel-imu kestrel-imu-emulator kestrel-motors kestrel-esc-emulator; do
   [[ -x "$prefix/bin/$p" ]] || { echo "FAIL: bin/$p is not an installed executable"; failures=$((failures + 1)); }
 done
 for f in lib/cmake/Kestrel/KestrelConfig.cmake lib/cmake/Kestrel/KestrelConfigVersion.cmake \
@@ -25,6 +26,8 @@ for f in lib/cmake/Kestrel/KestrelConfig.cmake lib/cmake/Kestrel/KestrelConfigVe
          share/kestrel/sheets/sim.procman share/kestrel/sheets/host.procman \
          share/kestrel/sheets/chaos_sim.procman share/kestrel/config/sim/standin.yaml \
          share/kestrel/sheets/vehicle.procman share/kestrel/sheets/kestrel.env \
+         share/kestrel/sheets/hil_sim.procman share/kestrel/config/drivers/imu.yaml \
+         share/kestrel/config/drivers/motors.yaml \
          include/kestrel/bot_procman/orders2_t.hpp share/doc/kestrel-host/copyright; do
   need "$f"
 done
@@ -37,7 +40,7 @@ done
 # (the installed kestrel-procman --dry-run, with the installed sheets/kestrel.env and no
 # $KESTREL_BIN), starts a Kestrel binary from <prefix>/bin, or a program on PATH (lcm-logger).
 cd "$prefix/share/kestrel"
-for pair in sim:sim chaos_sim:sim host:base vehicle:jetson; do
+for pair in sim:sim chaos_sim:sim hil_sim:sim host:base vehicle:jetson; do
   sheet=sheets/${pair%%:*}.procman
   if ! out=$(env -u KESTREL_BIN -u KESTREL_RUN "$prefix/bin/kestrel-procman" "$sheet" \
                --host "${pair##*:}" --dry-run 2>&1); then
