@@ -22,8 +22,7 @@ void ImuConfig::Validate() const {
   KESTREL_THROW_UNLESS(reply_timeout_s > 0.0 && frame_timeout_s > 0.0 && clock_window_s > 0.0,
                        "imu: reply_timeout_s, frame_timeout_s and clock_window_s must be > 0");
   KESTREL_THROW_UNLESS(command_retries >= 0, "imu.command_retries = " << command_retries);
-  KESTREL_THROW_UNLESS(reopen_backoff_min_s > 0.0 && reopen_backoff_max_s >= reopen_backoff_min_s,
-                       "imu: 0 < reopen_backoff_min_s <= reopen_backoff_max_s");
+  ReopenBackoff::Validate(reopen_backoff_min_s, reopen_backoff_max_s, "imu");
   KESTREL_THROW_UNLESS(heartbeat_period_s > 0.0 && heartbeat_period_s <= 10.0,
                        "imu.heartbeat_period_s = " << heartbeat_period_s << ": (0, 10]");
   realtime.Validate();
@@ -58,6 +57,7 @@ int64_t MinimumLatencyClock::Stamp(int64_t device_us, int64_t arrival_utime) {
   if (last_device_us_ >= 0 && device_us < last_device_us_) {
     samples_.clear();
     ++restarts_;
+    last_stamp_utime_ = 0;
   }
   last_device_us_ = device_us;
   const int64_t latency = arrival_utime - device_us;
@@ -65,7 +65,10 @@ int64_t MinimumLatencyClock::Stamp(int64_t device_us, int64_t arrival_utime) {
   while (!samples_.empty() && samples_.back().second >= latency) samples_.pop_back();
   samples_.emplace_back(device_us, latency);
   while (samples_.front().first < device_us - window_us_) samples_.pop_front();
-  return device_us + samples_.front().second;
+  // Never back, never equal: where the minimum just fell by more than the sample spacing (the
+  // first samples of a stream, a burst after a stall), the stamp is the previous one's + 1 us.
+  last_stamp_utime_ = std::max(device_us + samples_.front().second, last_stamp_utime_ + 1);
+  return last_stamp_utime_;
 }
 
 ImuNode::ImuNode(lcm::LCM& lcm, const ImuConfig& config, const Clock& clock)
@@ -75,7 +78,7 @@ ImuNode::ImuNode(lcm::LCM& lcm, const ImuConfig& config, const Clock& clock)
       heartbeat_(lcm, clock, "kestrel-imu", config.heartbeat_channel),
       drops_(clock),
       mapping_(SecondsToUtime(config.clock_window_s)),
-      backoff_s_(config.reopen_backoff_min_s),
+      reopen_(config.reopen_backoff_min_s, config.reopen_backoff_max_s, "imu"),
       epoch_(NewPublisherEpoch()) {
   config_.Validate();
 }
@@ -89,8 +92,7 @@ void ImuNode::Close(const std::string& why) {
   parser_.Reset();
   mapping_.Reset();
   state_ = State::kClosed;
-  next_open_utime_ = clock_.NowUtime() + SecondsToUtime(backoff_s_);
-  backoff_s_ = std::min(2.0 * backoff_s_, config_.reopen_backoff_max_s);
+  reopen_.Failed(clock_.NowUtime());
 }
 
 void ImuNode::SendCommand() {
@@ -106,9 +108,9 @@ void ImuNode::SendCommand() {
 void ImuNode::Poll(int timeout_ms) {
   int64_t now = clock_.NowUtime();
   if (state_ == State::kClosed) {
-    if (now < next_open_utime_) {
+    if (!reopen_.Due(now)) {
       ::poll(nullptr, 0,
-             std::min<int>(timeout_ms, static_cast<int>((next_open_utime_ - now) / 1000) + 1));
+             std::min<int>(timeout_ms, static_cast<int>((reopen_.next_utime() - now) / 1000) + 1));
       return;
     }
     try {
@@ -118,8 +120,7 @@ void ImuNode::Poll(int timeout_ms) {
     } catch (const SerialError& e) {
       last_error_ = e.what();
       drops_.Count("open", e.what());
-      next_open_utime_ = now + SecondsToUtime(backoff_s_);
-      backoff_s_ = std::min(2.0 * backoff_s_, config_.reopen_backoff_max_s);
+      reopen_.Failed(now);
       return;
     }
     ++opens_;
@@ -170,7 +171,7 @@ void ImuNode::Handle(const Vn100Message& m, int64_t arrival_utime) {
         SendCommand();
       } else {
         last_frame_utime_ = arrival_utime;
-        backoff_s_ = config_.reopen_backoff_min_s;
+        reopen_.Succeeded();
         Log(LogLevel::kInfo, "streaming " + std::to_string(800 / config_.rate_divisor) + " Hz");
       }
     }

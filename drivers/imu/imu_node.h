@@ -24,6 +24,7 @@
 #include "common/heartbeat.h"
 #include "common/log.h"
 #include "common/realtime.h"
+#include "common/reopen_backoff.h"
 #include "drivers/imu/vn100.h"
 #include "drivers/serial/serial_port.h"
 
@@ -61,9 +62,14 @@ class MinimumLatencyClock {
  public:
   explicit MinimumLatencyClock(int64_t window_us) : window_us_(window_us) {}
   /// One sample of device time device_us that arrived at host time arrival_utime; returns its
-  /// host stamp. A device time earlier than the last one restarts the mapping (counted).
+  /// host stamp, always later than the previous one's (by 1 us where the minimum has just fallen
+  /// by more than the sample spacing). A device time earlier than the last one restarts the
+  /// mapping (counted).
   int64_t Stamp(int64_t device_us, int64_t arrival_utime);
-  void Reset() { samples_.clear(); }
+  void Reset() {
+    samples_.clear();
+    last_stamp_utime_ = 0;
+  }
   [[nodiscard]] int64_t restarts() const { return restarts_; }
   /// The offset in use, us (host - device; 0 before any sample).
   [[nodiscard]] int64_t offset_us() const { return samples_.empty() ? 0 : samples_.front().second; }
@@ -72,6 +78,7 @@ class MinimumLatencyClock {
   int64_t window_us_;
   std::deque<std::pair<int64_t, int64_t>> samples_;  // (device_us, arrival - device), minima
   int64_t last_device_us_{-1};
+  int64_t last_stamp_utime_{0};
   int64_t restarts_{0};
 };
 
@@ -117,8 +124,7 @@ class ImuNode {
   int64_t command_deadline_utime_{0};
   int retries_left_{0};
   int64_t last_frame_utime_{0};
-  int64_t next_open_utime_{0};
-  double backoff_s_;
+  ReopenBackoff reopen_;
   int64_t epoch_;
   int64_t seq_{0};
   int64_t published_{0};

@@ -26,8 +26,7 @@ void MotorsConfig::Validate() const {
                        "motors.refresh_hz = " << refresh_hz << ": [10, 1000]");
   KESTREL_THROW_UNLESS(status_hz >= 0.0 && status_hz <= refresh_hz,
                        "motors.status_hz = " << status_hz << ": [0, refresh_hz]");
-  KESTREL_THROW_UNLESS(reopen_backoff_min_s > 0.0 && reopen_backoff_max_s >= reopen_backoff_min_s,
-                       "motors: 0 < reopen_backoff_min_s <= reopen_backoff_max_s");
+  ReopenBackoff::Validate(reopen_backoff_min_s, reopen_backoff_max_s, "motors");
   KESTREL_THROW_UNLESS(heartbeat_period_s > 0.0 && heartbeat_period_s <= 10.0,
                        "motors.heartbeat_period_s = " << heartbeat_period_s << ": (0, 10]");
   realtime.Validate();
@@ -74,7 +73,7 @@ MotorsNode::MotorsNode(lcm::LCM& lcm, const MotorsConfig& config, const EscMap& 
       set_points_(config.addresses.size(), 0),
       thrust_N_(config.addresses.size(), 0.0),
       status_(config.addresses.size()),
-      backoff_s_(config.reopen_backoff_min_s) {
+      reopen_(config.reopen_backoff_min_s, config.reopen_backoff_max_s, "motors") {
   config_.Validate();
   version_ = *ParseBlCtrlVersion(config_.protocol);
   subscriptions_.Add<motor_command_t>(
@@ -152,24 +151,23 @@ void MotorsNode::BusFailed(const std::string& error) {
   std::fill(set_points_.begin(), set_points_.end(), 0);
   bus_.reset();
   ever_armed_since_open_ = false;
-  next_open_utime_ = clock_.NowUtime() + SecondsToUtime(backoff_s_);
+  reopen_.Failed(clock_.NowUtime());
 }
 
 void MotorsNode::Refresh() {
   const int64_t now = clock_.NowUtime();
   if (bus_ == nullptr) {
-    if (now < next_open_utime_) return;
+    if (!reopen_.Due(now)) return;
     try {
       bus_ = open_bus_(config_.bus);
       ++reopens_;
-      backoff_s_ = config_.reopen_backoff_min_s;
+      reopen_.Succeeded();
       ever_armed_since_open_ = false;
       Log(LogLevel::kInfo, "bus " + bus_->name() + " open");
     } catch (const std::exception& e) {
       last_error_ = e.what();
       drops_.Count("bus_open", e.what());
-      next_open_utime_ = now + SecondsToUtime(backoff_s_);
-      backoff_s_ = std::min(2.0 * backoff_s_, config_.reopen_backoff_max_s);
+      reopen_.Failed(now);
       return;
     }
   }

@@ -28,6 +28,7 @@
 #include "common/lcm_decode.h"
 #include "common/log.h"
 #include "common/realtime.h"
+#include "common/reopen_backoff.h"
 #include "common/vehicle_config.h"
 #include "drivers/motors/blctrl.h"
 #include "drivers/motors/i2c_bus.h"
@@ -116,8 +117,7 @@ class MotorsNode {
   bool watchdog_tripped_{false};
   bool fault_{false};
   int64_t last_command_utime_{-1};  // host time the last valid command arrived
-  int64_t next_open_utime_{0};
-  double backoff_s_;
+  ReopenBackoff reopen_;
   int64_t next_status_utime_{0};
   int64_t commands_{0}, writes_{0}, bus_errors_{0}, watchdog_trips_{0}, reopens_{0};
   std::string last_error_;

@@ -35,7 +35,8 @@ class ImuNodeTest : public ::testing::Test {
     auto next = std::chrono::steady_clock::now();
     while (std::chrono::steady_clock::now() < end) {
       device_.Poll();
-      if (std::chrono::steady_clock::now() >= next) {
+      while (std::chrono::steady_clock::now() >= next) {  // every sample due: the device's
+                                                          // clock keeps the wall's pace
         Vn100Sample s;
         s.time_startup_ns = 5000000000ULL + 1250000ULL * static_cast<uint64_t>(samples_++);
         s.angular_rate_radps = {0.1F, 0.2F, 0.3F};

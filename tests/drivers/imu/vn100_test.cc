@@ -1,6 +1,8 @@
 // The VN-100 protocol, pure (drivers/imu/vn100.h, docs/protocols.md §7).
 #include "drivers/imu/vn100.h"
 
+#include "drivers/imu/imu_node.h"
+
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -118,6 +120,45 @@ TEST(Vn100Parser, ReadsKestrelsFieldsAmongOthers) {
   EXPECT_EQ(found[0].sample.time_startup_ns, 77u);
   EXPECT_EQ(found[0].sample.angular_rate_radps, (std::array<float, 3>{1.0F, 2.0F, 3.0F}));
   EXPECT_EQ(found[0].sample.accel_mps2, (std::array<float, 3>{4.0F, 5.0F, 6.0F}));
+}
+
+// The minimum-latency mapping: jittered arrivals give the device's spacing once the fastest
+// path has been seen; a burst after a stall keeps them in order; a device restart starts anew.
+TEST(MinimumLatencyClock, KeepsTheDeviceSpacingAndOrder) {
+  MinimumLatencyClock clock(2000000);
+  const int64_t offset = 1000000000;
+  int64_t last = 0;
+  for (int i = 0; i < 400; ++i) {
+    const int64_t device = 5000000 + 2500 * i;
+    const int64_t jitter = i == 3 ? 0 : 100 + (i * 7919) % 900;  // sample 3: the fast path
+    const int64_t stamp = clock.Stamp(device, device + offset + jitter);
+    ASSERT_GT(stamp, last) << i;
+    if (i > 3) {
+      ASSERT_EQ(stamp, device + offset) << i;
+    }
+    last = stamp;
+  }
+  // A burst: five samples read at once after a 20 ms stall.
+  for (int k = 0; k < 5; ++k) {
+    const int64_t device = 5000000 + 2500 * (400 + k);
+    const int64_t stamp = clock.Stamp(device, 5000000 + 2500 * 404 + offset + 20000);
+    ASSERT_EQ(stamp, device + offset) << "the stall does not move the stamps";
+  }
+  EXPECT_EQ(clock.restarts(), 0);
+  EXPECT_EQ(clock.Stamp(1000, 2000000000), 2000000000 - 1000 + 1000) << "restarted";
+  EXPECT_EQ(clock.restarts(), 1);
+}
+
+// The first sample came 10 ms late, the second on the fast path: the minimum falls by more than
+// the spacing, and the second stamp is the first's + 1 us rather than earlier.
+TEST(MinimumLatencyClock, NeverGoesBackWhenTheMinimumFalls) {
+  MinimumLatencyClock clock(2000000);
+  const int64_t first = clock.Stamp(5000000, 5000000 + 10000);
+  const int64_t second = clock.Stamp(5002500, 5002500);
+  EXPECT_EQ(first, 5010000);
+  EXPECT_EQ(second, 5010001);
+  EXPECT_EQ(clock.Stamp(5005000, 5005000 + 300), 5010002) << "still behind the first";
+  EXPECT_EQ(clock.Stamp(5012500, 5012500 + 300), 5012500) << "the device pace again";
 }
 
 }  // namespace
