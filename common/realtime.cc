@@ -12,6 +12,7 @@
 
 #include "common/check.h"
 #include "common/config.h"
+#include "common/log.h"
 
 namespace kestrel {
 
@@ -94,6 +95,13 @@ RealtimeOutcome ApplyRealtime(const RealtimeConfig& config) {
           "rtprio in /etc/security/limits.conf); running with normal scheduling");
     }
   }
+  return outcome;
+}
+
+RealtimeOutcome ApplyRealtimeAndLog(const RealtimeConfig& config) {
+  const RealtimeOutcome outcome = ApplyRealtime(config);
+  for (const std::string& warning : outcome.warnings) Log(LogLevel::kWarning, warning);
+  Log(LogLevel::kInfo, "rate loop: " + outcome.Summary(config));
   return outcome;
 }
 

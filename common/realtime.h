@@ -50,6 +50,9 @@ struct RealtimeOutcome {
 /// Applies `config` to the calling thread (and so to the threads it starts afterwards) and to
 /// the process's memory. Never throws for a refused setting: see RealtimeOutcome::warnings.
 RealtimeOutcome ApplyRealtime(const RealtimeConfig& config);
+/// ApplyRealtime, then one log line per warning and one "rate loop: <summary>" line: what every
+/// rate-loop process does at start, before it builds its LCM object.
+RealtimeOutcome ApplyRealtimeAndLog(const RealtimeConfig& config);
 
 /// The lateness histogram of a periodic loop (docs/design.md §2.6): Record each tick's lateness
 /// in microseconds; bins of 10 us up to 20 ms, then one overflow bin.

@@ -53,11 +53,7 @@ int main(int argc, char** argv) {
         if (config.run_id.empty()) config.run_id = kestrel::RunIdFromEnvironment();
         config.Validate();
         // Before LCM starts its receive thread, which inherits the policy (docs/design.md §2.6).
-        const kestrel::RealtimeOutcome applied = kestrel::ApplyRealtime(realtime);
-        for (const std::string& warning : applied.warnings) {
-          kestrel::Log(kestrel::LogLevel::kWarning, warning);
-        }
-        kestrel::Log(kestrel::LogLevel::kInfo, "rate loop: " + applied.Summary(realtime));
+        const kestrel::RealtimeOutcome applied = kestrel::ApplyRealtimeAndLog(realtime);
         lcm::LCM lcm(args.lcm_url);
         if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");
         const std::unique_ptr<kestrel::Clock> clock =

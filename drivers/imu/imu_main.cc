@@ -24,9 +24,7 @@ int main(int argc, char** argv) {
         const kestrel::ImuConfig imu = kestrel::LoadImuConfig(config);
         config.CheckNoUnknownKeys();
         // Before LCM starts its receive thread, which inherits the policy (docs/design.md §2.6).
-        const kestrel::RealtimeOutcome applied = kestrel::ApplyRealtime(imu.realtime);
-        for (const std::string& w : applied.warnings) kestrel::Log(kestrel::LogLevel::kWarning, w);
-        kestrel::Log(kestrel::LogLevel::kInfo, "imu: " + applied.Summary(imu.realtime));
+        kestrel::ApplyRealtimeAndLog(imu.realtime);
         lcm::LCM lcm(args.lcm_url);
         if (!lcm.good()) throw std::runtime_error("LCM init failed for '" + args.lcm_url + "'");
         kestrel::WallClock clock;
