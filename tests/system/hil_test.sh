@@ -1,15 +1,16 @@
 #!/usr/bin/env bash
-# Hardware in the loop (docs/design.md §7.12), in a private network namespace: the same scripted
-# flight (take-off, hover, a 1 m go-to, landing; kestrel-cmd) twice in WORLD at real time:
-#  1. all on LCM: kestrel-sim and kestrel-controller (on the wall clock, as on the vehicle);
-#  2. through the drivers: scripts/sheets/hil_sim.procman (the simulator, kestrel-imu-emulator on
-#     a pty, kestrel-esc-emulator on an I2C socket) and scripts/sheets/vehicle.procman unchanged
-#     (kestrel-imu, kestrel-motors, kestrel-controller), both under kestrel-procman.
-# Asserts (hil_check.py on each run's log): both take off, hold, fly the go-to and land without
-# touching anything; through the drivers the hover and go-to errors (true position against the
-# set point) stay within bounds and within HOVER_MARGIN of the all-LCM run's; the controller
-# flew on kestrel-imu's samples and the simulator on what the ESCs received; the drivers counted
-# no dropped frame and no bus error.
+# Hardware in the loop (docs/design.md §7.12), in a private network namespace: a scripted flight
+# (take-off, hover, a 1 m go-to, landing; kestrel-cmd) in WORLD at real time through the drivers:
+# scripts/sheets/hil_sim.procman (the simulator, kestrel-imu-emulator on a pty,
+# kestrel-esc-emulator on an I2C socket) and scripts/sheets/vehicle.procman unchanged (kestrel-imu,
+# kestrel-motors, kestrel-controller), both under kestrel-procman.
+# Asserts (hil_check.py on the run's log): it takes off, holds, flies the go-to and lands without
+# touching anything; the hover and go-to errors (true position against the set point) stay within
+# bounds, the hover within 0.02 m of the same flight all on LCM (kestrel-sim and
+# kestrel-controller alone: 0.0110 m hover RMS, measured by bench/drivers/hil_reference.sh and
+# recorded in docs/STATUS.md, "Hardware in the loop"); the controller flew on
+# kestrel-imu's samples and the simulator on what the ESCs received; the drivers counted no
+# dropped frame and no bus error.
 # Usage: hil_test.sh BUILD_DIR ROOT IN_NETNS WORLD
 set -euo pipefail
 build=$1; root=$2; in_netns=$3; world=$4
@@ -32,20 +33,7 @@ exec "$in_netns" bash -c '
     "$build/bin/kestrel-cmd" land --wait 5 >>"$1/cmd.txt" || fail "$2: no landing"
     sleep 6
   }
-  # 1. All on LCM.
-  run=$base/lcm; mkdir -p "$run"
-  lcm-logger --quiet --force "$run/run.lcmlog" &
-  logger=$!
-  "$build/bin/kestrel-sim" --config config/sim/sim_ci.yaml --set speed_factor=1 \
-    --set world_file="$world" >"$run/sim.log" 2>&1 &
-  sim=$!
-  "$build/bin/kestrel-controller" --vehicle config/vehicle/paper.yaml >"$run/controller.log" 2>&1 &
-  controller=$!
-  sleep 2
-  flight "$run" "all-LCM"
-  kill -TERM $controller $sim; wait $controller $sim || true
-  kill -INT $logger; wait $logger || true
-  # 2. Through the drivers and their emulators, both sheets as shipped.
+  # Through the drivers and their emulators, both sheets as shipped.
   export KESTREL_RUN=$base/hil KESTREL_RUN_ID=hil-test
   export KESTREL_IMU_PORT=$KESTREL_RUN/imu.tty KESTREL_ESC_BUS=unix:$KESTREL_RUN/esc.sock
   mkdir -p "$KESTREL_RUN"
@@ -63,11 +51,8 @@ exec "$in_netns" bash -c '
   "$build/bin/kestrel-cmd" status --seconds 1.5 >"$KESTREL_RUN/status-end.txt" || true
   kill -TERM $vehicle_runner; wait $vehicle_runner || true
   kill -TERM $sim_runner; wait $sim_runner || true
-  lcm=$(tests/system/hil_check.py "$base/lcm/run.lcmlog" --max-hover-rms 0.05 --max-track-rms 0.10) ||
-    fail "all-LCM flight: $lcm"
-  echo "all-LCM:              $lcm"
-  hover_lcm=$(echo "$lcm" | sed -E "s/.*hover_rms_m ([0-9.]+).*/\1/")
-  bound=$(python3 -c "print(min(0.05, $hover_lcm + 0.02))")
+  # The all-LCM reference hover RMS (see the header) plus 0.02 m.
+  bound=0.031
   hil=$(tests/system/hil_check.py "$KESTREL_RUN/run.lcmlog" --motor-channel DEV_MOTOR_COMMAND \
           --max-hover-rms "$bound" --max-track-rms 0.10) || fail "hardware in the loop: $hil"
   echo "hardware in the loop: $hil"
