@@ -135,6 +135,30 @@ ScanStats ScanIntegrator::IntegrateReading(const Eigen::Vector3d& origin_W,
   return IntegrateRays(kSingleRay, origin_W, 1, source, model);
 }
 
+SensorRay DepthPixelRay(const Pose3& X_WS, const Eigen::Matrix3d& R_WS, const DepthIntrinsics& in,
+                        int u, int v, uint16_t raw, double depth_scale_m,
+                        const SensorModel& model) {
+  const Eigen::Vector3d ray_S((u - in.cx) * (1.0 / in.fx), (v - in.cy) * (1.0 / in.fy), 1.0);
+  const double norm = ray_S.norm();
+  SensorRay ray;
+  ray.origin_W = X_WS.p;
+  ray.direction_W = R_WS * (ray_S / norm);
+  // Depth is along the optical axis; the range along the pixel's ray is depth * |ray_S|.
+  ray.reading =
+      raw == 0 ? Reading{ReadingKind::kNoReturn, 0.0} : model.Classify(raw * depth_scale_m * norm);
+  return ray;
+}
+
+SensorRay PlanarBeamRay(const Pose3& X_WS, const Eigen::Matrix3d& R_WS, double angle_min_rad,
+                        double angle_step_rad, int i, float range_m, const SensorModel& model) {
+  const double angle = angle_min_rad + i * angle_step_rad;
+  SensorRay ray;
+  ray.origin_W = X_WS.p;
+  ray.direction_W = (R_WS * Eigen::Vector3d(std::cos(angle), std::sin(angle), 0.0)).normalized();
+  ray.reading = model.Classify(range_m);
+  return ray;
+}
+
 ScanStats ScanIntegrator::IntegrateDepthImage(const Pose3& X_WS, const DepthIntrinsics& in,
                                               const uint16_t* depth, int width, int height,
                                               double depth_scale_m, const SensorModel& model) {
@@ -154,21 +178,16 @@ ScanStats ScanIntegrator::IntegrateDepthImage(const Pose3& X_WS, const DepthIntr
       X_WS.p.allFinite() && X_WS.q.coeffs().allFinite() && std::abs(X_WS.q.norm() - 1.0) < 0.5,
       "IntegrateDepthImage: pose must be finite with |q| in (0.5, 1.5), |q| = " << X_WS.q.norm());
   const Eigen::Matrix3d R_WS = X_WS.q.normalized().toRotationMatrix();
-  const double inv_fx = 1.0 / in.fx;
-  const double inv_fy = 1.0 / in.fy;
   const OccupancyUpdater& updater = UpdaterOf(map_);
   // Row-major: ray i is pixel (u, v) = (i % width, i / width).
   const auto source = [&](int i, RaySpec* spec) {
     const int v = i / width;
     const int u = i - v * width;
-    const uint16_t raw = depth[static_cast<size_t>(i)];
-    const Eigen::Vector3d ray_S((u - in.cx) * inv_fx, (v - in.cy) * inv_fy, 1.0);
-    const double norm = ray_S.norm();
-    spec->segment.origin_W = X_WS.p;
-    spec->segment.direction_W = R_WS * (ray_S / norm);
-    // Depth is along the optical axis; the range along the pixel's ray is depth * |ray_S|.
-    spec->reading = raw == 0 ? Reading{ReadingKind::kNoReturn, 0.0}
-                             : model.Classify(raw * depth_scale_m * norm);
+    const SensorRay ray = DepthPixelRay(X_WS, R_WS, in, u, v, depth[static_cast<size_t>(i)],
+                                        depth_scale_m, model);
+    spec->segment.origin_W = ray.origin_W;
+    spec->segment.direction_W = ray.direction_W;
+    spec->reading = ray.reading;
     if (spec->reading.kind != ReadingKind::kInvalid) {
       spec->segment.length_m = updater.CastLength(model, spec->reading);
     }
@@ -191,11 +210,11 @@ ScanStats ScanIntegrator::IntegratePlanarScan(const Pose3& X_WS, double angle_mi
   const Eigen::Matrix3d R_WS = X_WS.q.normalized().toRotationMatrix();
   const OccupancyUpdater& updater = UpdaterOf(map_);
   const auto source = [&](int i, RaySpec* spec) {
-    const double angle = angle_min_rad + i * angle_step_rad;
-    spec->segment.origin_W = X_WS.p;
-    spec->segment.direction_W =
-        (R_WS * Eigen::Vector3d(std::cos(angle), std::sin(angle), 0.0)).normalized();
-    spec->reading = model.Classify(ranges_m[i]);
+    const SensorRay ray =
+        PlanarBeamRay(X_WS, R_WS, angle_min_rad, angle_step_rad, i, ranges_m[i], model);
+    spec->segment.origin_W = ray.origin_W;
+    spec->segment.direction_W = ray.direction_W;
+    spec->reading = ray.reading;
     if (spec->reading.kind != ReadingKind::kInvalid) {
       spec->segment.length_m = updater.CastLength(model, spec->reading);
     }

@@ -39,6 +39,27 @@ struct DepthIntrinsics {
   double cy{0.0};  ///< principal point y, px
 };
 
+/// One sensor ray as the integrator sees it: from origin_W along the unit direction_W, with the
+/// reading classified by the sensor model (docs/algorithms.md §3.4).
+struct SensorRay {
+  Eigen::Vector3d origin_W{Eigen::Vector3d::Zero()};
+  Eigen::Vector3d direction_W{Eigen::Vector3d::UnitX()};
+  Reading reading;
+};
+
+/// Ray of depth pixel (u, v) with raw count `raw` (0: no return): the pixel's direction
+/// ((u - cx)/fx, (v - cy)/fy, 1) normalised and rotated by R_WS; the depth raw * depth_scale_m is
+/// along the optical axis, so the range along the ray is that times |((u - cx)/fx, ...)|. The one
+/// definition IntegrateDepthImage applies.
+[[nodiscard]] SensorRay DepthPixelRay(const Pose3& X_WS, const Eigen::Matrix3d& R_WS,
+                                      const DepthIntrinsics& in, int u, int v, uint16_t raw,
+                                      double depth_scale_m, const SensorModel& model);
+/// Ray of planar-scan beam i: angle angle_min_rad + i * angle_step_rad about z of S, reading
+/// ranges_m[i] classified. The one definition IntegratePlanarScan applies.
+[[nodiscard]] SensorRay PlanarBeamRay(const Pose3& X_WS, const Eigen::Matrix3d& R_WS,
+                                      double angle_min_rad, double angle_step_rad, int i,
+                                      float range_m, const SensorModel& model);
+
 /// How a ScanIntegrator casts rays.
 struct ScanIntegratorOptions {
   /// Casts on a worker thread ahead of the updates (ScanIntegrator::SetWorkerThread).
