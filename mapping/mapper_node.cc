@@ -423,41 +423,80 @@ void MapperNode::Apply(const Pending& p, const Pose3& X_WB) {
   const int k = ray_stride_;
   ScanStats stats;
   ScanIntegrator* const integrator = integrator_.get();
+  AppliedScan applied;
+  applied.utime = p.utime;
+  applied.sensor = p.sensor;
+  applied.vehicle = p.vehicle;
+  applied.X_WS = X_WS;
+  applied.model = &model;
+  std::vector<uint16_t> sub_counts;
+  std::vector<float> sub_ranges;
   if (p.depth) {
     const depth_image_t& img = *p.depth;
     const uint16_t* depth = p.counts->data();
     // Every k-th pixel in both directions; pixel centres stay exact with scaled intrinsics.
-    DepthIntrinsics in{img.fx_px / k, img.fy_px / k, img.cx_px / k, img.cy_px / k};
-    if (k == 1) {
-      stats = integrator->IntegrateDepthImage(X_WS, in, depth, img.width, img.height,
-                                              img.depth_scale_m, model);
-    } else {
-      const int w = (img.width + k - 1) / k, h = (img.height + k - 1) / k;
-      std::vector<uint16_t> sub(static_cast<size_t>(w) * static_cast<size_t>(h));
+    const DepthIntrinsics in{img.fx_px / k, img.fy_px / k, img.cx_px / k, img.cy_px / k};
+    int w = img.width, h = img.height;
+    if (k > 1) {
+      w = (img.width + k - 1) / k, h = (img.height + k - 1) / k;
+      sub_counts.resize(static_cast<size_t>(w) * static_cast<size_t>(h));
       for (int v = 0; v < h; ++v) {
-        for (int u = 0; u < w; ++u) sub[v * w + u] = depth[(v * k) * img.width + u * k];
+        for (int u = 0; u < w; ++u) sub_counts[v * w + u] = depth[(v * k) * img.width + u * k];
       }
-      stats = integrator->IntegrateDepthImage(X_WS, in, sub.data(), w, h, img.depth_scale_m, model);
+      depth = sub_counts.data();
     }
+    stats = integrator->IntegrateDepthImage(X_WS, in, depth, w, h, img.depth_scale_m, model);
+    applied.depth_counts = depth;
+    applied.width = w;
+    applied.height = h;
+    applied.depth_scale_m = img.depth_scale_m;
+    applied.intrinsics = in;
   } else {
     const planar_scan_t& s = *p.scan;
-    if (k == 1) {
-      stats = integrator->IntegratePlanarScan(X_WS, s.angle_min_rad, s.angle_step_rad,
-                                              s.ranges_m.data(), s.num_ranges, model);
-    } else {
-      std::vector<float> sub;
-      for (int i = 0; i < s.num_ranges; i += k) sub.push_back(s.ranges_m[i]);
-      stats = integrator->IntegratePlanarScan(X_WS, s.angle_min_rad,
-                                              s.angle_step_rad * static_cast<float>(k), sub.data(),
-                                              static_cast<int>(sub.size()), model);
+    const float* ranges = s.ranges_m.data();
+    int n = s.num_ranges;
+    double step = s.angle_step_rad;
+    if (k > 1) {
+      for (int i = 0; i < s.num_ranges; i += k) sub_ranges.push_back(s.ranges_m[i]);
+      ranges = sub_ranges.data();
+      n = static_cast<int>(sub_ranges.size());
+      step = s.angle_step_rad * static_cast<float>(k);
     }
+    stats = integrator->IntegratePlanarScan(X_WS, s.angle_min_rad, step, ranges, n, model);
+    applied.ranges_m = ranges;
+    applied.num_ranges = n;
+    applied.angle_min_rad = s.angle_min_rad;
+    applied.angle_step_rad = step;
   }
+  if (scan_observer_) scan_observer_(applied);
   rays_total_ += stats.rays_applied;
   cells_total_ += stats.cells_updated;
   ++map_seq_;
   ++scans_applied_;
   newest_applied_utime_ = std::max(newest_applied_utime_, p.utime);
   Record(p);
+}
+
+std::vector<SensorRay> MapperNode::AppliedScan::Rays() const {
+  std::vector<SensorRay> rays;
+  const Eigen::Matrix3d R_WS = X_WS.q.normalized().toRotationMatrix();
+  if (depth_counts != nullptr) {
+    rays.reserve(static_cast<size_t>(width) * static_cast<size_t>(height));
+    for (int v = 0; v < height; ++v) {
+      for (int u = 0; u < width; ++u) {
+        rays.push_back(DepthPixelRay(X_WS, R_WS, intrinsics, u, v,
+                                     depth_counts[static_cast<size_t>(v) * width + u],
+                                     depth_scale_m, *model));
+      }
+    }
+  } else {
+    rays.reserve(static_cast<size_t>(num_ranges));
+    for (int i = 0; i < num_ranges; ++i) {
+      rays.push_back(
+          PlanarBeamRay(X_WS, R_WS, angle_min_rad, angle_step_rad, i, ranges_m[i], *model));
+    }
+  }
+  return rays;
 }
 
 namespace {
@@ -532,6 +571,11 @@ uint64_t MapperNode::map_hash() const {
 
 double MapperNode::ProbabilityAt(const CellIndex& cell) const {
   return std::visit([&](const auto& m) { return m->ProbabilityAt(cell); }, map_);
+}
+
+double MapperNode::PriorProbability() const {
+  return std::visit(
+      [](const auto& m) { return m->updater().ProbabilityOf(m->grid().initial_value()); }, map_);
 }
 
 const GridGeometry& MapperNode::geometry() const {

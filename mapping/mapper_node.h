@@ -29,6 +29,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -109,6 +110,33 @@ class MapperNode {
   };
   CatchUpResult EndCatchUp();
 
+  /// A scan as the map received it: the sensor's pose (the vehicle's pose at the scan's stamp
+  /// times the sensor's extrinsics) and its readings, exactly as applied (after any ray
+  /// decimation: every ray_stride-th pixel or beam, intrinsics and angle step scaled).
+  struct AppliedScan {
+    int64_t utime{0};
+    size_t sensor{0};   ///< index into config.sensors
+    size_t vehicle{0};  ///< index into config.vehicle_prefixes
+    Pose3 X_WS;
+    const SensorModel* model{nullptr};
+    // A depth image: width x height counts, row-major, and its intrinsics.
+    const uint16_t* depth_counts{nullptr};
+    int width{0}, height{0};
+    double depth_scale_m{0.0};
+    DepthIntrinsics intrinsics;
+    // A planar scan.
+    const float* ranges_m{nullptr};
+    int num_ranges{0};
+    double angle_min_rad{0.0}, angle_step_rad{0.0};
+    /// The scan's rays as the integrator casts them (mapping/scan_integrator.h).
+    [[nodiscard]] std::vector<SensorRay> Rays() const;
+  };
+  /// Called after each scan is applied to the map (benchmarks and calibration feed the same
+  /// scans to other consumers: tools/fidelity). Empty: none.
+  void SetScanObserver(std::function<void(const AppliedScan&)> observer) {
+    scan_observer_ = std::move(observer);
+  }
+
   [[nodiscard]] double entropy_nats() const;
   /// FNV-1a hash of the map cells (bit-exact comparisons).
   [[nodiscard]] uint64_t map_hash() const;
@@ -129,6 +157,8 @@ class MapperNode {
   [[nodiscard]] int64_t epoch() const { return epoch_; }
   /// Input channels on which a new publisher epoch appeared after another had been applied.
   [[nodiscard]] int64_t publisher_restarts() const { return publisher_restarts_; }
+  /// P of a cell no scan has touched (the prior: P_init for the exact model).
+  [[nodiscard]] double PriorProbability() const;
   /// Probability of a cell.
   [[nodiscard]] double ProbabilityAt(const CellIndex& cell) const;
   /// Saves the map to `path` (Kestrel map file, with the stream positions but no run id: a saved
@@ -185,6 +215,7 @@ class MapperNode {
 
   lcm::LCM& lcm_;
   MapperConfig config_;
+  std::function<void(const AppliedScan&)> scan_observer_;
   const Clock& clock_;
   int64_t epoch_;       // this publisher's epoch
   std::string run_id_;  // config_.run_id or a fresh one

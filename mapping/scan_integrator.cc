@@ -183,8 +183,8 @@ ScanStats ScanIntegrator::IntegrateDepthImage(const Pose3& X_WS, const DepthIntr
   const auto source = [&](int i, RaySpec* spec) {
     const int v = i / width;
     const int u = i - v * width;
-    const SensorRay ray = DepthPixelRay(X_WS, R_WS, in, u, v, depth[static_cast<size_t>(i)],
-                                        depth_scale_m, model);
+    const SensorRay ray =
+        DepthPixelRay(X_WS, R_WS, in, u, v, depth[static_cast<size_t>(i)], depth_scale_m, model);
     spec->segment.origin_W = ray.origin_W;
     spec->segment.direction_W = ray.direction_W;
     spec->reading = ray.reading;

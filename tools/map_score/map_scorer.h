@@ -25,6 +25,9 @@ class MapScorer {
   [[nodiscard]] MapQuality Score(const std::function<double(const CellIndex&)>& probability,
                                  double p_init) const;
   [[nodiscard]] const GridSpec& grid() const { return grid_; }
+  /// The truth (1: occupied) and the observable mask, per cell in the grid's linear order.
+  [[nodiscard]] const std::vector<uint8_t>& truth() const { return truth_; }
+  [[nodiscard]] const std::vector<uint8_t>& observable() const { return observable_; }
 
   /// Where the observable cells that are not known lie: counts per column bin of bin_m x bin_m
   /// (row-major from the grid's minimum corner, x fastest), per grid layer, and split into
