@@ -1,0 +1,129 @@
+// The fidelity benchmark and the calibration on a recorded run (tools/fidelity,
+// docs/algorithms.md §3.7, §12.3): a short kestrel-mission flight in the small room writes its
+// log; the calibration finds the simulator's noise and dropout, and the replay gives the flight's
+// own exact map bit for bit, OctoMap every scan the mapper applied, and the calibrated exact model
+// the best Brier score.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "tools/fidelity/calibrate.h"
+#include "tools/fidelity/fidelity.h"
+#include "tools/mission/mission.h"
+
+namespace kestrel {
+namespace {
+
+class RecordedRun : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("kestrel_fidelity_test_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir_);
+    MissionConfig mc;
+    mc.root = KESTREL_SOURCE_DIR;
+    mc.sim_file = "config/sim/sim_ci.yaml";
+    mc.world_file = "tests/system/worlds/small_room.yaml";
+    mc.max_time_s = 30;
+    mc.compute_quality = false;
+    mc.log_path = (dir_ / "run.lcmlog").string();
+    mission_ = new MissionResult(RunMission(mc));
+  }
+  static void TearDownTestSuite() {
+    delete mission_;
+    std::filesystem::remove_all(dir_);
+  }
+  static std::filesystem::path dir_;
+  static MissionResult* mission_;
+};
+std::filesystem::path RecordedRun::dir_;
+MissionResult* RecordedRun::mission_ = nullptr;
+
+TEST_F(RecordedRun, CalibratesAndReplaysIntoThreeMappers) {
+  // Calibration (docs/algorithms.md §3.7).
+  CalibrationRunConfig cc;
+  cc.root = KESTREL_SOURCE_DIR;
+  cc.log_path = (dir_ / "run.lcmlog").string();
+  cc.world_file = "tests/system/worlds/small_room.yaml";
+  cc.every = 2;
+  const auto cal = CalibrateFromLog(cc);
+  ASSERT_EQ(cal.size(), 2u);
+  const auto& xtion = cal[0];
+  const auto& hokuyo = cal[1];
+  EXPECT_EQ(xtion.name, "xtion");
+  EXPECT_EQ(hokuyo.name, "hokuyo");
+  // config/sim/sim_ci.yaml: a valid depth pixel reads 0 with probability 0.005 (the rest of p_miss
+  // is rays that pass through a cell the truth holds occupied); the simulator makes no spurious
+  // return, and the depth rays that leave the map over the walls (2 m walls, a 1.5 m map) are
+  // left out rather than counted as spurious.
+  EXPECT_GE(xtion.fit.p_miss, 0.005);
+  EXPECT_LT(xtion.fit.p_miss, 0.05);
+  EXPECT_LT(hokuyo.fit.p_miss, 0.02);
+  EXPECT_LT(xtion.fit.p_rand, 0.02);
+  EXPECT_LT(hokuyo.fit.p_rand, 0.02);
+  EXPECT_GT(xtion.rays_left_map, 0);
+  // Depth noise at 1-3 m is 1-6 mm, the LIDAR's 10-30 mm; where in its cell the surface lies
+  // (alpha^2 / 12: 22 mm) dominates sigma about d_k; the surface sigma is the sensor's and the
+  // pose's alone.
+  for (const auto* s : {&xtion, &hokuyo}) {
+    EXPECT_GT(s->fit.sigma_m, 0.018) << s->name;
+    EXPECT_LT(s->fit.sigma_m, 0.045) << s->name;
+    EXPECT_LT(s->fit.sigma_surface_m, s->fit.sigma_m) << s->name;
+  }
+  EXPECT_LT(xtion.fit.sigma_surface_m, 0.012);
+  EXPECT_GT(hokuyo.fit.sigma_surface_m, 0.008);
+  EXPECT_LT(hokuyo.fit.sigma_surface_m, 0.03);
+
+  // The replay (docs/algorithms.md §12.3): calibrated and shipped exact models, the log-odds
+  // baseline and OctoMap.
+  FidelityVariant calibrated{"exact_calibrated", {}};
+  for (size_t i = 0; i < cal.size(); ++i) {
+    const std::string key = "sensors." + std::to_string(i) + ".model.";
+    calibrated.mapper_overrides.push_back(key + "sigma_m=" + std::to_string(cal[i].fit.sigma_m));
+    calibrated.mapper_overrides.push_back(key + "p_rand=" + std::to_string(cal[i].fit.p_rand));
+    calibrated.mapper_overrides.push_back(key + "p_miss=" + std::to_string(cal[i].fit.p_miss));
+  }
+  FidelityConfig fc;
+  fc.root = KESTREL_SOURCE_DIR;
+  fc.log_path = (dir_ / "run.lcmlog").string();
+  fc.world_file = "tests/system/worlds/small_room.yaml";
+  fc.sample_period_s = 10.0;
+  fc.variants = {{"exact", {}}, calibrated, {"log_odds", {"model=log_odds"}}};
+  const FidelityResult r = RunFidelity(fc);
+  ASSERT_EQ(r.scores.size(), 4u);
+  const FidelityScore& exact = r.scores[0];
+  const FidelityScore& exact_calibrated = r.scores[1];
+  const FidelityScore& log_odds = r.scores[2];
+  const FidelityScore& octomap = r.scores[3];
+  // The shipped configuration's replay is the flight's own map, bit for bit.
+  EXPECT_EQ(exact.map_hash, mission_->map_hash);
+  EXPECT_EQ(exact.scans, mission_->scans_applied);
+  for (const FidelityScore& s : r.scores) EXPECT_EQ(s.scans, exact.scans) << s.label;
+  EXPECT_NEAR(exact.prior, 0.1, 1e-7);  // stored as a float
+  EXPECT_EQ(log_odds.prior, 0.5);
+  EXPECT_EQ(octomap.prior, 0.5);
+  // Every map learnt the room and agrees with the truth where it claims to know.
+  for (const FidelityScore& s : r.scores) {
+    EXPECT_GT(s.quality.known_fraction, 0.3) << s.label;
+    EXPECT_GT(s.quality.accuracy, 0.9) << s.label;
+    EXPECT_GT(s.entropy_start_bits, s.entropy_end_bits) << s.label;
+  }
+  // Calibrating pays, and the exact model is better calibrated than both peers.
+  EXPECT_LT(exact_calibrated.quality.brier, exact.quality.brier);
+  EXPECT_LT(exact_calibrated.common_brier, exact.common_brier);
+  for (const FidelityScore* peer : {&log_odds, &octomap}) {
+    EXPECT_LT(exact_calibrated.quality.brier, peer->quality.brier) << peer->label;
+    EXPECT_LT(exact_calibrated.common_brier, peer->common_brier) << peer->label;
+  }
+  EXPECT_GT(r.common_known_cells, 0u);
+  // The curve: one sample per map every 10 s of log and one at its end.
+  const size_t per_map = static_cast<size_t>(r.log_duration_s / 10.0) + 1;
+  EXPECT_EQ(r.curve.size(), 4 * per_map);
+  EXPECT_EQ(r.curve.back().label, "octomap");
+  EXPECT_DOUBLE_EQ(r.curve[r.curve.size() - 4].entropy_bits, exact.entropy_end_bits);
+}
+
+}  // namespace
+}  // namespace kestrel
