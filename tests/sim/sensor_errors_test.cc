@@ -12,7 +12,11 @@
 #include <gtest/gtest.h>
 
 #include "common/config.h"
+#include "kestrel/depth_image_t.hpp"
+#include "kestrel/planar_scan_t.hpp"
+#include "kestrel/pose_t.hpp"
 #include "sim/sensor_errors.h"
+#include "sim/sim_node.h"
 #include "sim/simulator.h"
 
 namespace kestrel {
@@ -339,6 +343,63 @@ TEST(SensorErrors, MocapStampCarriesTheResidualLatency) {
     }
   }
   EXPECT_GT(poses, 40);
+}
+
+// The stamp errors reach the messages: SimNode publishes the depth image, scan and pose with
+// the stamps of the simulator (fixed offsets here, no jitter).
+TEST(SensorErrors, PublishedStampsCarryTheOffsets) {
+  SimConfig c = WallConfig(3.0);
+  c.errors.depth_time_offset_s = 0.025;
+  c.errors.lidar_time_offset_s = -0.004;
+  c.errors.mocap_residual_latency_s = 0.006;
+  lcm::LCM lcm("memq://");
+  std::vector<int64_t> depth_stamps, scan_stamps, pose_stamps;
+  struct Handler {
+    std::vector<int64_t>* depth;
+    std::vector<int64_t>* scan;
+    std::vector<int64_t>* pose;
+    void Depth(const lcm::ReceiveBuffer*, const std::string&, const depth_image_t* m) {
+      depth->push_back(m->utime);
+    }
+    void Scan(const lcm::ReceiveBuffer*, const std::string&, const planar_scan_t* m) {
+      scan->push_back(m->utime);
+    }
+    void Pose(const lcm::ReceiveBuffer*, const std::string&, const pose_t* m) {
+      pose->push_back(m->utime);
+    }
+  } handler{&depth_stamps, &scan_stamps, &pose_stamps};
+  lcm.subscribe(c.depth_channel, &Handler::Depth, &handler);
+  lcm.subscribe(c.scan_channel, &Handler::Scan, &handler);
+  lcm.subscribe(c.pose_channel, &Handler::Pose, &handler);
+  SimClock clock(5'000'000);
+  SimNode node(lcm, c, clock);
+  std::vector<int64_t> depth_captures, scan_captures, pose_acquisitions;
+  for (int i = 0; i < 400; ++i) {
+    node.Step();
+    const Simulator& sim = node.simulator();
+    if (sim.frame(0).depth) depth_captures.push_back(sim.utime());
+    if (sim.frame(0).scan) scan_captures.push_back(sim.utime());
+    for (const MotionCaptureSample& s : sim.frame(0).poses) {
+      pose_acquisitions.push_back(s.acquisition_utime);
+    }
+    while (lcm.handleTimeout(0) > 0) {
+    }
+  }
+  ASSERT_EQ(depth_stamps.size(), depth_captures.size());
+  ASSERT_EQ(scan_stamps.size(), scan_captures.size());
+  ASSERT_EQ(pose_stamps.size(), pose_acquisitions.size());
+  ASSERT_GE(depth_stamps.size(), 10u);
+  ASSERT_GE(scan_stamps.size(), 3u);
+  ASSERT_GE(pose_stamps.size(), 30u);
+  for (size_t i = 0; i < depth_stamps.size(); ++i) {
+    EXPECT_EQ(depth_stamps[i] - depth_captures[i], 25000);
+  }
+  for (size_t i = 0; i < scan_stamps.size(); ++i) {
+    EXPECT_EQ(scan_stamps[i] - scan_captures[i], -4000);
+  }
+  for (size_t i = 0; i < pose_stamps.size(); ++i) {
+    EXPECT_EQ(pose_stamps[i] - pose_acquisitions[i], 6000);
+  }
 }
 
 // --------------------------------------------------------------------- disparity
