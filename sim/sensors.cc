@@ -59,6 +59,15 @@ void DepthCameraConfig::Validate() const {
                        "depth camera rate_hz = " << rate_hz << "; accepted: (0, 1000]");
   KESTREL_THROW_UNLESS(num_threads >= 1 && num_threads <= 64,
                        "depth camera num_threads = " << num_threads << "; accepted: [1, 64]");
+  KESTREL_THROW_UNLESS(
+      disparity_focal_px >= 0.0 && disparity_focal_px <= 10000.0,
+      "depth camera disparity_focal_px = " << disparity_focal_px << "; accepted: [0, 10000]");
+  KESTREL_THROW_UNLESS(
+      disparity_baseline_m > 0.0 && disparity_baseline_m <= 1.0,
+      "depth camera disparity_baseline_m = " << disparity_baseline_m << "; accepted: (0, 1]");
+  KESTREL_THROW_UNLESS(
+      disparity_steps_per_px >= 1 && disparity_steps_per_px <= 64,
+      "depth camera disparity_steps_per_px = " << disparity_steps_per_px << "; accepted: [1, 64]");
 }
 
 DepthCamera::DepthCamera(const DepthCameraConfig& config) : config_(config) {
@@ -105,6 +114,13 @@ void DepthCamera::RenderRows(const WorldRayCaster& caster, const Pose3& X_WS, in
         if (config_.noise) {
           dropped = rng.Bernoulli(config_.dropout_probability);
           measured = z + SigmaAt(z) * rng.Gaussian();
+        }
+        if (config_.disparity_focal_px > 0.0 && measured > 0.0) {
+          // Disparity quantisation (docs/design.md §7.13): the chip's disparity in 1/s px.
+          const double fb = config_.disparity_focal_px * config_.disparity_baseline_m;
+          const double s = config_.disparity_steps_per_px;
+          const double k = std::round(s * fb / measured);
+          measured = k > 0.0 ? fb / (k / s) : 0.0;  // zero disparity: no return
         }
         const double q = std::round(measured / config_.depth_scale_m);
         if (!dropped && q > 0.0) count = static_cast<uint16_t>(std::min(q, 65535.0));
@@ -180,6 +196,14 @@ void PlanarLidarConfig::Validate() const {
       "lidar dropout_probability = " << dropout_probability << "; accepted: [0, 1]");
   KESTREL_THROW_UNLESS(rate_hz > 0.0 && rate_hz <= 1000.0,
                        "lidar rate_hz = " << rate_hz << "; accepted: (0, 1000]");
+  KESTREL_THROW_UNLESS(
+      mixed_pixel_subrays <= 15,
+      "lidar mixed_pixel_subrays = " << mixed_pixel_subrays << "; accepted: <= 15 (< 2: off)");
+  KESTREL_THROW_UNLESS(
+      beam_divergence_rad >= 0.0 && beam_divergence_rad <= 0.1,
+      "lidar beam_divergence_rad = " << beam_divergence_rad << "; accepted: [0, 0.1]");
+  KESTREL_THROW_UNLESS(mixed_pixel_gap_m > 0.0 && std::isfinite(mixed_pixel_gap_m),
+                       "lidar mixed_pixel_gap_m = " << mixed_pixel_gap_m << "; accepted: (0, inf)");
 }
 
 PlanarLidar::PlanarLidar(const PlanarLidarConfig& config) : config_(config) {
@@ -188,15 +212,44 @@ PlanarLidar::PlanarLidar(const PlanarLidarConfig& config) : config_(config) {
     const double a = config_.angle_min_rad + i * config_.angle_step_rad;
     dir_S_.emplace_back(std::cos(a), std::sin(a), 0.0);
   }
+  if (config_.mixed_pixel_subrays >= 2) {
+    const int n = config_.mixed_pixel_subrays;
+    for (int j = 0; j < n; ++j) {
+      subray_offset_rad_.push_back((static_cast<double>(j) / (n - 1) - 0.5) *
+                                   config_.beam_divergence_rad);
+    }
+  }
+}
+
+double PlanarLidar::TrueRange(const WorldRayCaster& caster, const Pose3& X_WS, size_t i,
+                              int* hit) const {
+  const Eigen::Matrix3d R_WS = X_WS.rotation();
+  const double r = caster.CastRay(X_WS.p, R_WS * dir_S_[i], config_.range_max_m, hit, *hit);
+  if (subray_offset_rad_.empty()) return r;
+  // Mixed pixels (docs/design.md §7.13): the sub-rays across the footprint, equal weights.
+  const double a = config_.angle_min_rad + static_cast<double>(i) * config_.angle_step_rad;
+  double lo = kInf, hi = -kInf, sum = 0.0;
+  int returns = 0;
+  int sub_hit = WorldRayCaster::kNoHit;
+  for (const double da : subray_offset_rad_) {
+    const Eigen::Vector3d d_S(std::cos(a + da), std::sin(a + da), 0.0);
+    const double rj = caster.CastRay(X_WS.p, R_WS * d_S, config_.range_max_m, &sub_hit, sub_hit);
+    if (!std::isfinite(rj)) continue;
+    lo = std::min(lo, rj);
+    hi = std::max(hi, rj);
+    sum += rj;
+    ++returns;
+  }
+  if (returns >= 2 && hi - lo > config_.mixed_pixel_gap_m) return sum / returns;
+  return r;
 }
 
 void PlanarLidar::Scan(const WorldRayCaster& caster, const Pose3& X_WS, SimRandom* rng,
                        std::vector<float>* ranges_m) const {
-  const Eigen::Matrix3d R_WS = X_WS.rotation();
   ranges_m->assign(dir_S_.size(), 0.0f);
   int hit = WorldRayCaster::kNoHit;
   for (size_t i = 0; i < dir_S_.size(); ++i) {
-    const double r = caster.CastRay(X_WS.p, R_WS * dir_S_[i], config_.range_max_m, &hit, hit);
+    const double r = TrueRange(caster, X_WS, i, &hit);
     float out = 0.0f;  // no return
     if (std::isfinite(r)) {
       if (r < config_.range_min_m) {
@@ -253,6 +306,7 @@ MotionCaptureSample MotionCapture::Measure(int64_t utime, const Pose3& X_WB, Sim
   in_dropout_ = in_dropout_ ? !(u < p_exit) : (u < p_enter);
   MotionCaptureSample s;
   s.utime = utime;
+  s.acquisition_utime = utime;
   s.deliver_utime = utime + SecondsToUtime(config_.latency_s);
   s.valid = !in_dropout_;
   const Eigen::Vector3d dp(rng->Gaussian(), rng->Gaussian(), rng->Gaussian());

@@ -36,6 +36,13 @@ struct DepthCameraConfig {
   double rate_hz{30.0};               ///< frame rate, Hz, > 0
   bool noise{true};                   ///< false: exact depth, quantised, no dropouts
   int num_threads{2};                 ///< threads over rows (results independent of it), >= 1
+  /// Disparity quantisation (docs/design.md §7.13), off when disparity_focal_px is 0: the
+  /// measured depth z (after the noise) becomes z_q = f b / (round(s f b / z) / s), f the native
+  /// focal length (whatever width_px), b the baseline, s the disparity steps per pixel; then the
+  /// count rounding as before. Set by the simulator from SensorErrorsConfig.
+  double disparity_focal_px{0.0};      ///< f, px; 0: no disparity quantisation
+  double disparity_baseline_m{0.075};  ///< b, m, > 0
+  int disparity_steps_per_px{8};       ///< s, [1, 64]
 
   /// VGA 640x480, QVGA 320x240, or 80x60 with the Xtion's other defaults.
   [[nodiscard]] static DepthCameraConfig WithResolution(int width_px, int height_px);
@@ -107,6 +114,14 @@ struct PlanarLidarConfig {
   double dropout_probability{0.0};  ///< chance a beam reads NaN (no information), [0, 1]
   double rate_hz{10.0};             ///< scans per second, Hz
   bool noise{true};                 ///< false: exact ranges (quantised), no dropouts
+  /// Mixed pixels (docs/design.md §7.13), off when mixed_pixel_subrays < 2: each beam casts that
+  /// many sub-rays evenly across +-beam_divergence_rad/2 in the scan plane; if the returning
+  /// sub-rays' ranges spread by more than mixed_pixel_gap_m, the beam's true range is their mean
+  /// (an AMCW sensor averages the phases of foreground and background); otherwise the central
+  /// ray's. Set by the simulator from SensorErrorsConfig.
+  int mixed_pixel_subrays{0};         ///< sub-rays per beam; < 2: off
+  double beam_divergence_rad{0.006};  ///< full footprint angle in the scan plane, rad, >= 0
+  double mixed_pixel_gap_m{0.05};     ///< range spread that mixes, m, > 0
 
   /// Hokuyo URG-04LX: 682 beams at 360/1024 deg (240 deg), 0.02-5.6 m, 10 Hz, sigma 10 mm
   /// below 1 m and 1 % of range beyond (datasheet: +-30 mm, +-3 % as 3 sigma).
@@ -125,6 +140,9 @@ class PlanarLidar {
  public:
   /// @throws std::invalid_argument if config.Validate() throws.
   explicit PlanarLidar(const PlanarLidarConfig& config);
+  /// The true range of beam i (+infinity: nothing within range_max), mixed pixels included.
+  [[nodiscard]] double TrueRange(const WorldRayCaster& caster, const Pose3& X_WS, size_t i,
+                                 int* hit) const;
   /// One scan from sensor pose X_WS.
   void Scan(const WorldRayCaster& caster, const Pose3& X_WS, SimRandom* rng,
             std::vector<float>* ranges_m) const;
@@ -138,6 +156,7 @@ class PlanarLidar {
  private:
   PlanarLidarConfig config_;
   std::vector<Eigen::Vector3d> dir_S_;
+  std::vector<double> subray_offset_rad_;  // mixed pixels: sub-ray angles about the beam's
 };
 
 /// Motion-capture parameters.
@@ -154,10 +173,13 @@ struct MotionCaptureConfig {
 
 /// One motion-capture sample: stamped at acquisition, delivered `latency` later.
 struct MotionCaptureSample {
-  int64_t utime{0};          ///< acquisition time, us (the bridge removes the latency)
-  int64_t deliver_utime{0};  ///< when it is published, us
-  Pose3 X_WB;                ///< measured body pose (meaningless when !valid)
-  bool valid{false};         ///< false during a dropout (object lost)
+  /// Stamp, us: the acquisition time (the bridge removes the latency) plus the simulator's
+  /// residual latency error (docs/design.md §7.13; 0 in the clean profile).
+  int64_t utime{0};
+  int64_t acquisition_utime{0};  ///< when the pose was acquired, us
+  int64_t deliver_utime{0};      ///< when it is published, us
+  Pose3 X_WB;                    ///< measured body pose (meaningless when !valid)
+  bool valid{false};             ///< false during a dropout (object lost)
 };
 
 /// Motion capture with Gaussian pose noise, fixed latency and bursty dropouts (a two-state

@@ -9,6 +9,13 @@
 namespace kestrel {
 namespace {
 
+// A sensor stamp's error, us: offset + jitter N(0, 1) (docs/design.md §7.13). Draws one
+// Gaussian per frame whatever the values, so a stream's draws do not depend on them.
+int64_t StampError(double offset_s, double jitter_s, SimRandom* rng) {
+  const double n = rng->Gaussian();
+  return SecondsToUtime(offset_s + jitter_s * n);
+}
+
 std::string Resolve(const std::string& base_dir, const std::string& path) {
   if (path.empty() || path[0] == '/' || base_dir.empty()) return path;
   return base_dir + "/" + path;
@@ -122,6 +129,7 @@ void SimConfig::Validate() const {
   lidar.Validate();
   mocap.Validate();
   imu.Validate();
+  errors.Validate();
 }
 
 SimConfig LoadSimConfig(const ConfigNode& root, const std::string& base_dir) {
@@ -141,6 +149,11 @@ SimConfig LoadSimConfig(const ConfigNode& root, const std::string& base_dir) {
   root.Read("ray_bin_m", &c.ray_bin_m, Range::Positive());
   root.Read("truth_rate_hz", &c.truth_rate_hz, Range{0, 1000, false, true});
   root.Read("sensor_device_prefix", &c.sensor_device_prefix);
+  // The profile first, then the overrides of the `errors:` section (docs/design.md §7.13).
+  std::string error_profile = c.errors.profile;
+  root.Read("error_profile", &error_profile, std::vector<std::string>{"clean", "realistic"});
+  c.errors = SensorErrorsConfig::Profile(error_profile);
+  if (root.Has("errors")) ReadSensorErrors(root.Child("errors"), &c.errors);
   if (root.Has("quadrotor")) {
     const ConfigNode q = root.Child("quadrotor");
     q.Read("max_substep_s", &c.quadrotor.max_substep_s, Range{0, 0.01, false, true});
@@ -218,7 +231,44 @@ Simulator::Vehicle::Vehicle(const SimConfig& config, size_t index)
       lidar_rng(MixSeed(static_cast<uint64_t>(config.seed) * 8 + 2 + (uint64_t{index} << 40))),
       mocap_rng(MixSeed(static_cast<uint64_t>(config.seed) * 8 + 3 + (uint64_t{index} << 40))),
       imu_rng(MixSeed(static_cast<uint64_t>(config.seed) * 8 + 4 + (uint64_t{index} << 40))),
-      imu(config.imu, &imu_rng) {}
+      // Error streams 5, 6, 7: residues of seed * 8 that the noise streams do not use.
+      extrinsic_rng(MixSeed(static_cast<uint64_t>(config.seed) * 8 + 5 + (uint64_t{index} << 40))),
+      depth_stamp_rng(
+          MixSeed(static_cast<uint64_t>(config.seed) * 8 + 6 + (uint64_t{index} << 40))),
+      lidar_stamp_rng(
+          MixSeed(static_cast<uint64_t>(config.seed) * 8 + 7 + (uint64_t{index} << 40))),
+      imu(config.imu, &imu_rng) {
+  // Extrinsic calibration error, drawn once per run and vehicle (docs/design.md §7.13).
+  const SensorErrorsConfig& e = config.errors;
+  const Pose3 X_err_depth =
+      DrawExtrinsicError(e.depth_extrinsic_error_m, e.depth_extrinsic_error_rad,
+                         e.depth_extrinsic_sigma_m, e.depth_extrinsic_sigma_rad, &extrinsic_rng);
+  const Pose3 X_err_lidar =
+      DrawExtrinsicError(e.lidar_extrinsic_error_m, e.lidar_extrinsic_error_rad,
+                         e.lidar_extrinsic_sigma_m, e.lidar_extrinsic_sigma_rad, &extrinsic_rng);
+  X_BS_depth = PerturbedMount(config.vehicle.X_BS_xtion, X_err_depth);
+  X_BS_lidar = PerturbedMount(config.vehicle.X_BS_hokuyo, X_err_lidar);
+}
+
+DepthCameraConfig Simulator::CameraConfigOf(const SimConfig& config) {
+  DepthCameraConfig c = config.depth;
+  if (config.errors.depth_disparity_quantisation) {
+    c.disparity_focal_px = config.errors.depth_native_focal_px;
+    c.disparity_baseline_m = config.errors.depth_baseline_m;
+    c.disparity_steps_per_px = config.errors.depth_disparity_steps_per_px;
+  }
+  return c;
+}
+
+PlanarLidarConfig Simulator::LidarConfigOf(const SimConfig& config) {
+  PlanarLidarConfig c = config.lidar;
+  if (config.errors.lidar_mixed_pixels) {
+    c.mixed_pixel_subrays = config.errors.lidar_mixed_pixel_subrays;
+    c.beam_divergence_rad = config.errors.lidar_beam_divergence_rad;
+    c.mixed_pixel_gap_m = config.errors.lidar_mixed_pixel_gap_m;
+  }
+  return c;
+}
 
 Simulator::Simulator(const SimConfig& config, int64_t start_utime)
     : config_((config.Validate(), config)),
@@ -227,8 +277,8 @@ Simulator::Simulator(const SimConfig& config, int64_t start_utime)
       step_us_(SecondsToUtime(config.physics_step_s)),
       caster_(config_.world, config_.ray_bin_m),
       bullet_(config_.world, 0.5 * config_.vehicle.diameter_m, config_.vehicle_height_m),
-      camera_(config_.depth),
-      lidar_(config_.lidar) {
+      camera_(CameraConfigOf(config_)),
+      lidar_(LidarConfigOf(config_)) {
   KESTREL_THROW_UNLESS(step_us_ >= 1, "physics step " << config_.physics_step_s << " s");
   const size_t n = config_.vehicles.size();
   for (size_t k = 0; k < n; ++k) {
@@ -311,6 +361,8 @@ void Simulator::StepVehicle(Vehicle* v, bool imu_due, bool mocap_due, bool depth
   if (mocap_due) {
     // The sample is drawn in any case, so the noise streams are those of a run without outage.
     MotionCaptureSample sample = v->mocap.Measure(utime_, X_WB, &v->mocap_rng);
+    // Latency the bridge does not remove (docs/design.md §7.13).
+    sample.utime += SecondsToUtime(config_.errors.mocap_residual_latency_s);
     if (InMocapOutage(utime_)) sample.valid = false;
     v->mocap_queue.push_back(sample);
   }
@@ -319,13 +371,16 @@ void Simulator::StepVehicle(Vehicle* v, bool imu_due, bool mocap_due, bool depth
     v->mocap_queue.pop_front();
   }
   if (depth_due) {
-    camera_.Render(caster_, X_WB * config_.vehicle.X_BS_xtion, &v->depth_rng, &v->depth_counts);
-    v->depth_utime = utime_;
+    // The true mount and the stamp error (docs/design.md §7.13).
+    camera_.Render(caster_, X_WB * v->X_BS_depth, &v->depth_rng, &v->depth_counts);
+    v->depth_utime = utime_ + StampError(config_.errors.depth_time_offset_s,
+                                         config_.errors.depth_time_jitter_s, &v->depth_stamp_rng);
     v->frame.depth = true;
   }
   if (scan_due) {
-    lidar_.Scan(caster_, X_WB * config_.vehicle.X_BS_hokuyo, &v->lidar_rng, &v->scan_ranges);
-    v->scan_utime = utime_;
+    lidar_.Scan(caster_, X_WB * v->X_BS_lidar, &v->lidar_rng, &v->scan_ranges);
+    v->scan_utime = utime_ + StampError(config_.errors.lidar_time_offset_s,
+                                        config_.errors.lidar_time_jitter_s, &v->lidar_stamp_rng);
     v->frame.scan = true;
   }
 }

@@ -21,6 +21,7 @@
 #include "common/vehicle_config.h"
 #include "sim/bullet_world.h"
 #include "sim/quadrotor.h"
+#include "sim/sensor_errors.h"
 #include "sim/sensors.h"
 #include "sim/world.h"
 #include "sim/world_ray_caster.h"
@@ -63,9 +64,12 @@ struct SimConfig {
   /// [outage_at_s, outage_at_s + outage_s) of simulated time after the start go out invalid, as
   /// the Vicon bridge publishes a lost body. outage_at_s < 0: none.
   double mocap_outage_at_s{-1.0};
-  double mocap_outage_s{1.0};                      ///< length of that loss, s, >= 0
-  bool imu_enabled{true};                          ///< simulate the IMU
-  ImuConfig imu;                                   ///< IMU model
+  double mocap_outage_s{1.0};  ///< length of that loss, s, >= 0
+  bool imu_enabled{true};      ///< simulate the IMU
+  ImuConfig imu;               ///< IMU model
+  /// Error sources beyond the sensor noise (docs/design.md §7.13): the profile named by
+  /// error_profile (clean: none, the default), then the overrides of the `errors:` section.
+  SensorErrorsConfig errors;
   double truth_rate_hz{100.0};                     ///< SIM_TRUTH rate, Hz, (0, 1000]
   std::string pose_channel{"POSE_VICON"};          ///< motion capture out
   std::string imu_channel{"IMU"};                  ///< IMU out
@@ -101,8 +105,9 @@ struct SimConfig {
 /// `base_dir`, e.g. the repository root); absent keys keep their defaults; unknown keys are
 /// errors. Sections: quadrotor, depth (resolution "vga" | "qvga" | "80x60" then overrides),
 /// lidar (model "urg-04lx" | "utm-30lx" then overrides), mocap (outage_at_s and outage_s: the
-/// scheduled loss), imu, channels, vehicles (a list of {prefix, start_offset_m});
-/// sensor_device_prefix at the top level.
+/// scheduled loss), imu, channels, vehicles (a list of {prefix, start_offset_m}), errors (the
+/// overrides of the profile error_profile: clean | realistic, docs/design.md §7.13);
+/// sensor_device_prefix and error_profile at the top level.
 /// @throws ConfigError naming the file, key, value and accepted range.
 [[nodiscard]] SimConfig LoadSimConfig(const ConfigNode& root, const std::string& base_dir);
 
@@ -161,18 +166,27 @@ class Simulator {
   }
   /// The exact ray caster over the world.
   [[nodiscard]] const WorldRayCaster& caster() const { return caster_; }
+  /// Vehicle k's true depth camera and LIDAR mounts X_BS: the vehicle file's composed with the
+  /// run's extrinsic calibration error (docs/design.md §7.13); the vehicle file's when clean.
+  [[nodiscard]] const Pose3& true_X_BS_depth(size_t k = 0) const {
+    return vehicles_.at(k)->X_BS_depth;
+  }
+  [[nodiscard]] const Pose3& true_X_BS_lidar(size_t k = 0) const {
+    return vehicles_.at(k)->X_BS_lidar;
+  }
   /// The depth camera model (intrinsics).
   [[nodiscard]] const DepthCamera& camera() const { return camera_; }
   /// The LIDAR model.
   [[nodiscard]] const PlanarLidar& lidar() const { return lidar_; }
-  /// Vehicle k's latest depth frame (counts, row-major, 0 = no return) and its time.
+  /// Vehicle k's latest depth frame (counts, row-major, 0 = no return) and its stamp (the
+  /// capture time plus the stamp error of docs/design.md §7.13).
   [[nodiscard]] const std::vector<uint16_t>& depth_counts(size_t k = 0) const {
     return vehicles_.at(k)->depth_counts;
   }
   [[nodiscard]] int64_t depth_utime(size_t k = 0) const {  ///< us
     return vehicles_.at(k)->depth_utime;
   }
-  /// Vehicle k's latest scan (ranges as in planar_scan_t) and its time.
+  /// Vehicle k's latest scan (ranges as in planar_scan_t) and its stamp (as the depth's).
   [[nodiscard]] const std::vector<float>& scan_ranges(size_t k = 0) const {
     return vehicles_.at(k)->scan_ranges;
   }
@@ -187,7 +201,10 @@ class Simulator {
     std::unique_ptr<Quadrotor> quad;
     MotionCapture mocap;
     SimRandom depth_rng, lidar_rng, mocap_rng, imu_rng;
+    // Error streams (docs/design.md §7.13), apart from the noise streams above.
+    SimRandom extrinsic_rng, depth_stamp_rng, lidar_stamp_rng;
     Imu imu;
+    Pose3 X_BS_depth, X_BS_lidar;  // true mounts
     Eigen::Vector4d command_N{Eigen::Vector4d::Zero()};
     int64_t command_utime{0};
     bool have_command{false};
@@ -203,6 +220,9 @@ class Simulator {
     SimFrame frame;
   };
 
+  // The camera and LIDAR models with the error sources of config.errors.
+  [[nodiscard]] static DepthCameraConfig CameraConfigOf(const SimConfig& config);
+  [[nodiscard]] static PlanarLidarConfig LidarConfigOf(const SimConfig& config);
   // Whether a pose acquired at utime falls in the scheduled motion-capture outage.
   [[nodiscard]] bool InMocapOutage(int64_t utime) const;
   // Time of the k-th sample of a stream at rate_hz (no drift: rounded from the exact time).
