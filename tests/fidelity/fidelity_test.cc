@@ -56,7 +56,7 @@ TEST_F(RecordedRun, CalibratesAndReplaysIntoThreeMappers) {
   EXPECT_EQ(hokuyo.name, "hokuyo");
   // config/sim/sim_ci.yaml: a valid depth pixel reads 0 with probability 0.005 (the rest of p_miss
   // is rays that pass through a cell the truth holds occupied); the simulator makes no spurious
-  // return, and the depth rays that leave the map over the walls (2 m walls, a 1.5 m map) are
+  // return, and the depth returns from the walls above the map (2 m walls, a 1.5 m map) are
   // left out rather than counted as spurious.
   EXPECT_GE(xtion.fit.p_miss, 0.005);
   EXPECT_LT(xtion.fit.p_miss, 0.05);
@@ -109,6 +109,12 @@ TEST_F(RecordedRun, CalibratesAndReplaysIntoThreeMappers) {
     EXPECT_GT(s.quality.known_fraction, 0.3) << s.label;
     EXPECT_GT(s.quality.accuracy, 0.9) << s.label;
     EXPECT_GT(s.entropy_start_bits, s.entropy_end_bits) << s.label;
+    // The wrong known cells are the accuracy's complement.
+    EXPECT_NEAR(1.0 - static_cast<double>(s.false_free + s.false_occupied) /
+                          static_cast<double>(s.quality.known_cells),
+                s.quality.accuracy, 1e-12)
+        << s.label;
+    EXPECT_LE(s.false_occupied_at_surface, s.false_occupied) << s.label;
   }
   // Calibrating pays, and the exact model is better calibrated than both peers.
   EXPECT_LT(exact_calibrated.quality.brier, exact.quality.brier);

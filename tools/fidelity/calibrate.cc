@@ -50,13 +50,14 @@ std::vector<SensorCalibrationResult> CalibrateFromLog(const CalibrationRunConfig
           break;
         }
       }
-      // A ray that leaves the map before any occupied cell says nothing the map can hold about
-      // the sensor (a wall above the map's top): left out.
-      if (!std::isfinite(d_k) && walk.left_bounds) {
+      // A return from a surface outside the map (a wall above the map's top) says nothing the
+      // map can hold about the sensor: left out. A ray leaving the map without a return is an
+      // empty ray to the model, and stays.
+      const bool returned = ray.reading.kind == ReadingKind::kReturn;
+      if (returned && !std::isfinite(d_k) && walk.left_bounds) {
         ++left_map[scan.sensor];
         continue;
       }
-      const bool returned = ray.reading.kind == ReadingKind::kReturn;
       cal.Add(d, d_k, returned, returned ? ray.reading.z_m : 0.0);
     }
   });

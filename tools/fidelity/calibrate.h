@@ -27,7 +27,7 @@ struct SensorCalibrationResult {
   double z_min_m{0.0}, z_max_m{0.0};
   double configured_sigma_m{0.0}, configured_p_rand{0.0}, configured_p_miss{0.0};
   SensorCalibration fit;
-  int64_t rays_left_map{0};  ///< rays that left the map before any occupied cell (not fitted)
+  int64_t rays_left_map{0};  ///< returns from outside the map (not fitted)
 };
 
 /// @throws ConfigError, std::runtime_error (unreadable log; a sensor without returns to fit).

@@ -139,6 +139,35 @@ FidelityResult RunFidelity(const FidelityConfig& config) {
         ComputeMapQuality(finals[i], scorer.truth(), common, priors[i]);
     s.common_accuracy = common_quality.accuracy;
     s.common_brier = common_quality.brier;
+    const std::vector<uint8_t>& truth = scorer.truth();
+    const std::vector<uint8_t>& observable = scorer.observable();
+    for (int z = 0; z < grid.dims.z(); ++z) {
+      for (int y = 0; y < grid.dims.y(); ++y) {
+        for (int x = 0; x < grid.dims.x(); ++x) {
+          const Eigen::Vector3i c(x, y, z);
+          const size_t k = grid.IndexOf(c);
+          if (observable[k] == 0) continue;
+          const double p = finals[i][k];
+          if (truth[k] != 0 && p < 0.5 * priors[i]) ++s.false_free;
+          if (truth[k] != 0 || p <= 0.5) continue;
+          ++s.false_occupied;
+          for (int a = 0; a < 3; ++a) {
+            bool at_surface = false;
+            for (int step : {-1, 1}) {
+              Eigen::Vector3i neighbour = c;
+              neighbour[a] += step;
+              if (neighbour[a] >= 0 && neighbour[a] < grid.dims[a] &&
+                  truth[grid.IndexOf(neighbour)] != 0)
+                at_surface = true;
+            }
+            if (at_surface) {
+              ++s.false_occupied_at_surface;
+              break;
+            }
+          }
+        }
+      }
+    }
     s.entropy_start_bits = entropy_start[i];
     s.entropy_end_bits = EntropyBits(finals[i], scorer.observable());
     s.scans = i < replay.size() ? replay.mapper(i).scans_applied() : octomap->scans();

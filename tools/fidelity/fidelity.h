@@ -47,6 +47,12 @@ struct FidelityScore {
   double entropy_end_bits{0.0};    ///< and after the last
   int64_t scans{0};                ///< scans applied
   uint64_t map_hash{0};            ///< MapperNode::map_hash (0 for OctoMap)
+  /// Where the known cells are wrong (observable cells): truth occupied but known free, truth
+  /// free but known occupied, and of those the ones with a truth-occupied face neighbour (a
+  /// surface drawn a cell too thick), the rest lying farther out.
+  size_t false_free{0};
+  size_t false_occupied{0};
+  size_t false_occupied_at_surface{0};
   /// (entropy_start - entropy_end) / scans: the mean information a scan added, bits.
   double entropy_drop_per_scan_bits{0.0};
 };

@@ -66,20 +66,23 @@ int main(int argc, char** argv) {
         const kestrel::FidelityResult r = kestrel::RunFidelity(fc);
         std::printf("%s: %.1f s of log, %zu cells known in every map\n", fc.log_path.c_str(),
                     r.log_duration_s, r.common_known_cells);
-        std::printf("%-14s %7s %8s %7s %7s | %8s %7s | %9s %7s\n", "map", "known", "accuracy",
-                    "Brier", "AUC", "c.acc", "c.Brier", "dH/scan", "scans");
+        std::printf("%-16s %7s %8s %7s %7s | %8s %7s | %9s %7s | %8s %8s %8s\n", "map", "known",
+                    "accuracy", "Brier", "AUC", "c.acc", "c.Brier", "dH/scan", "scans", "fl.free",
+                    "fl.occ", "at surf");
         std::ofstream csv;
         if (!csv_path.empty()) {
           csv.open(csv_path);
           csv << "map,prior,observable,known_fraction,accuracy,brier,roc_auc,common_cells,"
                  "common_accuracy,common_brier,entropy_start_bits,entropy_end_bits,scans,"
-                 "entropy_drop_per_scan_bits\n";
+                 "entropy_drop_per_scan_bits,false_free,false_occupied,false_occupied_at_surface\n";
         }
         for (const auto& s : r.scores) {
-          std::printf("%-14s %7.4f %8.4f %7.4f %7.4f | %8.4f %7.4f | %9.2f %7lld\n",
-                      s.label.c_str(), s.quality.known_fraction, s.quality.accuracy,
-                      s.quality.brier, s.quality.roc_auc, s.common_accuracy, s.common_brier,
-                      s.entropy_drop_per_scan_bits, static_cast<long long>(s.scans));
+          std::printf(
+              "%-16s %7.4f %8.4f %7.4f %7.4f | %8.4f %7.4f | %9.2f %7lld | %8zu %8zu %8zu\n",
+              s.label.c_str(), s.quality.known_fraction, s.quality.accuracy, s.quality.brier,
+              s.quality.roc_auc, s.common_accuracy, s.common_brier, s.entropy_drop_per_scan_bits,
+              static_cast<long long>(s.scans), s.false_free, s.false_occupied,
+              s.false_occupied_at_surface);
           if (csv.is_open()) {
             csv << s.label << ',' << s.prior << ',' << s.quality.observable_cells << ','
                 << s.quality.known_fraction << ',' << s.quality.accuracy << ',' << s.quality.brier
