@@ -32,7 +32,8 @@ string(CONCAT CPACK_COMPONENT_VEHICLE_DESCRIPTION
 set(CPACK_COMPONENT_HOST_DISPLAY_NAME "Kestrel on the host")
 string(CONCAT CPACK_COMPONENT_HOST_DESCRIPTION
     "Kestrel on the host: mapper, explorer, simulator, live viewer, report, the tools\n"
-    "(kestrel-cmd, kestrel-flight-check, kestrel-map-score, kestrel-mission), the host and\n"
+    "(kestrel-cmd, kestrel-flight-check, kestrel-map-score, kestrel-mission, kestrel-fidelity,\n"
+    "kestrel-calibrate), the host and\n"
     "simulation sheets with their configuration (/usr/share/kestrel), and the development files:\n"
     "static libraries, headers, the CMake package (find_package(Kestrel), kestrel:: targets),\n"
     "the Python message types and the lcm-spy types jar.")

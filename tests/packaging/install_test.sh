@@ -15,6 +15,7 @@ need() {  # path under the prefix that must exist
 }
 for p in kestrel-procman kestrel-controller kestrel-mapper kestrel-explorer kestrel-sim \
          kestrel-sim-standin kestrel-cmd kestrel-flight-check kestrel-map-score kestrel-mission \
+         kestrel-fidelity kestrel-calibrate \
          kestrel-imu kestrel-imu-emulator kestrel-motors kestrel-esc-emulator; do
   [[ -x "$prefix/bin/$p" ]] || { echo "FAIL: bin/$p is not an installed executable"; failures=$((failures + 1)); }
 done

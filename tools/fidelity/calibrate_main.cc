@@ -30,7 +30,7 @@ int main(int argc, char** argv) {
       [&](CLI::App& app) {
         app.add_option("--log", cc.log_path)->required();
         app.add_option("--world", cc.world_file)->required();
-        app.add_option("--every", cc.every)->check(CLI::PositiveNumber);
+        app.add_option("--every", cc.every)->check(kestrel::cli::Positive());
         app.add_option("--out", out_path);
       },
       [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
