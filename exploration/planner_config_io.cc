@@ -67,6 +67,9 @@ PlannerConfig LoadPlannerConfig(const ConfigNode& node) {
     p.Read("floor_height_m", &q.floor_height_m);
     p.Read("ceiling_height_m", &q.ceiling_height_m);
     p.Read("p_min_entropy", &q.p_min_entropy, Range::Open(0.0, 0.5));
+    // One value for the map's clamp: the volumetric gain reads a cell at it as certain, as E's
+    // floor (eq. 15) does (docs/exploration.md, "Volumetric gain").
+    c.volumetric.gain.certain_probability = q.p_min_entropy;
     p.Read("p_thresh", &q.p_thresh, Range::Open(0.0, 1.0));
     p.Read("p_init", &q.p_init, Range::Open(0.0, 1.0));
   }

@@ -97,5 +97,15 @@ TEST(PlannerConfigIo, ErrorsNameKey) {
   EXPECT_EQ(c.trajectory.vehicle_radius_m, 0.25);
 }
 
+TEST(PlannerConfigIo, TheMapsClampIsOneValueForEAndTheVolumetricGain) {
+  EXPECT_EQ(LoadPlannerConfig(ConfigNode::FromString("mode: volumetric\n", "test.yaml"))
+                .volumetric.gain.certain_probability,
+            1e-4);
+  const PlannerConfig c = LoadPlannerConfig(
+      ConfigNode::FromString("projection:\n  p_min_entropy: 0.03\n", "test.yaml"));
+  EXPECT_EQ(c.projection.p_min_entropy, 0.03);
+  EXPECT_EQ(c.volumetric.gain.certain_probability, 0.03);
+}
+
 }  // namespace
 }  // namespace kestrel
