@@ -8,6 +8,7 @@
 #include "sim/ground_truth.h"
 #include "sim/world_ray_caster.h"
 #include "tools/fidelity/log_replay.h"
+#include "tools/map_score/map_scorer.h"
 
 namespace kestrel {
 
@@ -22,8 +23,7 @@ std::vector<SensorCalibrationResult> CalibrateFromLog(const CalibrationRunConfig
   // The world voxelised on the mapper's lattice: the model's first occupied cell of a ray is the
   // first cell of the mapper's own traversal (mapping/ray_caster.h) that the truth holds occupied.
   const GridGeometry& geometry = mapper.geometry();
-  const GridSpec grid{geometry.origin_m(), geometry.resolution_m(),
-                      Eigen::Vector3i(geometry.upper().x, geometry.upper().y, geometry.upper().z)};
+  const GridSpec grid = GridSpecOf(geometry);
   const std::vector<uint8_t> truth = VoxelizeWorld(world, grid);
   const RayCaster ray_caster(geometry);
   std::vector<SensorCalibrator> calibrators;

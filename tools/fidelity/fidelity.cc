@@ -54,8 +54,7 @@ FidelityResult RunFidelity(const FidelityConfig& config) {
   }
   if (replay.size() == 0) throw std::runtime_error("RunFidelity: no Kestrel mapper to compare");
   const GridGeometry& geometry = replay.mapper(0).geometry();
-  const GridSpec grid{geometry.origin_m(), geometry.resolution_m(),
-                      Eigen::Vector3i(geometry.upper().x, geometry.upper().y, geometry.upper().z)};
+  const GridSpec grid = GridSpecOf(geometry);
   const WorldRayCaster caster(world);
   const MapScorer scorer(world, caster, grid, config.scoring_range_m, config.scoring_vfov_rad);
 

@@ -15,6 +15,12 @@
 
 namespace kestrel {
 
+/// The scorer's grid for a fixed map's lattice (its lower corner, edge and cell counts).
+[[nodiscard]] inline GridSpec GridSpecOf(const GridGeometry& geometry) {
+  return GridSpec{geometry.origin_m(), geometry.resolution_m(),
+                  Eigen::Vector3i(geometry.upper().x, geometry.upper().y, geometry.upper().z)};
+}
+
 class MapScorer {
  public:
   /// Ground truth of `world` on `grid`; rays of the sweep reach max_range_m within +-vfov/2.

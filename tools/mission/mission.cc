@@ -371,8 +371,7 @@ MissionResult RunMission(const MissionConfig& mc) {
 
   // --- Ground truth for map quality (section 10), on the mapper's lattice.
   const GridGeometry& geometry = mapper.geometry();
-  const GridSpec grid{geometry.origin_m(), geometry.resolution_m(),
-                      Eigen::Vector3i(geometry.upper().x, geometry.upper().y, geometry.upper().z)};
+  const GridSpec grid = GridSpecOf(geometry);
   std::optional<MapScorer> scorer;
   if (mc.compute_quality) {
     scorer.emplace(world, sim.simulator().caster(), grid, mapper_config.sensors[0].model.z_max_m,
