@@ -1,5 +1,5 @@
-// The sensor-model calibration's fit (tools/fidelity/sensor_calibration.h, docs/algorithms.md
-// §3.7) against data drawn from the model itself.
+// The sensor-model calibration's fit (tools/fidelity/sensor_calibration.h,
+// docs/algorithms.md §3.7) against data drawn from the model itself.
 #include "tools/fidelity/sensor_calibration.h"
 
 #include <gtest/gtest.h>

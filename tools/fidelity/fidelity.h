@@ -33,10 +33,10 @@ struct FidelityConfig {
   double scoring_vfov_rad{45.0 * M_PI / 180.0};  ///< and vertical field of view
 };
 
-/// One map's figures. The four of §12.2 use each map's own rule and prior (an untouched cell is
-/// P_init for the exact model, 0.5 for log-odds and OctoMap; known: P < prior/2 or P > 0.5); the
-/// "common" ones are over the cells known in every map compared, so that no map gains or loses by
-/// what it leaves unknown.
+/// One map's figures. The four of docs/algorithms.md §12.2 use each map's own rule and prior (an
+/// untouched cell is P_init for the exact model, 0.5 for log-odds and OctoMap; known: P < prior/2
+/// or P > 0.5); the "common" ones are over the cells known in every map compared, so that no map
+/// gains or loses by what it leaves unknown.
 struct FidelityScore {
   std::string label;
   MapQuality quality;
@@ -75,8 +75,8 @@ struct FidelityResult {
 /// Runs the benchmark. @throws ConfigError, std::runtime_error (unreadable log, bad world).
 [[nodiscard]] FidelityResult RunFidelity(const FidelityConfig& config);
 
-/// Entropy of the cells in `mask` (1) of a map given as probabilities, bits (docs/algorithms.md
-/// §5, in base 2).
+/// Entropy of the cells in `mask` (1) of a map given as probabilities, in bits
+/// (docs/algorithms.md §5, in base 2).
 [[nodiscard]] double EntropyBits(const std::vector<double>& probability,
                                  const std::vector<uint8_t>& mask);
 

@@ -4,8 +4,8 @@
 /// p_miss of the forward model of docs/algorithms.md §3.2 from rays whose true first surface is
 /// known (the simulator's world, or a surveyed map). Pure: the samples in, the fit out.
 ///
-/// Each ray is one of two kinds by d_k, the model's distance (chord midpoint, docs/algorithms.md
-/// §2.2) of the ray's first occupied cell in the true world voxelised on the map's lattice:
+/// Each ray is one of two kinds by d_k, the model's distance of the ray's first occupied cell
+/// (its chord midpoint, docs/algorithms.md §2.2) in the true world voxelised on the map's lattice:
 ///  - d_k in [z_min, z_max): the reading is a hit z ~ N(d_k, sigma^2) with probability
 ///    (1 - p_rand)(1 - p_miss), a miss ("no return") with (1 - p_rand) p_miss, or a spurious
 ///    return uniform on [z_min, z_max) with p_rand;
