@@ -468,4 +468,8 @@ void ConfigNode::CheckNoUnknownKeys() const {
                     " (misspelt, or not used by this process)");
 }
 
+std::string PathUnderRoot(const std::string& root, const std::string& path) {
+  return path.empty() || path[0] == '/' ? path : root + "/" + path;
+}
+
 }  // namespace kestrel

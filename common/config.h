@@ -169,4 +169,7 @@ class ConfigNode {
   std::string path_;
 };
 
+/// `path` as is if absolute or empty, else root/path (a file named relative to a tool's --root).
+[[nodiscard]] std::string PathUnderRoot(const std::string& root, const std::string& path);
+
 }  // namespace kestrel

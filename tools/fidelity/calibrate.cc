@@ -4,6 +4,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "common/config.h"
 #include "mapping/ray_caster.h"
 #include "sim/ground_truth.h"
 #include "sim/world_ray_caster.h"
@@ -14,7 +15,7 @@ namespace kestrel {
 
 std::vector<SensorCalibrationResult> CalibrateFromLog(const CalibrationRunConfig& config) {
   if (config.every < 1) throw std::invalid_argument("CalibrateFromLog: every must be >= 1");
-  const World world = LoadWorld(ResolvePath(config.root, config.world_file));
+  const World world = LoadWorld(PathUnderRoot(config.root, config.world_file));
   const WorldRayCaster caster(world);
   const MapperConfig mapper_config =
       LoadReplayMapperConfig(config.root, config.mapper_file, config.overrides, world);
@@ -61,7 +62,7 @@ std::vector<SensorCalibrationResult> CalibrateFromLog(const CalibrationRunConfig
       cal.Add(d, d_k, returned, returned ? ray.reading.z_m : 0.0);
     }
   });
-  replay.Run(ResolvePath(config.root, config.log_path));
+  replay.Run(PathUnderRoot(config.root, config.log_path));
   std::vector<SensorCalibrationResult> out;
   for (size_t i = 0; i < mapper_config.sensors.size(); ++i) {
     const auto& s = mapper_config.sensors[i];

@@ -4,6 +4,7 @@
 #include <functional>
 #include <memory>
 
+#include "common/config.h"
 #include "tools/fidelity/log_replay.h"
 #include "tools/fidelity/octomap_peer.h"
 #include "tools/map_score/map_scorer.h"
@@ -24,25 +25,10 @@ namespace {
 
 bool Known(double p, double prior) { return p < 0.5 * prior || p > 0.5; }
 
-// P of every cell of `grid` in its linear order.
-std::vector<double> ProbabilitiesOf(const GridSpec& grid,
-                                    const std::function<double(const Eigen::Vector3i&)>& p) {
-  std::vector<double> out(grid.size());
-  for (int z = 0; z < grid.dims.z(); ++z) {
-    for (int y = 0; y < grid.dims.y(); ++y) {
-      for (int x = 0; x < grid.dims.x(); ++x) {
-        const Eigen::Vector3i c(x, y, z);
-        out[grid.IndexOf(c)] = p(c);
-      }
-    }
-  }
-  return out;
-}
-
 }  // namespace
 
 FidelityResult RunFidelity(const FidelityConfig& config) {
-  const World world = LoadWorld(ResolvePath(config.root, config.world_file));
+  const World world = LoadWorld(PathUnderRoot(config.root, config.world_file));
   LogReplay replay;
   std::vector<MapperConfig> mapper_configs;
   for (const FidelityVariant& v : config.variants) {
@@ -79,12 +65,10 @@ FidelityResult RunFidelity(const FidelityConfig& config) {
   const auto probabilities = [&](size_t i) {
     if (i < replay.size()) {
       MapperNode& m = replay.mapper(i);
-      return ProbabilitiesOf(grid, [&](const Eigen::Vector3i& c) {
-        return m.ProbabilityAt(CellIndex{c.x(), c.y(), c.z()});
-      });
+      return scorer.Probabilities([&](const CellIndex& c) { return m.ProbabilityAt(c); });
     }
-    return ProbabilitiesOf(grid,
-                           [&](const Eigen::Vector3i& c) { return octomap->ProbabilityAt(c); });
+    return scorer.Probabilities(
+        [&](const CellIndex& c) { return octomap->ProbabilityAt(Eigen::Vector3i(c.x, c.y, c.z)); });
   };
 
   FidelityResult result;
@@ -106,7 +90,7 @@ FidelityResult RunFidelity(const FidelityConfig& config) {
     }
   };
   const int64_t period = static_cast<int64_t>(config.sample_period_s * 1e6);
-  replay.Run(ResolvePath(config.root, config.log_path), [&](int64_t utime) {
+  replay.Run(PathUnderRoot(config.root, config.log_path), [&](int64_t utime) {
     if (first_utime < 0) first_utime = utime, next_sample = utime + period;
     last_utime = utime;
     if (period > 0 && utime >= next_sample) {

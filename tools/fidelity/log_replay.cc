@@ -6,13 +6,9 @@
 
 namespace kestrel {
 
-std::string ResolvePath(const std::string& root, const std::string& path) {
-  return path.empty() || path[0] == '/' ? path : root + "/" + path;
-}
-
 MapperConfig LoadReplayMapperConfig(const std::string& root, const std::string& mapper_file,
                                     const std::vector<std::string>& overrides, const World& world) {
-  ConfigNode node = ConfigNode::LoadFile(ResolvePath(root, mapper_file));
+  ConfigNode node = ConfigNode::LoadFile(PathUnderRoot(root, mapper_file));
   for (const auto& o : overrides) node.ApplyOverride(o);
   MapperConfig config = LoadMapperConfig(node);
   node.CheckNoUnknownKeys();

@@ -18,9 +18,6 @@
 
 namespace kestrel {
 
-/// `path` as is if absolute or empty, else root/path.
-[[nodiscard]] std::string ResolvePath(const std::string& root, const std::string& path);
-
 /// The mapper configuration file (relative: to `root`) with key=value overrides applied, the
 /// world's map limits, no checkpoint and no catch-up log. @throws ConfigError on a bad file,
 /// override or unknown key.

@@ -15,8 +15,8 @@ MapScorer::MapScorer(const World& world, const WorldRayCaster& caster, const Gri
   observable_ = ComputeObservableCells(world, caster, grid, oc).observable;
 }
 
-MapQuality MapScorer::Score(const std::function<double(const CellIndex&)>& probability,
-                            double p_init) const {
+std::vector<double> MapScorer::Probabilities(
+    const std::function<double(const CellIndex&)>& probability) const {
   std::vector<double> p(grid_.size());
   for (int z = 0; z < grid_.dims.z(); ++z) {
     for (int y = 0; y < grid_.dims.y(); ++y) {
@@ -25,7 +25,12 @@ MapQuality MapScorer::Score(const std::function<double(const CellIndex&)>& proba
       }
     }
   }
-  return ComputeMapQuality(p, truth_, observable_, p_init);
+  return p;
+}
+
+MapQuality MapScorer::Score(const std::function<double(const CellIndex&)>& probability,
+                            double p_init) const {
+  return ComputeMapQuality(Probabilities(probability), truth_, observable_, p_init);
 }
 
 MapScorer::UnknownCells MapScorer::Unknown(

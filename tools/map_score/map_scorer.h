@@ -27,6 +27,9 @@ class MapScorer {
   MapScorer(const World& world, const WorldRayCaster& caster, const GridSpec& grid,
             double max_range_m, double vertical_fov_rad);
 
+  /// P of every cell of the grid, in its linear order (as truth() and observable()).
+  [[nodiscard]] std::vector<double> Probabilities(
+      const std::function<double(const CellIndex&)>& probability) const;
   /// Scores a map given the probability of each cell; p_init is the map's prior.
   [[nodiscard]] MapQuality Score(const std::function<double(const CellIndex&)>& probability,
                                  double p_init) const;

@@ -32,14 +32,9 @@ namespace kestrel {
 
 namespace {
 
-std::string Resolve(const std::string& root, const std::string& path) {
-  if (path.empty() || path[0] == '/') return path;
-  return root + "/" + path;
-}
-
 ConfigNode Load(const std::string& root, const std::string& file,
                 const std::vector<std::string>& overrides) {
-  ConfigNode node = ConfigNode::LoadFile(Resolve(root, file));
+  ConfigNode node = ConfigNode::LoadFile(PathUnderRoot(root, file));
   for (const auto& o : overrides) node.ApplyOverride(o);
   return node;
 }
@@ -148,7 +143,7 @@ MissionResult RunMission(const MissionConfig& mc) {
     sim_overrides.push_back("channels.scan=SIM_SCAN_HOKUYO");
     sim_overrides.push_back("channels.pose=SIM_POSE_VICON");
   }
-  sim_overrides.push_back("world_file=" + Resolve(mc.root, mc.world_file));
+  sim_overrides.push_back("world_file=" + PathUnderRoot(mc.root, mc.world_file));
   sim_overrides.push_back("seed=" + std::to_string(mc.seed));
   ConfigNode sim_node_cfg = Load(mc.root, mc.sim_file, sim_overrides);
   SimConfig sim_config = LoadSimConfig(sim_node_cfg, mc.root);
@@ -209,7 +204,7 @@ MissionResult RunMission(const MissionConfig& mc) {
   ControllerConfig controller_config;
   ConfigNode controller_cfg = ConfigNode::FromString("{}", "(defaults)");
   if (!mc.controller_file.empty()) {
-    controller_cfg = ConfigNode::LoadFile(Resolve(mc.root, mc.controller_file));
+    controller_cfg = ConfigNode::LoadFile(PathUnderRoot(mc.root, mc.controller_file));
     controller_config = LoadControllerConfig(controller_cfg, sim_config.vehicle);
   }
   controller_config.flight.vehicle = sim_config.vehicle;
@@ -298,10 +293,10 @@ MissionResult RunMission(const MissionConfig& mc) {
       std::string file;
     };
     const NodeConfig configs[] = {
-        {"SIM", &sim_node_cfg, Resolve(mc.root, mc.sim_file)},
-        {"CONTROLLER", &controller_cfg, Resolve(mc.root, mc.controller_file)},
-        {"MAPPER", &mapper_cfg, Resolve(mc.root, mc.mapper_file)},
-        {"EXPLORER", &explorer_cfg, Resolve(mc.root, mc.explorer_file)}};
+        {"SIM", &sim_node_cfg, PathUnderRoot(mc.root, mc.sim_file)},
+        {"CONTROLLER", &controller_cfg, PathUnderRoot(mc.root, mc.controller_file)},
+        {"MAPPER", &mapper_cfg, PathUnderRoot(mc.root, mc.mapper_file)},
+        {"EXPLORER", &explorer_cfg, PathUnderRoot(mc.root, mc.explorer_file)}};
     for (const auto& [name, node, file] : configs) {
       ProcessArgs args;
       args.config_path = file;
