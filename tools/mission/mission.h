@@ -13,6 +13,7 @@
 #include "exploration/planner.h"
 #include "mapping/map_quality.h"
 #include "sim/world.h"
+#include "tools/map_score/map_claims.h"
 
 namespace kestrel {
 
@@ -38,9 +39,12 @@ struct MissionConfig {
   std::string csv_path;        ///< time series (t, entropy, known fraction, ...) if set
   std::string plans_csv_path;  ///< one row per plan (stage times, positions) if set
   std::string map_path;        ///< final map file (Kestrel map) if set
-  std::string octomap_path;    ///< final map exported for OctoMap tools (.bt or .ot) if set
-  std::string ply_path;        ///< occupied cells as a PLY point cloud if set
-  bool verbose{false};         ///< every plan, collision and sample on stderr (debugging)
+  /// The cells the simulator's rays reached and when (sim/ray_reach.h), written here if set
+  /// (kestrel-fidelity and kestrel-map-score read it); needs compute_quality.
+  std::string reach_path;
+  std::string octomap_path;  ///< final map exported for OctoMap tools (.bt or .ot) if set
+  std::string ply_path;      ///< occupied cells as a PLY point cloud if set
+  bool verbose{false};       ///< every plan, collision and sample on stderr (debugging)
   /// > 0: one progress line on stderr at most this often (simulated s, at the quality samples):
   /// time, explorer state, known fraction, map entropy, path, collisions.
   double progress_period_s{0.0};
@@ -124,7 +128,10 @@ struct MissionResult {
   bool mapper_applied_every_message{false};
   uint64_t map_hash{0};
   double final_entropy_nats{0};
-  MapQuality quality;       ///< at the end (section 10), if computed
+  MapQuality quality;  ///< at the end (section 10), if computed
+  /// Cells the final map claims free without grounds (tools/map_score/map_claims.h), with the
+  /// freed-early figures from the quality samples, if quality is computed.
+  MapClaims claims;
   double time_to_95_s{-1};  ///< first sample with known fraction >= 0.95 (-1: never)
   std::vector<MissionSample> samples;
   std::string end_reason;

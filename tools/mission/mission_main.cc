@@ -14,6 +14,7 @@ const char* const kUsage =
     "usage: kestrel-mission [--root DIR] [--world FILE] [--seed N] [--max-time S] [--csv FILE]\n"
     "                       [--plans-csv FILE]\n"
     "                       [--map FILE] [--octomap FILE.bt] [--ply FILE] [--sim FILE]\n"
+    "                       [--reach FILE]\n"
     "                       [--log FILE.lcmlog] [--drop-sensors FRACTION]\n"
     "                       [--mocap-outage-at S --mocap-outage DURATION_S]\n"
     "                       [--sim-set k=v]... [--mapper-set k=v]...\n"
@@ -29,7 +30,9 @@ const char* const kUsage =
     "fraction, entropy, path, collisions); default 10, 0 for none, and none when CI=true.\n"
     "--vehicles N (1 to 4) flies N vehicles (V1_, V2_, ...), each with its controller and\n"
     "explorer, into one mapper; they start --vehicle-spacing M (default 1.5) apart.\n"
-    "--stop-at-known F ends the run once the map is F known (time and path to it).\n";
+    "--stop-at-known F ends the run once the map is F known (time and path to it).\n"
+    "--reach FILE writes which cells the simulator's rays reached and when (for\n"
+    "kestrel-fidelity --reach and kestrel-map-score --reach; docs/algorithms.md section 12.5).\n";
 
 // One soak line: the flight, its outcome and what the process holds after it.
 void PrintSoakLine(int flight, const kestrel::MissionConfig& mc, const kestrel::MissionResult& r,
@@ -62,6 +65,7 @@ int main(int argc, char** argv) {
         app.add_option("--csv", mc.csv_path);
         app.add_option("--plans-csv", mc.plans_csv_path);
         app.add_option("--map", mc.map_path);
+        app.add_option("--reach", mc.reach_path);
         app.add_option("--drop-sensors", mc.sensor_drop_fraction)
             ->check(kestrel::cli::Within(0.0, 1.0));
         app.add_option("--mocap-outage-at", mc.mocap_outage_at_s)
