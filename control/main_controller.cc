@@ -74,27 +74,9 @@ int main(int argc, char** argv) {
         // The age of the newest IMU sample when a step's motor command went out. Per heartbeat
         // period, and over the whole run for loop_timing_path.
         kestrel::LoopTiming timing, imu_age, run_timing, run_imu_age;
-        loop.AddTimer("control", kestrel::SecondsToUtime(1.0 / config.rate_hz), [&](int64_t utime) {
-          if (first_step) {
-            first_step = false;
-            char text[200];
-            std::snprintf(text, sizeof(text),
-                          "start-up: command line and configuration read %.3f s, LCM and node "
-                          "ready %.3f s, first control step %.3f s after exec",
-                          parsed_s, ready_s, kestrel::SecondsSinceProcessStart());
-            kestrel::Log(kestrel::LogLevel::kInfo, text);
-          }
-          const int64_t late_us = clock->NowUtime() - utime;
-          timing.Record(late_us);
-          run_timing.Record(late_us);
-          controller.Tick(utime);
-          if (controller.last_imu_utime() >= 0) {
-            const int64_t age_us = clock->NowUtime() - controller.last_imu_utime();
-            imu_age.Record(age_us);
-            run_imu_age.Record(age_us);
-          }
-        });
-        loop.AddTimer("heartbeat", 1000000, [&](int64_t) {
+        // The heartbeat: each second, and once at the first control step, so that a respawn is
+        // seen at once (the chaos regression times the controller's absence by it).
+        const auto beat = [&] {
           heartbeat.SetState(kestrel::heartbeat_t::STATE_OK);
           heartbeat.SetValue("mode", static_cast<double>(controller.flight().supervisor().mode()));
           heartbeat.SetValue("drops", static_cast<double>(controller.drops().total()));
@@ -116,7 +98,29 @@ int main(int argc, char** argv) {
           heartbeat.SetLastError(controller.takeover_pending() ? controller.takeover_status()
                                                                : controller.drops().last_reason());
           heartbeat.Publish();
+        };
+        loop.AddTimer("control", kestrel::SecondsToUtime(1.0 / config.rate_hz), [&](int64_t utime) {
+          if (first_step) {
+            first_step = false;
+            char text[200];
+            std::snprintf(text, sizeof(text),
+                          "start-up: command line and configuration read %.3f s, LCM and node "
+                          "ready %.3f s, first control step %.3f s after exec",
+                          parsed_s, ready_s, kestrel::SecondsSinceProcessStart());
+            kestrel::Log(kestrel::LogLevel::kInfo, text);
+            beat();
+          }
+          const int64_t late_us = clock->NowUtime() - utime;
+          timing.Record(late_us);
+          run_timing.Record(late_us);
+          controller.Tick(utime);
+          if (controller.last_imu_utime() >= 0) {
+            const int64_t age_us = clock->NowUtime() - controller.last_imu_utime();
+            imu_age.Record(age_us);
+            run_imu_age.Record(age_us);
+          }
         });
+        loop.AddTimer("heartbeat", 1000000, [&](int64_t) { beat(); });
         loop.AddShutdownHook([&] {
           if (!loop_timing_path.empty()) {
             std::ofstream(loop_timing_path)

@@ -517,9 +517,13 @@ void Deputy::Reap() {
       s.state = procman_command_t::STATE_STOPPED;
     } else if (s.command.auto_respawn) {
       s.consecutive_quick_exits = ran_s >= config_.stable_run_s ? 0 : s.consecutive_quick_exits + 1;
-      const double delay = std::min(config_.respawn_backoff_max_s,
-                                    config_.respawn_backoff_min_s *
-                                        std::pow(2.0, std::max(0, s.consecutive_quick_exits - 1)));
+      // After a stable run at once (a controller killed in flight must be back before the ESC
+      // hold ends); quick exits back off, doubling.
+      const double delay = s.consecutive_quick_exits == 0
+                               ? 0.0
+                               : std::min(config_.respawn_backoff_max_s,
+                                          config_.respawn_backoff_min_s *
+                                              std::pow(2.0, s.consecutive_quick_exits - 1));
       s.state = procman_command_t::STATE_RESPAWN_WAIT;
       s.respawn_at_utime = now + SecondsToUtime(delay);
       Log(LogLevel::kWarning, id + " exited with " + std::to_string(s.exit_code) + " after " +

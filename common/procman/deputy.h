@@ -37,9 +37,12 @@ struct DeputyConfig {
   std::string log_dir{"/tmp/kestrel-procman"};  ///< per-command output logs
   std::string status_channel{"PROCMAN_STATUS"};
   std::string orders_channel{"PROCMAN_ORDERS"};
-  double respawn_backoff_min_s{0.5};   ///< first respawn delay
-  double respawn_backoff_max_s{30.0};  ///< delay doubles per quick exit, up to this
-  double stable_run_s{10.0};           ///< a run this long resets the back-off
+  /// Respawn delay after a quick exit (a run shorter than stable_run_s); it doubles per further
+  /// quick exit, up to respawn_backoff_max_s. A command that ran stable_run_s or longer (a
+  /// controller killed in flight) is respawned at once, at the next poll (docs/design.md §2.5).
+  double respawn_backoff_min_s{0.5};
+  double respawn_backoff_max_s{30.0};  ///< the longest respawn delay, s
+  double stable_run_s{10.0};           ///< a run this long resets the back-off, s
   /// bot-procman discovery nonce (the deputy uses its pid); 0 = this process's pid.
   int64_t discovery_nonce{0};
   /// @throws std::invalid_argument naming the field, value and accepted range.

@@ -121,6 +121,28 @@ TEST_F(DeputyTest, RespawnsWithBackoffOnlyWhenAutoRespawn) {
   EXPECT_EQ(d->state("crasher")->restarts, restarts) << "a stopped command is not respawned";
 }
 
+// A command that ran stably (a controller killed in flight) is respawned at once, not after the
+// back-off that quick exits get (docs/design.md §2.5).
+TEST_F(DeputyTest, RespawnsAtOnceAfterAStableRun) {
+  config_.respawn_backoff_min_s = 2.0;
+  config_.respawn_backoff_max_s = 4.0;
+  config_.stable_run_s = 0.2;
+  auto d = Make(R"(cmd "stable" { exec = "sh -c 'sleep 0.4; exit 3'"; host = "here";
+                                  auto_respawn = "true"; })");
+  d->Order(procman_order_t::ACTION_START, true, "");
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return d->state("stable")->exit_code == 3; }, 5.0));
+  const auto exited = std::chrono::steady_clock::now();
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return d->state("stable")->restarts >= 1; }, 5.0));
+  const double gap_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - exited).count();
+  EXPECT_LT(gap_s, 1.0) << "not the 2 s back-off";
+  d->StopAll();
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return d->AllStopped(); }, 5.0));
+}
+
 // Every start and respawn of a command sees the runner's $KESTREL_RUN_ID (kestrel-procman sets
 // it once, EnsureRunIdInEnvironment): a mapper respawned within a run resumes its checkpoint
 // (docs/design.md §3.5).
