@@ -6,6 +6,7 @@
 #include <string>
 
 #include "common/command_line.h"
+#include "common/node_loop.h"
 #include "common/process.h"
 #include "mapping/map_file.h"
 #include "tools/map_score/map_scorer.h"
@@ -38,6 +39,8 @@ int main(int argc, char** argv) {
         app.add_option("--unknown-bin-m", unknown_bin_m)->check(kestrel::cli::NonNegative());
       },
       [&](const kestrel::ProcessArgs&, kestrel::ConfigNode&) {
+        // A batch tool: Ctrl-C or SIGTERM ends it at once (nothing half-done is worth saving).
+        kestrel::NodeLoop::RestoreDefaultSignalActions();
         const kestrel::World world = kestrel::LoadWorld(world_path);
         const auto loaded = kestrel::LoadDenseMap(map_path);
         const kestrel::DenseGrid& g = loaded.map->grid();
