@@ -403,6 +403,22 @@ void ConfigNode::Read(const std::string& key, std::string* value,
   Record(key, *value);
 }
 
+void ConfigNode::Read(const std::string& key, std::vector<std::string>* value) const {
+  if (Has(key)) {
+    const YAML::Node n = Lookup(key);
+    if (!n.IsSequence()) ThrowBad(key, n, "a list of strings");
+    std::vector<std::string> out;
+    for (size_t i = 0; i < n.size(); ++i) {
+      if (!n[i].IsScalar()) ThrowBad(key, n, "a list of strings");
+      out.push_back(n[i].Scalar());
+    }
+    *value = std::move(out);
+  }
+  std::string text = "[";
+  for (size_t i = 0; i < value->size(); ++i) text += (i ? ", " : "") + (*value)[i];
+  Record(key, text + "]");
+}
+
 void ConfigNode::Read(const std::string& key, std::vector<double>* value, const Range& range,
                       int size) const {
   if (Has(key)) {
