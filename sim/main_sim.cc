@@ -47,9 +47,7 @@ int main(int argc, char** argv) {
         // simulator is the world the vehicle's drivers read; a busy host must not stall it.
         const kestrel::RealtimeConfig realtime = kestrel::ReadRealtimeConfig(config);
         const kestrel::SimConfig sim_config = kestrel::LoadSimConfig(config, base_dir);
-        if (realtime.fifo_priority > 0 || realtime.lock_memory || !realtime.cpus.empty()) {
-          kestrel::ApplyRealtimeAndLog(realtime);
-        }
+        if (realtime.requested()) kestrel::ApplyRealtimeAndLog(realtime);
         lcm::LCM lcm(args.lcm_url);
         if (!lcm.good()) {
           std::fprintf(stderr, "kestrel-sim: LCM initialisation failed\n");

@@ -40,9 +40,7 @@ int main(int argc, char** argv) {
         // on a busy host, as the real one does not.
         const kestrel::RealtimeConfig realtime = kestrel::ReadRealtimeConfig(config);
         config.CheckNoUnknownKeys();
-        if (realtime.fifo_priority > 0 || realtime.lock_memory || !realtime.cpus.empty()) {
-          kestrel::ApplyRealtimeAndLog(realtime);
-        }
+        if (realtime.requested()) kestrel::ApplyRealtimeAndLog(realtime);
         kestrel::Vn100Emulator device(link_path);
         std::printf("%s\n", device.device_path().c_str());
         std::fflush(stdout);

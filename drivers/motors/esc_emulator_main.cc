@@ -48,9 +48,7 @@ int main(int argc, char** argv) {
         // on a busy host, as the real one does not.
         const kestrel::RealtimeConfig realtime = kestrel::ReadRealtimeConfig(config);
         config.CheckNoUnknownKeys();
-        if (realtime.fifo_priority > 0 || realtime.lock_memory || !realtime.cpus.empty()) {
-          kestrel::ApplyRealtimeAndLog(realtime);
-        }
+        if (realtime.requested()) kestrel::ApplyRealtimeAndLog(realtime);
         if (bus.rfind("unix:", 0) != 0) throw std::invalid_argument("bus must be unix:PATH");
         std::vector<int> rotor_addresses(addresses.begin(), addresses.end());
         kestrel::EscEmulator escs(*kestrel::ParseBlCtrlVersion(protocol), rotor_addresses,
