@@ -86,6 +86,14 @@ class FoxgloveServerTest : public ::testing::Test {
     received_.erase(0, end + 4);
     return response;
   }
+  // A handshake asking for the subprotocol from a page of `origin` is refused with 403.
+  void ExpectForbidden(const std::string& origin) {
+    const std::string response =
+        Handshake("Sec-WebSocket-Protocol: foxglove.websocket.v1\r\nOrigin: " + origin + "\r\n");
+    EXPECT_EQ(response.rfind("HTTP/1.1 403", 0), 0u) << origin << ": " << response;
+    close(fd_);
+    received_.clear();
+  }
   // The next complete frame, waiting for it.
   std::optional<Frame> NextFrame() {
     std::optional<Frame> frame;
@@ -253,11 +261,7 @@ TEST_F(FoxgloveServerTest, RefusesAHandshakeWithoutTheSubprotocolOrFromAForeignP
   received_.clear();
   // A foreign page, Foxglove's web app among them while allowed_origins does not list it.
   for (const char* origin : {"http://evil.example", "https://app.foxglove.dev"}) {
-    const std::string foreign = Handshake(
-        std::string("Sec-WebSocket-Protocol: foxglove.websocket.v1\r\nOrigin: ") + origin + "\r\n");
-    EXPECT_EQ(foreign.rfind("HTTP/1.1 403", 0), 0u) << origin << ": " << foreign;
-    close(fd_);
-    received_.clear();
+    ExpectForbidden(origin);
   }
   EXPECT_EQ(server_->counters().refused, 3);
   EXPECT_EQ(server_->clients(), 0);
@@ -281,11 +285,7 @@ TEST_F(FoxgloveServerTest, AnAllowedOriginConnects) {
   received_.clear();
   for (const char* origin : {"http://evil.example", "https://app.foxglove.dev.evil.example",
                              "http://app.foxglove.dev"}) {
-    const std::string foreign = Handshake(
-        std::string("Sec-WebSocket-Protocol: foxglove.websocket.v1\r\nOrigin: ") + origin + "\r\n");
-    EXPECT_EQ(foreign.rfind("HTTP/1.1 403", 0), 0u) << origin << ": " << foreign;
-    close(fd_);
-    received_.clear();
+    ExpectForbidden(origin);
   }
   EXPECT_EQ(server_->counters().connections, 1);
   EXPECT_EQ(server_->counters().refused, 3);
