@@ -1,15 +1,27 @@
 #include "mapping/map_decisions.h"
 
+#include <cstdint>
 #include <cstring>
 
 namespace kestrel {
 
+namespace {
+// The same double bit for bit (-0 and 0 differ; a NaN equals itself).
+bool SameBits(double a, double b) {
+  uint64_t x = 0, y = 0;
+  std::memcpy(&x, &a, sizeof(x));
+  std::memcpy(&y, &b, sizeof(y));
+  return x == y;
+}
+}  // namespace
+
 bool SameDecision(const map_decision_t& a, const map_decision_t& b) {
-  return a.channel == b.channel && a.epoch == b.epoch && a.seq == b.seq &&
-         a.scan_utime == b.scan_utime && a.action == b.action && a.ray_stride == b.ray_stride &&
-         a.reason == b.reason &&
-         std::memcmp(a.position_m, b.position_m, sizeof(a.position_m)) == 0 &&
-         std::memcmp(a.orientation_wxyz, b.orientation_wxyz, sizeof(a.orientation_wxyz)) == 0;
+  bool same = a.channel == b.channel && a.epoch == b.epoch && a.seq == b.seq &&
+              a.scan_utime == b.scan_utime && a.action == b.action &&
+              a.ray_stride == b.ray_stride && a.reason == b.reason;
+  for (int i = 0; i < 3; ++i) same = same && SameBits(a.position_m[i], b.position_m[i]);
+  for (int i = 0; i < 4; ++i) same = same && SameBits(a.orientation_wxyz[i], b.orientation_wxyz[i]);
+  return same;
 }
 
 bool DecisionHistory::Add(const map_decisions_t& m, std::string* why) {

@@ -17,7 +17,7 @@ bot_procman::sheriff_cmd2_t FromSheet(const Command& c, int32_t sheriff_id) {
   s.cmd.exec_str = c.exec;
   s.cmd.command_name = c.id;
   s.cmd.group = c.group;
-  s.cmd.auto_respawn = c.auto_respawn;
+  s.cmd.auto_respawn = static_cast<int8_t>(c.auto_respawn ? 1 : 0);
   s.cmd.stop_signal = static_cast<int8_t>(c.stop_signal);
   s.cmd.stop_time_allowed = static_cast<float>(c.stop_time_allowed_s);
   s.cmd.num_options = 0;
