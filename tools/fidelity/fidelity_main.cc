@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "common/command_line.h"
+#include "common/node_loop.h"
 #include "common/process.h"
 #include "tools/fidelity/fidelity.h"
 
@@ -65,6 +66,8 @@ int main(int argc, char** argv) {
         app.add_option("--reach", fc.reach_path);
       },
       [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
+        // A batch tool: Ctrl-C or SIGTERM ends it at once (nothing half-done is worth saving).
+        kestrel::NodeLoop::RestoreDefaultSignalActions();
         if (!args.config_path.empty()) fc.mapper_file = args.config_path;
         fc.base_overrides = args.overrides;
         fc.octomap = !no_octomap;

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "common/command_line.h"
+#include "common/node_loop.h"
 #include "common/process.h"
 #include "mapping/map_file.h"
 #include "sim/ray_reach.h"
@@ -74,6 +75,8 @@ int main(int argc, char** argv) {
         app.add_flag("--camera-no-return-informs", camera_no_return_informs);
       },
       [&](const kestrel::ProcessArgs&, kestrel::ConfigNode&) {
+        // A batch tool: Ctrl-C or SIGTERM ends it at once (nothing half-done is worth saving).
+        kestrel::NodeLoop::RestoreDefaultSignalActions();
         const kestrel::World world = kestrel::LoadWorld(world_path);
         const auto loaded = kestrel::LoadDenseMap(map_path);
         const kestrel::DenseGrid& g = loaded.map->grid();

@@ -679,6 +679,11 @@ MissionResult RunMission(const MissionConfig& mc) {
       r.end_reason = "time limit " + std::to_string(mc.max_time_s) + " s";
       break;
     }
+    if (mc.stop_requested && mc.stop_requested()) {
+      r.interrupted = true;
+      r.end_reason = "interrupted after " + Fixed3(t) + " s simulated";
+      break;
+    }
   }
   r.sim_time_s = UtimeToSeconds(clock.NowUtime() - t0);
   // A run that ended while a node was down: built again so that the figures below can be read.

@@ -6,6 +6,7 @@
 /// regression (tests/system/mission_test.cc), scripts/regress and scripts/demo's summary.
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -77,6 +78,9 @@ struct MissionConfig {
   double vehicle_spacing_m{1.5};
   /// > 0: stop the run once the known fraction reaches this (time and path to 95% need no more).
   double stop_at_known{0.0};
+  /// Asked after every simulated step: true ends the run there (kestrel-mission: SIGINT or
+  /// SIGTERM arrived); the figures and files are then those of the flight so far. Empty: never.
+  std::function<bool()> stop_requested;
 };
 
 /// Start offsets (x, y, 0) from the world's start for `vehicles` vehicles of `diameter_m`: the
@@ -135,6 +139,7 @@ struct MissionResult {
   double time_to_95_s{-1};  ///< first sample with known fraction >= 0.95 (-1: never)
   std::vector<MissionSample> samples;
   std::string end_reason;
+  bool interrupted{false};      ///< config.stop_requested ended the run before its end
   std::string end_rule;         ///< what ended exploration (ExplorerNode::end_rule)
   std::string landing;          ///< "returned home (...)" or "landed elsewhere: ..."
   double plan_median_s{0};      ///< median wall time of an exploration replan
