@@ -130,7 +130,7 @@ TEST_F(DeputyTest, RespawnsAtOnceAfterAStableRun) {
   config_.stable_run_s = 0.2;
   auto d = Make(R"(cmd "stable" { exec = "sh -c 'sleep 0.4; exit 3'"; host = "here";
                                   auto_respawn = "true"; })");
-  d->Order(procman_order_t::ACTION_START, true, "");
+  d->Order(SheriffVerb::kStart, true, "");
   ASSERT_TRUE(PollUntil(
       *d, [&] { return d->state("stable")->exit_code == 3; }, 5.0));
   const auto exited = std::chrono::steady_clock::now();
