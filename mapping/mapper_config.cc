@@ -65,6 +65,10 @@ void MapperConfig::Validate() const {
       order_wait_s >= 0 && order_wait_s < max_backlog_s,
       "order_wait_s = " << order_wait_s
                         << " must be >= 0 and below max_backlog_s = " << max_backlog_s);
+  KESTREL_THROW_UNLESS(max_stamp_lead_s > pose_history.max_wait_s,
+                       "max_stamp_lead_s = " << max_stamp_lead_s
+                                             << " must be above the pose history's max_wait_s = "
+                                             << pose_history.max_wait_s);
   KESTREL_THROW_UNLESS(catch_up_wait_s >= 0,
                        "catch_up_wait_s = " << catch_up_wait_s << " must be >= 0");
 }
@@ -139,6 +143,7 @@ MapperConfig LoadMapperConfig(const ConfigNode& node) {
   node.Read("decisions_channel", &c.decisions_channel);
   node.Read("decisions_log", &c.decisions_log);
   node.Read("order_wait_s", &c.order_wait_s, Range::NonNegative());
+  node.Read("max_stamp_lead_s", &c.max_stamp_lead_s, Range::Positive());
   node.Read("catch_up_log", &c.catch_up_log);
   node.Read("catch_up_wait_s", &c.catch_up_wait_s, Range::NonNegative());
   node.Read("traversal_thread", &c.traversal_thread);

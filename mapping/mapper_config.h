@@ -86,6 +86,12 @@ struct MapperConfig {
   /// max_backlog_s, so that the wait alone never decimates.
   double order_wait_s{0.3};
 
+  /// A scan stamped more than this after its vehicle's newest pose (message time, s) is skipped
+  /// as stamp_ahead, its stamp not taken as the input's newest: a sensor whose clock jumps
+  /// forward would otherwise expire every other scan's wait and decimate the map (docs/design.md
+  /// §3.6). Above the pose history's max_wait_s, the longest a scan may wait for its pose.
+  double max_stamp_lead_s{1.0};
+
   /// The run's LCM log (lcm-logger's file; "" = none). A mapper that resumed its checkpoint reads
   /// it before its live input and applies what it missed while it was down (docs/design.md §3.6):
   /// the map is then the one a mapper that never stopped would hold.

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <sstream>
 #include <stdexcept>
 
 #include "common/check.h"
@@ -319,6 +320,14 @@ void MapperNode::OnDepth(size_t sensor, size_t vehicle, const std::string& chann
   }
   if (!std::isfinite(msg.cx_px) || !std::isfinite(msg.cy_px))
     return bad("non-finite principal point");
+  // Every pixel 0 (docs/algorithms.md §3.4): a covered lens reads so, and an indoor scene never
+  // does; the frame is no evidence whatever the model says of a 0, and is dropped with that said.
+  if (std::all_of(counts->begin(), counts->end(), [](uint16_t c) { return c == 0; })) {
+    skipped_.Count("all_zero", channel + " seq " + std::to_string(msg.seq) +
+                                   ": every pixel reads 0 (a covered lens, or nothing between "
+                                   "the near and far limits): no evidence, nothing applied");
+    return;
+  }
   auto metadata = std::make_shared<depth_image_t>(msg);
   metadata->data.clear();  // the pixels travel decoded, in counts
   metadata->data_size = 0;
@@ -361,6 +370,18 @@ void MapperNode::Enqueue(Pending p) {
                                              " of epoch " + std::to_string(p.epoch) +
                                              ": no decision of the live mapper applied it");
     }
+    return;
+  }
+  // A stamp far ahead of the vehicle's poses (a sensor clock that jumped) is not taken as the
+  // newest input: it would expire every other scan's wait and decimate (docs/design.md §3.6).
+  const int64_t newest_pose = poses_[p.vehicle].newest_utime();
+  if (poses_[p.vehicle].size() > 0 &&
+      p.utime - newest_pose > SecondsToUtime(config_.max_stamp_lead_s)) {
+    std::ostringstream detail;
+    detail << "stamped " << UtimeToSeconds(p.utime - newest_pose)
+           << " s after the vehicle's newest pose (max_stamp_lead_s = " << config_.max_stamp_lead_s
+           << "): the sensor's clock jumped, or the poses stopped; nothing of it applied";
+    Skip(p, "stamp_ahead", detail.str());
     return;
   }
   latest_input_utime_ = std::max(latest_input_utime_, p.utime);

@@ -53,6 +53,10 @@ class PoseHistory {
 
   /// Number of poses held.
   [[nodiscard]] size_t size() const { return poses_.size(); }
+  /// Stamp of the newest pose held, us (INT64_MIN when none is).
+  [[nodiscard]] int64_t newest_utime() const {
+    return poses_.empty() ? INT64_MIN : poses_.back().utime;
+  }
   /// Poses refused because they were not newer than the latest.
   [[nodiscard]] uint64_t rejected_out_of_order() const { return rejected_out_of_order_; }
 

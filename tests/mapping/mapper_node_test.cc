@@ -248,6 +248,42 @@ TEST_F(MapperNodeTest, BadInputIsCountedAndDroppedWithoutChangingTheMap) {
   EXPECT_EQ(node.scans_applied(), 60);
 }
 
+TEST_F(MapperNodeTest, ACoveredLensAndAJumpedClockAreSaidAndClaimNothing) {
+  // The stream with one depth image covered (every pixel 0) and one LIDAR scan stamped 100 s
+  // ahead (its clock jumped), against the stream without the two.
+  std::vector<StreamEvent> faulty = events_, clean_events;
+  size_t covered_at = 0, jumped_at = 0;
+  for (size_t i = 40; i < faulty.size() && (covered_at == 0 || jumped_at == 0); ++i) {
+    if (faulty[i].kind == StreamEvent::Kind::kDepth && covered_at == 0) covered_at = i;
+    if (faulty[i].kind == StreamEvent::Kind::kScan && jumped_at == 0) jumped_at = i;
+  }
+  ASSERT_GT(covered_at, 0u);
+  ASSERT_GT(jumped_at, 0u);
+  depth_image_t& covered = faulty[covered_at].depth;
+  covered.encoding = depth_image_t::ENCODING_RAW_U16;
+  covered.data.assign(static_cast<size_t>(covered.width) * covered.height * 2, 0);
+  covered.data_size = static_cast<int32_t>(covered.data.size());
+  faulty[jumped_at].scan.utime += 100000000;
+  for (size_t i = 0; i < events_.size(); ++i) {
+    if (i != covered_at && i != jumped_at) clean_events.push_back(events_[i]);
+  }
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  MapperNode node(lcm, config_, clock);
+  Feed(lcm, node, clock, faulty);
+  EXPECT_EQ(node.skipped().count("all_zero"), 1);
+  EXPECT_EQ(node.skipped().count("stamp_ahead"), 1);
+  EXPECT_EQ(node.skipped().total(), 2) << node.skipped().last_reason();
+  // The jumped stamp is not the input's newest: no other scan's wait expired, nothing was
+  // decimated, and the map is the one without the two, bit for bit.
+  lcm::LCM clean_lcm("memq://");
+  SimClock clean_clock;
+  MapperNode clean(clean_lcm, config_, clean_clock);
+  Feed(clean_lcm, clean, clean_clock, clean_events);
+  EXPECT_EQ(node.scans_applied(), clean.scans_applied());
+  EXPECT_EQ(node.map_hash(), clean.map_hash());
+}
+
 TEST_F(MapperNodeTest, SnapshotThenDeltasRebuildTheMapExactly) {
   lcm::LCM lcm("memq://");
   SimClock clock;
