@@ -59,6 +59,9 @@ exec "$in_netns" bash -c '
     "$build/bin/kestrel-fault" malformed --seconds-listen 1 --count-per-channel 8 --seed 7 \
       >"$KESTREL_RUN/burst.txt" 2>&1 || echo "FAULT: kestrel-fault failed: $(tail -2 "$KESTREL_RUN/burst.txt")"
     echo "burst: $(grep -c . "$KESTREL_RUN/burst.txt") lines, $(tail -1 "$KESTREL_RUN/burst.txt")"
+    # Every process beats at least once after the burst (1 Hz, simulator time) before the
+    # simulator stops below, however soon after it the vehicle landed.
+    sleep 3
   ) &
   faults=$!
   status=0
