@@ -88,8 +88,8 @@ struct MapperConfig {
 
   /// A scan stamped more than this after its vehicle's newest pose (message time, s) is skipped
   /// as stamp_ahead, its stamp not taken as the input's newest: a sensor whose clock jumps
-  /// forward would otherwise expire every other scan's wait and decimate the map (docs/design.md
-  /// §3.6). Above the pose history's max_wait_s, the longest a scan may wait for its pose.
+  /// forward would otherwise expire every other scan's wait and decimate the map
+  /// (docs/design.md §3.6). Above the pose history's max_wait_s, the longest a scan may wait.
   double max_stamp_lead_s{1.0};
 
   /// The run's LCM log (lcm-logger's file; "" = none). A mapper that resumed its checkpoint reads

@@ -255,22 +255,25 @@ TEST(Planner, PlanToPointReachesHome) {
   ExpectTrajectoryInside(r, in, config);
 }
 
-// A corridor 40 m long (x 0..40, free y 0.3..2.7, walls beyond, floor below z = 0), everything
-// observed except alcoves in its north wall (unknown cells at y 2.7..3.3) of the given x ranges.
+// A corridor 40 m long (x 0..40, free y 0.3..2.7, walls beyond, floor below z = 0, a ceiling in
+// the top cell layer), everything observed except alcoves in its north wall (unknown cells at
+// y 2.7..3.225, the wall's last cell row behind them) of the given x ranges. The back wall matters:
+// the depth camera's 0 is no evidence (docs/algorithms.md §3.4), so a ray that leaves the map
+// through unknown cells predicts nothing, and an alcove with nothing behind it is worth little.
 test::TestMap CorridorMap(const std::vector<std::pair<double, double>>& alcoves) {
   const Eigen::Vector3i dims{534, 44, 22};
   const Eigen::Vector3d origin{0.0, 0.0, -0.15};
   const double alpha = 0.075;
   return {dims, origin, alpha,
           test::FillGrid(dims, origin, alpha, 1e-4f, [&](double x, double y, double z, float* v) {
-            if (z < 0.0 || y < 0.3 || y > 2.7) *v = 0.9999f;
+            if (z < 0.0 || z > 1.4 || y < 0.3 || y > 2.7) *v = 0.9999f;
             for (const auto& [x0, x1] : alcoves) {
-              if (x >= x0 && x < x1 && y > 2.7 && y < 3.3 && z >= 0.0) *v = 0.1f;
+              if (x >= x0 && x < x1 && y > 2.7 && y < 3.225 && z >= 0.0 && z < 1.4) *v = 0.1f;
             }
           })};
 }
 
-// Local first (volumetric.local_horizon_m): a small alcove 3 m ahead against a large one 10 m
+// Local first (volumetric.local_horizon_m): a 1.2 m alcove 3 m ahead against a 4 m one 10 m
 // ahead in a 40 m corridor (the paper's d_max, 1.05 x the farthest cell, is about 41 m, so its
 // bump barely tells 3 m from 10 m). With the horizon the near alcove is the goal; without it the
 // far one. And a pose below the end threshold is never the goal while one above it lies within
@@ -278,7 +281,7 @@ test::TestMap CorridorMap(const std::vector<std::pair<double, double>>& alcoves)
 TEST(Planner, VolumetricLocalFirst) {
   PlannerConfig config;
   config.mode = ExplorationMode::kVolumetric;
-  const test::TestMap two = CorridorMap({{4.0, 4.6}, {10.0, 14.0}});
+  const test::TestMap two = CorridorMap({{4.0, 5.2}, {10.0, 14.0}});
   auto goal_x = [&](const test::TestMap& map, double horizon_m) {
     config.volumetric.local_horizon_m = horizon_m;
     const PlanResult r = VolumetricPlanner(config).Plan(map.Input(1.0, 1.5));
