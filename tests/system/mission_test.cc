@@ -109,11 +109,12 @@ TEST(Mission, SameSeedSameMap) {
 // its state file. While it is down the controller flies the trajectory it has to its end and then
 // holds (trajectory_timeout_s = 1 s later); the new explorer resumes from the flown state (no
 // start-up turn; the map from the mapper's next snapshot, snapshot_period_s = 5 s) and the
-// mission ends as usual. Killed at the first moment after `at_s` while exploring when the flown
-// trajectory ends within `max_left_s` (infinite: at `at_s`); `resumed` is what the new explorer
-// must resume.
-MissionResult KillTheExplorer(double at_s, double max_left_s, MissionConfig mc = CiProfile()) {
+// mission ends as usual. Killed at the first moment after `at_s` while exploring (`returning`:
+// while flying home) when the flown trajectory ends within `max_left_s` (infinite: at `at_s`).
+MissionResult KillTheExplorer(double at_s, double max_left_s, MissionConfig mc = CiProfile(),
+                              bool returning = false) {
   mc.max_time_s = 700;
+  mc.explorer_kill_returning = returning;
   mc.explorer_kill_at_s = at_s;
   mc.explorer_kill_max_left_s = max_left_s;
   mc.explorer_down_s = 2.0;
@@ -141,10 +142,10 @@ MissionResult KillTheExplorer(double at_s, double max_left_s, MissionConfig mc =
   return r;
 }
 
-// Where the flown trajectory is about to end (in non-stop flight that first happens on the way
-// home here): the controller holds still while the explorer is down, and the new one flies home.
+// On the way home, where the flown trajectory is about to end: the controller holds still while
+// the explorer is down, and the new one flies home.
 TEST(Mission, HoldsWhileTheExplorerIsDownAndResumesTheFlightHome) {
-  const MissionResult r = KillTheExplorer(40.0, 0.5);
+  const MissionResult r = KillTheExplorer(40.0, 0.5, CiProfile(), true);
   EXPECT_TRUE(r.explorer_down_held);
   EXPECT_EQ(r.explorer_resume.rfind("resumed RETURNING from the flown state", 0), 0u)
       << r.explorer_resume;

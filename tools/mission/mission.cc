@@ -517,8 +517,12 @@ MissionResult RunMission(const MissionConfig& mc) {
       const double left_s = c != nullptr && c->trajectory_seq() >= 0
                                 ? c->trajectory_end_s() - UtimeToSeconds(now)
                                 : std::numeric_limits<double>::infinity();
-      const bool exploring = explorer().state() == exploration_status_t::STATE_EXPLORING;
-      if (left_s <= mc.explorer_kill_max_left_s && (exploring || t >= mc.explorer_kill_at_s + 60)) {
+      const int8_t state = explorer().state();
+      const bool when =
+          mc.explorer_kill_returning
+              ? state == exploration_status_t::STATE_RETURNING
+              : state == exploration_status_t::STATE_EXPLORING || t >= mc.explorer_kill_at_s + 60;
+      if (left_s <= mc.explorer_kill_max_left_s && when) {
         r.explorer_kill_trajectory_left_s = left_s;
         explorers.front().reset();
         explorer_killed_at = t;

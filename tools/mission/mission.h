@@ -65,6 +65,8 @@ struct MissionConfig {
   /// 60 s later whatever it does), when the trajectory the controller flies ends within this, s
   /// (so that the controller's hold is seen while it is down; infinite: at explorer_kill_at_s).
   double explorer_kill_max_left_s{std::numeric_limits<double>::infinity()};
+  /// Only while the explorer returns home (RETURNING), whenever that is.
+  bool explorer_kill_returning{false};
   /// Folder of the controller's and the explorer's state files when a kill is asked ("": a new
   /// folder under /tmp, removed at the end).
   std::string state_dir;
