@@ -101,10 +101,13 @@ TEST_F(RecordedRun, CalibratesAndReplaysIntoThreeMappers) {
   EXPECT_GT(hokuyo.fit.sigma_surface_m, 0.008);
   EXPECT_LT(hokuyo.fit.sigma_surface_m, 0.03);
 
-  // The replay (docs/algorithms.md §12.3): calibrated and shipped exact models, the log-odds
-  // baseline and OctoMap.
+  // The replay (docs/algorithms.md §12.3): calibrated (mounts, stamp offsets and models) and
+  // shipped exact models, the log-odds baseline and OctoMap.
   FidelityVariant calibrated{"exact_calibrated", {}};
   for (size_t i = 0; i < cal.size(); ++i) {
+    for (const std::string& o : MountOverrides(i, cal[i].mount.value)) {
+      calibrated.mapper_overrides.push_back(o);
+    }
     const std::string key = "sensors." + std::to_string(i) + ".model.";
     calibrated.mapper_overrides.push_back(key + "sigma_m=" + std::to_string(cal[i].fit.sigma_m));
     calibrated.mapper_overrides.push_back(key + "p_rand=" + std::to_string(cal[i].fit.p_rand));
