@@ -9,6 +9,7 @@
 
 #include "common/command_line.h"
 #include "common/config.h"
+#include "common/node_loop.h"
 #include "common/process.h"
 #include "tools/fidelity/calibrate.h"
 
@@ -85,6 +86,8 @@ int main(int argc, char** argv) {
         app.add_option("--truth-seed", truth_seed);
       },
       [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
+        // A batch tool: Ctrl-C or SIGTERM ends it at once (nothing half-done is worth saving).
+        kestrel::NodeLoop::RestoreDefaultSignalActions();
         if (!args.config_path.empty()) cc.mapper_file = args.config_path;
         cc.overrides = args.overrides;
         std::optional<kestrel::SimulatedMountTruth> truth;
