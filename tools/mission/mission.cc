@@ -378,8 +378,8 @@ MissionResult RunMission(const MissionConfig& mc) {
     return scorer->Score([&](const CellIndex& c) { return mapper.ProbabilityAt(c); },
                          mapper_config.occupancy.p_init);
   };
-  // Where the simulator's rays reached, and the map's claims against it (docs/algorithms.md
-  // §12.5): sampled with the quality.
+  // Where the simulator's rays reached, and the map's claims against it
+  // (docs/algorithms.md §12.5): sampled with the quality.
   std::optional<RayReach> reach;
   std::optional<ClaimTracker> claims;
   auto known_free = [&]() {
