@@ -46,6 +46,17 @@ bool QuaternionFromWxyz(const double wxyz[4], Eigen::Quaterniond* q) {
   return true;
 }
 
+Eigen::Quaterniond QuaternionFromRotationVector(const Eigen::Vector3d& w) {
+  const double angle = w.norm();
+  if (!(angle > 0.0)) return Eigen::Quaterniond::Identity();
+  return Eigen::Quaterniond(Eigen::AngleAxisd(angle, w / angle));
+}
+
+Eigen::Vector3d RotationVectorOf(const Eigen::Quaterniond& q) {
+  const Eigen::AngleAxisd a(q.w() < 0.0 ? Eigen::Quaterniond(-q.coeffs()) : q);
+  return a.angle() * a.axis();
+}
+
 Eigen::Quaterniond QuaternionFromYaw(double yaw_rad) {
   return Eigen::Quaterniond(Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()));
 }

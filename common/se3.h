@@ -51,6 +51,13 @@ struct Pose3 {
 /// unless all four are finite and the norm is within [0.5, 1.5] (then normalises).
 [[nodiscard]] bool QuaternionFromWxyz(const double wxyz[4], Eigen::Quaterniond* q);
 
+/// Exp: the unit quaternion of the rotation vector w (axis times angle, rad); the identity exactly
+/// for w = 0.
+[[nodiscard]] Eigen::Quaterniond QuaternionFromRotationVector(const Eigen::Vector3d& w);
+
+/// Log: the rotation vector (axis times angle, rad, angle in [0, pi]) of a unit quaternion.
+[[nodiscard]] Eigen::Vector3d RotationVectorOf(const Eigen::Quaterniond& q);
+
 /// Rotation about world z by yaw (rad).
 [[nodiscard]] Eigen::Quaterniond QuaternionFromYaw(double yaw_rad);
 

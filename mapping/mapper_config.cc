@@ -2,6 +2,8 @@
 
 #include <unistd.h>
 
+#include <cmath>
+
 #include "common/check.h"
 #include "common/identity.h"
 #include "common/vehicle_config.h"
@@ -23,6 +25,11 @@ std::vector<MapperSensorConfig> DefaultMapperSensors() {
   return {xtion, hokuyo};
 }
 
+Pose3 MapperSensorConfig::CalibratedMount() const {
+  if (mount_correction_m.isZero(0.0) && mount_correction_rad.isZero(0.0)) return X_BS;
+  return X_BS * Pose3{mount_correction_m, QuaternionFromRotationVector(mount_correction_rad)};
+}
+
 void MapperConfig::Validate() const {
   KESTREL_THROW_UNLESS(grid == "dense" || grid == "growing",
                        "grid = '" << grid << "' must be dense or growing");
@@ -42,6 +49,17 @@ void MapperConfig::Validate() const {
         s.kind == "depth" || s.kind == "scan",
         "sensors." << s.name << ".kind = '" << s.kind << "' must be depth or scan");
     s.model.Validate();
+    KESTREL_THROW_UNLESS(
+        s.mount_correction_m.allFinite() && s.mount_correction_m.cwiseAbs().maxCoeff() <= 0.1,
+        "sensors." << s.name << ".mount_correction_m = [" << s.mount_correction_m.transpose()
+                   << "], accepted each in [-0.1, 0.1]");
+    KESTREL_THROW_UNLESS(
+        s.mount_correction_rad.allFinite() && s.mount_correction_rad.cwiseAbs().maxCoeff() <= 0.2,
+        "sensors." << s.name << ".mount_correction_rad = [" << s.mount_correction_rad.transpose()
+                   << "], accepted each in [-0.2, 0.2]");
+    KESTREL_THROW_UNLESS(
+        std::isfinite(s.stamp_offset_s) && std::abs(s.stamp_offset_s) <= 1.0,
+        "sensors." << s.name << ".stamp_offset_s = " << s.stamp_offset_s << ", accepted [-1, 1]");
   }
   KESTREL_THROW_UNLESS(snapshot_period_s >= 0 && delta_period_s >= 0 && status_period_s > 0,
                        "periods must be >= 0 (status > 0)");
@@ -118,6 +136,9 @@ MapperConfig LoadMapperConfig(const ConfigNode& node) {
       sensor.X_BS = sensor.name == "xtion" ? vehicle.X_BS_xtion : vehicle.X_BS_hokuyo;
       s.Read("channel", &sensor.channel);
       if (s.Has("model")) ReadSensorModelConfig(s.Child("model"), &sensor.model);
+      s.Read("mount_correction_m", &sensor.mount_correction_m, Range::Closed(-0.1, 0.1));
+      s.Read("mount_correction_rad", &sensor.mount_correction_rad, Range::Closed(-0.2, 0.2));
+      s.Read("stamp_offset_s", &sensor.stamp_offset_s, Range::Closed(-1.0, 1.0));
       c.sensors.push_back(sensor);
     }
   }

@@ -22,6 +22,19 @@ struct MapperSensorConfig {
   std::string kind{"depth"};           ///< "depth" (depth_image_t) or "scan" (planar_scan_t)
   SensorModelConfig model{SensorModelConfig::Xtion()};  ///< forward model (docs/algorithms.md §3.2)
   Pose3 X_BS;  ///< sensor frame in the body frame (from the vehicle file)
+  /// Calibrated mount correction C = (Exp(mount_correction_rad), mount_correction_m) in the
+  /// sensor frame (kestrel-calibrate --mount, docs/algorithms.md §3.7): the mapper casts the
+  /// sensor's rays from X_BS * C. Translation m, each axis in [-0.1, 0.1]; rotation vector rad,
+  /// each in [-0.2, 0.2]. Zero: X_BS itself.
+  Eigen::Vector3d mount_correction_m{Eigen::Vector3d::Zero()};
+  Eigen::Vector3d mount_correction_rad{Eigen::Vector3d::Zero()};
+  /// Calibrated stamp offset, s, [-1, 1] (docs/algorithms.md §3.7): a scan stamped t was taken
+  /// when the poses' clock read t - stamp_offset_s, and is paired with the pose interpolated
+  /// there. Every vehicle's scans of this sensor alike.
+  double stamp_offset_s{0.0};
+
+  /// The mount the mapper casts from: X_BS * C (X_BS itself, bit for bit, when C is zero).
+  [[nodiscard]] Pose3 CalibratedMount() const;
 };
 
 struct MapperConfig {

@@ -86,7 +86,11 @@ MapperNode::MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& c
                              (config_.run_id.empty() ? " (a fresh id: run_id is not set)" : "") +
                              ", checkpoint " + config_.checkpoint_path);
   }
-  for (const auto& s : config_.sensors) models_.emplace_back(s.model);
+  for (const auto& s : config_.sensors) {
+    models_.emplace_back(s.model);
+    mounts_.push_back(s.CalibratedMount());
+    stamp_offsets_us_.push_back(SecondsToUtime(s.stamp_offset_s));
+  }
   if (!config_.checkpoint_path.empty() && FileExists(config_.checkpoint_path)) {
     LoadCheckpoint();
   } else {
@@ -271,6 +275,8 @@ void MapperNode::OnPose(size_t vehicle, const pose_t& msg) {
   if (!poses_[vehicle].Add(msg.utime, X_WB)) {
     bad_poses_.Count("pose_out_of_order",
                      "pose at " + std::to_string(msg.utime) + " us is not newer than the latest");
+  } else if (pose_observer_) {
+    pose_observer_(vehicle, msg.utime, X_WB);
   }
   latest_input_utime_ = std::max(latest_input_utime_, msg.utime);
   vehicle_latest_utime_[vehicle] = std::max(vehicle_latest_utime_[vehicle], msg.utime);
@@ -485,7 +491,9 @@ int MapperNode::FollowPending() {
                                   d.orientation_wxyz[2], d.orientation_wxyz[3]);
       ray_stride_ = std::max<int>(1, d.ray_stride);
       if (ray_stride_ > 1) decimated_ever_ = true;
-      Apply(arrived->second, X_WB);
+      // The decided pose was looked up at the stamp less the sensor's offset (as configured).
+      Apply(arrived->second, X_WB,
+            arrived->second.utime - stamp_offsets_us_[arrived->second.sensor]);
       arrived_.erase(arrived);
       if (--followed_keys_[key] == 0) followed_keys_.erase(key);
     }
@@ -527,9 +535,11 @@ int MapperNode::ProcessPending(int max_scans) {
     Pose3 X_WB;
     // The wait for a newer pose is bounded in message time (the newest input stamp of the scan's
     // own vehicle: another vehicle's link may be faster), not wall time, so a log replayed at any
-    // speed pairs exactly as it did live.
+    // speed pairs exactly as it did live. The pose is the one at the stamp less the sensor's
+    // calibrated stamp offset (docs/algorithms.md §3.7).
+    const int64_t pose_utime = front.utime - stamp_offsets_us_[front.sensor];
     const PoseLookupResult r =
-        poses_[front.vehicle].Lookup(front.utime, vehicle_latest_utime_[front.vehicle], &X_WB);
+        poses_[front.vehicle].Lookup(pose_utime, vehicle_latest_utime_[front.vehicle], &X_WB);
     if (r == PoseLookupResult::kWait) break;
     if (r != PoseLookupResult::kOk) {
       Skip(front, ToString(r), "no pose to pair it with");
@@ -551,7 +561,7 @@ int MapperNode::ProcessPending(int max_scans) {
                                     std::to_string(backlog_s) + " s, max_backlog_s " +
                                     std::to_string(config_.max_backlog_s) + ")");
       }
-      Apply(front, X_WB);
+      Apply(front, X_WB, pose_utime);
       // A delta goes out as soon as it fills the largest map message (docs/design.md §7.6).
       if (config_.delta_period_s > 0 && ChangedCellCount() >= MaxDeltaCells()) PublishDelta();
     }
@@ -561,15 +571,15 @@ int MapperNode::ProcessPending(int max_scans) {
   return done;
 }
 
-void MapperNode::Apply(const Pending& p, const Pose3& X_WB) {
-  const MapperSensorConfig& sensor = config_.sensors[p.sensor];
+void MapperNode::Apply(const Pending& p, const Pose3& X_WB, int64_t pose_utime) {
   const SensorModel& model = models_[p.sensor];
-  const Pose3 X_WS = X_WB * sensor.X_BS;
+  const Pose3 X_WS = X_WB * mounts_[p.sensor];
   const int k = ray_stride_;
   ScanStats stats;
   ScanIntegrator* const integrator = integrator_.get();
   AppliedScan applied;
   applied.utime = p.utime;
+  applied.pose_utime = pose_utime;
   applied.sensor = p.sensor;
   applied.vehicle = p.vehicle;
   applied.X_WS = X_WS;

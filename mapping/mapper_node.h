@@ -145,12 +145,14 @@ class MapperNode {
   CatchUpResult EndCatchUp();
 
   /// A scan as the map received it: the sensor's pose (the vehicle's pose at the scan's stamp
-  /// times the sensor's extrinsics) and its readings, exactly as applied (after any ray
-  /// decimation: every ray_stride-th pixel or beam, intrinsics and angle step scaled).
+  /// minus the sensor's stamp_offset_s, times its calibrated mount) and its readings, exactly as
+  /// applied (after any ray decimation: every ray_stride-th pixel or beam, intrinsics and angle
+  /// step scaled).
   struct AppliedScan {
-    int64_t utime{0};
-    size_t sensor{0};   ///< index into config.sensors
-    size_t vehicle{0};  ///< index into config.vehicle_prefixes
+    int64_t utime{0};       ///< the scan's stamp, us
+    int64_t pose_utime{0};  ///< where its pose was interpolated: utime - stamp_offset_s, us
+    size_t sensor{0};       ///< index into config.sensors
+    size_t vehicle{0};      ///< index into config.vehicle_prefixes
     Pose3 X_WS;
     const SensorModel* model{nullptr};
     // A depth image: width x height counts, row-major, and its intrinsics.
@@ -169,6 +171,11 @@ class MapperNode {
   /// scans to other consumers: tools/fidelity). Empty: none.
   void SetScanObserver(std::function<void(const AppliedScan&)> observer) {
     scan_observer_ = std::move(observer);
+  }
+  /// Called with every pose the node keeps for pairing (vehicle index, stamp in us, X_WB), in
+  /// arrival order (the sensor calibration interpolates in the same poses: tools/fidelity).
+  void SetPoseObserver(std::function<void(size_t, int64_t, const Pose3&)> observer) {
+    pose_observer_ = std::move(observer);
   }
 
   [[nodiscard]] double entropy_nats() const;
@@ -233,7 +240,7 @@ class MapperNode {
   // Records (channel, epoch, seq) as applied or skipped for good; logs a new epoch once.
   void Record(const Pending& p);
   void Skip(const Pending& p, const std::string& reason, const std::string& detail);
-  void Apply(const Pending& p, const Pose3& X_WB);
+  void Apply(const Pending& p, const Pose3& X_WB, int64_t pose_utime);
   // Records a decision (Apply, Skip) for PublishDecisions.
   void Decide(const Pending& p, int8_t action, const std::string& reason, const Pose3& X_WB);
   // Follows the recorded decisions as far as their scans have come (FollowDecisions).
@@ -262,12 +269,15 @@ class MapperNode {
   lcm::LCM& lcm_;
   MapperConfig config_;
   std::function<void(const AppliedScan&)> scan_observer_;
+  std::function<void(size_t, int64_t, const Pose3&)> pose_observer_;
   const Clock& clock_;
   int64_t epoch_;       // this publisher's epoch
   std::string run_id_;  // config_.run_id or a fresh one
   bool resumed_{false};
   int64_t publisher_restarts_{0};
   std::vector<SensorModel> models_;
+  std::vector<Pose3> mounts_;              // by sensor: CalibratedMount()
+  std::vector<int64_t> stamp_offsets_us_;  // by sensor: stamp_offset_s
   MapPtr map_;
   std::unique_ptr<ScanIntegrator> integrator_;  // into map_
   std::vector<PoseHistory> poses_;              // by vehicle

@@ -131,8 +131,7 @@ Pose3 DrawExtrinsicError(const Eigen::Vector3d& fixed_m, const Eigen::Vector3d& 
   const Eigen::Vector3d w = fixed_rad + sigma_rad * dr;
   Pose3 X_err;
   X_err.p = t;
-  const double angle = w.norm();
-  if (angle > 0.0) X_err.q = Eigen::Quaterniond(Eigen::AngleAxisd(angle, w / angle));
+  X_err.q = QuaternionFromRotationVector(w);
   return X_err;
 }
 

@@ -14,13 +14,6 @@ constexpr double kDegToRad = M_PI / 180.0;
 
 bool InUnit(double p) { return p >= 0.0 && p <= 1.0; }
 
-// Small rotation Exp(w) (rad vector).
-Eigen::Quaterniond ExpRotation(const Eigen::Vector3d& w) {
-  const double angle = w.norm();
-  if (angle < 1e-300) return Eigen::Quaterniond::Identity();
-  return Eigen::Quaterniond(Eigen::AngleAxisd(angle, w / angle));
-}
-
 }  // namespace
 
 // ------------------------------------------------------------------------- depth camera
@@ -312,7 +305,8 @@ MotionCaptureSample MotionCapture::Measure(int64_t utime, const Pose3& X_WB, Sim
   const Eigen::Vector3d dp(rng->Gaussian(), rng->Gaussian(), rng->Gaussian());
   const Eigen::Vector3d dr(rng->Gaussian(), rng->Gaussian(), rng->Gaussian());
   s.X_WB.p = X_WB.p + config_.position_sigma_m * dp;
-  s.X_WB.q = (X_WB.q * ExpRotation(config_.orientation_sigma_rad * dr)).normalized();
+  s.X_WB.q =
+      (X_WB.q * QuaternionFromRotationVector(config_.orientation_sigma_rad * dr)).normalized();
   return s;
 }
 

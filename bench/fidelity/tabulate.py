@@ -3,10 +3,12 @@
 
 Usage: tabulate.py OUT "WORLDS" "PROFILES" CALIBRATION_WORLD
 Reads OUT/<world>-<profile>.csv (kestrel-fidelity --csv) and OUT/<world>-<profile>.cal.txt
-(kestrel-calibrate's table); writes OUT/table.md, OUT/calibration.md and OUT/fidelity.png.
+(kestrel-calibrate's tables); writes OUT/table.md, OUT/calibration.md, OUT/mount.md and
+OUT/fidelity.png.
 """
 import csv
 import os
+import re
 import sys
 
 out, worlds, profiles, cal_world = sys.argv[1], sys.argv[2].split(), sys.argv[3].split(), sys.argv[4]
@@ -44,20 +46,49 @@ with open(os.path.join(out, "table.md"), "w") as f:
                 w, p, best("brier", 1), best("accuracy", -1), best("common_brier", 1),
                 best("common_accuracy", -1)))
 
+
+def calibration_lines():
+    """(world, profile, line) of every kestrel-calibrate output, profile by profile."""
+    for p in profiles:
+        for w in sorted(set(worlds + [cal_world])):
+            path = os.path.join(out, "%s-%s.cal.txt" % (w, p))
+            if os.path.exists(path):
+                for line in open(path):
+                    yield w, p, line.rstrip("\n")
+
+
 with open(os.path.join(out, "calibration.md"), "w") as f:
     f.write("Fitted per log (kestrel-calibrate); the profile's values come from %s.\n\n" % cal_world)
     f.write("| world | profile | sensor | sigma (about d_k) | sigma (about d) | p_rand | p_miss |\n")
     f.write("|---|---|---|---|---|---|---|\n")
-    for p in profiles:
-        for w in sorted(set(worlds + [cal_world])):
-            path = os.path.join(out, "%s-%s.cal.txt" % (w, p))
-            if not os.path.exists(path):
-                continue
-            for line in open(path):
-                parts = line.split()
-                if len(parts) > 5 and parts[0] in ("xtion", "hokuyo"):
-                    f.write("| %s | %s | %s | %s | %s | %s | %s |\n" % (
-                        w, p, parts[0], parts[1], parts[2], parts[3], parts[4]))
+    for w, p, line in calibration_lines():
+        parts = line.split()
+        if len(parts) > 5 and parts[0] in ("xtion", "hokuyo") and parts[1] != "mount:":
+            f.write("| %s | %s | %s | %s | %s | %s | %s |\n" % (
+                w, p, parts[0], parts[1], parts[2], parts[3], parts[4]))
+
+# kestrel-calibrate --mount --truth-sim: "<sensor> mount: ..." then a row per parameter, each
+# value with its unit: parameter, fit, std. error (or "held"), configured, true, fit - true (or "-").
+value = r"(-?[0-9.]+ (?:mm|deg|ms)|held|-)"
+row = re.compile(r"^  (translation [xyz]|rotation [xyz]|stamp offset)\s+" + r"\s+".join([value] * 5))
+with open(os.path.join(out, "mount.md"), "w") as f:
+    f.write("Mounts and stamp offsets fitted per log (kestrel-calibrate --mount) against what the "
+            "simulator drew (stamp offset: the sensor's less the motion capture's latency).\n\n")
+    f.write("| world | profile | sensor | parameter | fit | std. error | true | fit - true |\n")
+    f.write("|---|---|---|---|---|---|---|---|\n")
+    sensor = None
+    for w, p, line in calibration_lines():
+        parts = line.split()
+        if len(parts) > 1 and parts[1] == "mount:":
+            sensor = parts[0]
+            if "NOT FITTED" in line:
+                f.write("| %s | %s | %s | not fitted | | | | |\n" % (w, p, sensor))
+            continue
+        m = row.match(line)
+        if sensor and m:
+            fit, se, _, true, diff = m.groups()[1:]
+            f.write("| %s | %s | %s | %s | %s | %s | %s | %s |\n" % (
+                w, p, sensor, m.group(1), fit, se, true, diff))
 
 try:
     import matplotlib

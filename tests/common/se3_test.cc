@@ -32,6 +32,28 @@ TEST(Se3, QuaternionRotationRoundTrip) {
   }
 }
 
+TEST(Se3, RotationVectorExpAndLogInvertEachOther) {
+  // Exp: a rotation by |w| about w / |w| (the matrix exponential of Hat(w)); Log inverts it for
+  // angles below pi, whichever sign the quaternion has; w = 0 is the identity exactly.
+  EXPECT_EQ(QuaternionFromRotationVector(Eigen::Vector3d::Zero()).coeffs(),
+            Eigen::Quaterniond::Identity().coeffs());
+  EXPECT_EQ(RotationVectorOf(Eigen::Quaterniond::Identity()), Eigen::Vector3d::Zero());
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> u(-1.5, 1.5);
+  for (int i = 0; i < 100; ++i) {
+    const Eigen::Vector3d w(u(rng), u(rng), u(rng));
+    const Eigen::Quaterniond q = QuaternionFromRotationVector(w);
+    Eigen::Matrix3d exp_hat = Eigen::Matrix3d::Identity(), term = Eigen::Matrix3d::Identity();
+    for (int k = 1; k < 40; ++k) {
+      term = term * Hat(w) / k;
+      exp_hat += term;
+    }
+    EXPECT_NEAR((RotationFromQuaternion(q) - exp_hat).norm(), 0.0, 1e-12);
+    EXPECT_NEAR((RotationVectorOf(q) - w).norm(), 0.0, 1e-12);
+    EXPECT_NEAR((RotationVectorOf(Eigen::Quaterniond(-q.coeffs())) - w).norm(), 0.0, 1e-12);
+  }
+}
+
 TEST(Se3, QuaternionFromWxyzRejectsNanAndNonUnit) {
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
   const double nan_q[4] = {std::nan(""), 0, 0, 0};

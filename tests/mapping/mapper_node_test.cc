@@ -623,6 +623,80 @@ TEST_F(MapperNodeTest, ScansApplyInStampOrderWhateverTheDelayBetweenSensors) {
   EXPECT_NE(run(0.0, late), run(0.0, events_)) << "arrival order: the delay changes the map";
 }
 
+// A calibrated mount and stamp offset (docs/algorithms.md §3.7) move the pairing: each scan is
+// cast from the pose interpolated at its stamp less the offset, times X_BS * (Exp(w), p); without
+// them the pose at the stamp times X_BS, bit for bit.
+TEST_F(MapperNodeTest, CalibratedMountAndStampOffsetMoveThePairing) {
+  const auto applied = [&](const MapperConfig& c) {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, c, clock);
+    std::vector<MapperNode::AppliedScan> scans;
+    node.SetScanObserver([&](const MapperNode::AppliedScan& s) { scans.push_back(s); });
+    PoseHistory observed(PoseHistoryConfig{100.0, 0.1, 0.2});
+    node.SetPoseObserver([&](size_t vehicle, int64_t utime, const Pose3& X_WB) {
+      EXPECT_EQ(vehicle, 0u);
+      EXPECT_TRUE(observed.Add(utime, X_WB));
+    });
+    Feed(lcm, node, clock, events_);
+    EXPECT_EQ(node.scans_applied(), 60);
+    EXPECT_GT(observed.size(), 290u);  // every pose of the 3 s at 100 Hz
+    return scans;
+  };
+  // The oracle: the poses of the stream, interpolated as the mapper's PoseHistory does.
+  PoseHistory poses(PoseHistoryConfig{100.0, 0.1, 0.2});
+  for (const StreamEvent& e : events_) {
+    if (e.kind != StreamEvent::Kind::kPose) continue;
+    Pose3 X_WB;
+    X_WB.p = Eigen::Vector3d(e.pose.position_m[0], e.pose.position_m[1], e.pose.position_m[2]);
+    ASSERT_TRUE(QuaternionFromWxyz(e.pose.orientation_wxyz, &X_WB.q));
+    poses.Add(e.utime, X_WB);
+  }
+  const auto pose_at = [&](int64_t utime) {
+    Pose3 X_WB;
+    EXPECT_EQ(poses.Lookup(utime, utime, &X_WB), PoseLookupResult::kOk) << utime;
+    return X_WB;
+  };
+  const auto plain = applied(config_);
+  ASSERT_EQ(plain.size(), 60u);
+  for (const auto& s : plain) {
+    EXPECT_EQ(s.pose_utime, s.utime);
+    const Pose3 expected = pose_at(s.utime) * config_.sensors[s.sensor].X_BS;
+    EXPECT_EQ(s.X_WS.p, expected.p);
+    EXPECT_EQ(s.X_WS.q.coeffs(), expected.q.coeffs());
+  }
+  MapperConfig calibrated = config_;
+  calibrated.sensors[0].stamp_offset_s = 0.015;
+  calibrated.sensors[0].mount_correction_m = Eigen::Vector3d(0.004, -0.002, 0.003);
+  calibrated.sensors[0].mount_correction_rad = Eigen::Vector3d(0.01, -0.005, 0.002);
+  calibrated.sensors[1].stamp_offset_s = -0.002;
+  const auto moved = applied(calibrated);
+  ASSERT_EQ(moved.size(), 60u);
+  for (const auto& s : moved) {
+    const MapperSensorConfig& sensor = calibrated.sensors[s.sensor];
+    EXPECT_EQ(s.pose_utime, s.utime - std::llround(sensor.stamp_offset_s * 1e6));
+    const Eigen::Quaterniond q_C(Eigen::AngleAxisd(sensor.mount_correction_rad.norm(),
+                                                   sensor.mount_correction_rad.normalized()));
+    const Pose3 expected = pose_at(s.pose_utime) * sensor.X_BS *
+                           (s.sensor == 0 ? Pose3{sensor.mount_correction_m, q_C} : Pose3{});
+    EXPECT_LT((s.X_WS.p - expected.p).norm(), 1e-12);
+    EXPECT_LT(s.X_WS.q.angularDistance(expected.q), 1e-12);
+  }
+  EXPECT_GT((moved[0].X_WS.p - plain[0].X_WS.p).norm(), 0.002);
+  // Out of range: refused with the key named.
+  calibrated.sensors[0].mount_correction_m.x() = 0.2;
+  EXPECT_THROW(
+      {
+        try {
+          calibrated.Validate();
+        } catch (const std::invalid_argument& e) {
+          EXPECT_NE(std::string(e.what()).find("mount_correction_m"), std::string::npos);
+          throw;
+        }
+      },
+      std::invalid_argument);
+}
+
 // Messages lost between a publisher and the mapper (the network, a full queue) show as gaps in
 // their publisher's seq: each is counted as lost_in_transport, and a restart (a new epoch from
 // seq 0) is not a gap.

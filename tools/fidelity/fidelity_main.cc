@@ -3,7 +3,6 @@
 // truth of the world.
 #include <cstdio>
 #include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -19,28 +18,34 @@ const char* const kUsage =
     "                        [--variant LABEL:key=value,key=value]... [--no-octomap]\n"
     "                        [--period-s 10] [--csv FILE] [--curve FILE] [--reach FILE]\n"
     "Replays the log into one kestrel-mapper per variant (the --config file with --set, then the\n"
-    "variant's overrides; default variants: exact, and log_odds:model=log_odds) and into OctoMap\n"
-    "(its default sensor model, the same resolution, fed the first variant's scans), and prints\n"
-    "each map's known fraction, accuracy, Brier score and ROC AUC against the world's truth, the\n"
-    "accuracy and Brier score over the cells every map knows, and the entropy drop per scan.\n"
-    "--csv writes that table, --curve the figures every --period-s of log time.\n"
-    "Each map's cells known free without grounds (docs/algorithms.md section 12.5): half a cell "
-    "or\n"
-    "more inside a solid, outside the building (not connected to the start), and with --reach "
-    "(the\n"
-    "flight's record from kestrel-mission --reach) never reached by a ray, or freed before a ray\n"
-    "reached them.\n";
+    "variant's overrides, separated by commas outside brackets; default variants: exact, and\n"
+    "log_odds:model=log_odds) and into OctoMap (its default sensor model, the same resolution,\n"
+    "fed the first variant's scans), and prints each map's known fraction, accuracy, Brier score\n"
+    "and ROC AUC against the world's truth, the accuracy and Brier score over the cells every map\n"
+    "knows, and the entropy drop per scan. --csv writes that table, --curve the figures every\n"
+    "--period-s of log time.\n"
+    "Each map's cells known free without grounds (docs/algorithms.md section 12.5): half a cell\n"
+    "or more inside a solid, outside the building (not connected to the start), and with --reach\n"
+    "(the flight's record from kestrel-mission --reach) never reached by a ray, or freed before a\n"
+    "ray reached them.\n";
 
-// "label:k=v,k=v" -> variant.
+// "label:k=v,k=v" -> variant. A comma inside brackets belongs to a list value (k=[a, b, c]).
 kestrel::FidelityVariant ParseVariant(const std::string& text) {
   kestrel::FidelityVariant v;
   const size_t colon = text.find(':');
   v.label = text.substr(0, colon);
   if (v.label.empty()) throw kestrel::ConfigError("--variant '" + text + "' has no label");
   if (colon != std::string::npos) {
-    std::stringstream ss(text.substr(colon + 1));
-    for (std::string o; std::getline(ss, o, ',');) {
-      if (!o.empty()) v.mapper_overrides.push_back(o);
+    std::string o;
+    int depth = 0;
+    for (const char c : text.substr(colon + 1) + ",") {
+      depth += c == '[' ? 1 : c == ']' ? -1 : 0;
+      if (c == ',' && depth <= 0) {
+        if (!o.empty()) v.mapper_overrides.push_back(o);
+        o.clear();
+      } else {
+        o += c;
+      }
     }
   }
   return v;
