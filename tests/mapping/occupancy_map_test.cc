@@ -120,7 +120,7 @@ TEST(OccupancyMap, PrecomputedLikelihoodsAndCellAddressesGiveIdenticalCells) {
   const int capacity = RayCells::CapacityFor(4.0, g.resolution_m());
   const RayCaster caster(g);
   // Reference: the scalar kernels, a_k in the update, cells by linear index.
-  const kernels::Kernels& scalar = kernels::For(kernels::Isa::kScalar);
+  const kernels::Kernels& scalar = kernels::Scalar();
   ExactBayesUpdater reference_updater(kOccupancy, capacity, g.resolution_m());
   DenseGrid reference(MapLimits{}, reference_updater.initial_value());
   RayBatch batch(4.0, g.resolution_m());

@@ -1,0 +1,105 @@
+// The vector posterior stores of the exact update (kernels.h, StorePosteriorsFn and
+// StorePosteriorsAtFn; ExactBayesUpdater::UpdateBatchLane), one source for every Highway target
+// (simd_kernels.cc compiles it once per target).
+// NOLINT(llvm-header-guard)
+#if defined(KESTREL_MAPPING_KERNELS_POSTERIOR_STORE_INL_H_) == defined(HWY_TARGET_TOGGLE)
+#ifdef KESTREL_MAPPING_KERNELS_POSTERIOR_STORE_INL_H_
+#undef KESTREL_MAPPING_KERNELS_POSTERIOR_STORE_INL_H_
+#else
+#define KESTREL_MAPPING_KERNELS_POSTERIOR_STORE_INL_H_
+#endif
+
+#include <hwy/highway.h>
+
+#include <cstddef>
+#include <cstdint>
+
+#include "mapping/kernels/posterior_store.h"
+#include "mapping/kernels/simd-inl.h"
+#include "mapping/lanes.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace kestrel::kernels::HWY_NAMESPACE {
+
+// The write step of ExactBayesUpdater's update for n cells, Lanes(D8) at a time: clamps
+// posterior[i] (ClampProbability as min then max with the scalar code's operand order, so ties
+// and values agree), converts it to float, hands the floats of cells i .. i + Lanes(D8) - 1 to
+// store(i, floats), and lists the cells whose stored value changed, first + i ascending, in
+// changed[0 .. returned count); priors[i] is the value stored before (compared bit for bit).
+// The last n % Lanes(D8) cells go through the scalar code (StoreCells) with `cell_at`.
+template <class Store, class CellAt>
+HWY_INLINE int StoreRows(const double* posterior, const float* priors, int first, int n,
+                         double p_min, int* changed, const Store& store, const CellAt& cell_at) {
+  const D8 d;
+  const hn::Rebind<float, D8> df;
+  const hn::Rebind<int32_t, D8> di;
+  const int lanes_in_d = static_cast<int>(hn::Lanes(d));
+  const auto lower = hn::Set(d, p_min);
+  const auto upper = hn::Set(d, 1.0 - p_min);
+#if (HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3) || HWY_HAVE_SCALABLE
+  auto k = hn::Iota(di, first);  // first + i + lane
+  const auto step = hn::Set(di, lanes_in_d);
+#endif
+  int m = 0;
+  int i = 0;
+  for (; i + lanes_in_d <= n; i += lanes_in_d) {
+    const auto p = hn::LoadU(d, posterior + i);
+    // upper < p ? upper : p, then below_upper < p_min ? p_min : below_upper.
+    const auto stored = hn::DemoteTo(df, MaxLikeScalar(d, lower, MinLikeScalar(d, upper, p)));
+    const auto differ = hn::Ne(hn::BitCast(di, stored), hn::BitCast(di, hn::LoadU(df, priors + i)));
+#if (HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3) || HWY_HAVE_SCALABLE
+    // The changed cells' numbers packed in a register (one instruction here), then stored whole
+    // (room: m + Lanes <= i + Lanes <= n); AVX-512's compress into memory costs far more on AMD
+    // Zen 4.
+    hn::StoreU(hn::Compress(k, differ), di, changed + m);
+    m += static_cast<int>(hn::CountTrue(di, differ));
+    k = hn::Add(k, step);
+#else
+    // Without a compress instruction Highway's Compress looks its shuffle up in a table it
+    // builds on the stack each time: append the numbers branch-free from the mask's bits.
+    uint8_t bits[8] = {};
+    hn::StoreMaskBits(di, differ, bits);
+    for (int j = 0; j < lanes_in_d; ++j) {
+      changed[m] = first + i + j;
+      m += (bits[0] >> j) & 1;
+    }
+#endif
+    // A ray never lists a cell twice, so the order of the stores does not matter.
+    store(i, stored);
+  }
+  return StoreCells(posterior, priors, first, i, n, p_min, cell_at, changed, m);
+}
+
+// kernels::StorePosteriorsFn: the floats stored at base[cells[i]] (a scatter).
+int StorePosteriors(const double* posterior, const int32_t* cells, const float* priors, int first,
+                    int n, double p_min, float* base, int* changed) {
+  const ZeroUpperOnReturn zero_upper;
+  const hn::Rebind<float, D8> df;
+  const hn::Rebind<int32_t, D8> di;
+  return StoreRows(
+      posterior, priors, first, n, p_min, changed,
+      [&](int i, hn::Vec<hn::Rebind<float, D8>> stored) {
+        hn::ScatterIndex(stored, df, base, hn::LoadU(di, cells + i));
+      },
+      [base, cells](int i) -> float& { return base[cells[i]]; });
+}
+
+// kernels::StorePosteriorsAtFn: the floats stored at *cells[i], one by one.
+int StorePosteriorsAt(const double* posterior, float* const* cells, const float* priors, int first,
+                      int n, double p_min, int* changed) {
+  const ZeroUpperOnReturn zero_upper;
+  const hn::Rebind<float, D8> df;
+  return StoreRows(
+      posterior, priors, first, n, p_min, changed,
+      [&](int i, hn::Vec<hn::Rebind<float, D8>> stored) {
+        alignas(64) float values[lanes::kLanes];
+        hn::StoreU(stored, df, values);
+        for (size_t j = 0; j < hn::Lanes(df); ++j) *cells[static_cast<size_t>(i) + j] = values[j];
+      },
+      [cells](int i) -> float& { return *cells[i]; });
+}
+
+}  // namespace kestrel::kernels::HWY_NAMESPACE
+HWY_AFTER_NAMESPACE();
+
+#endif  // KESTREL_MAPPING_KERNELS_POSTERIOR_STORE_INL_H_
