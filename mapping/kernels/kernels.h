@@ -57,16 +57,17 @@ struct LikelihoodLanes {
 using FillLikelihoodsFn = void (*)(const LikelihoodLanes& c, const double* z, unsigned is_return,
                                    const double* distance_m, int rows, double* likelihood);
 
-/// The write step of ExactBayesUpdater's update for n cells: clamps posterior[i] to
-/// [p_min, 1 - p_min] (ClampProbability), converts it to float, stores it at base[cells[i]],
-/// and lists the cells whose stored value changed, first + i ascending, in
-/// changed[0 .. returned count); priors[i] is the value stored before (compared bit for bit).
-using StorePosteriorsFn = int (*)(const double* posterior, const int32_t* cells,
-                                  const float* priors, int first, int n, double p_min, float* base,
+/// The write step of ExactBayesUpdater's update for n cells (docs/algorithms.md §4.7): cell i's
+/// posterior is scale[per_cell ? i : 0] * P_i with P_i = priors[i] (the value stored before) as a
+/// double; it is clamped to [p_min, 1 - p_min] (ClampProbability), converted to float and stored
+/// at base[cells[i]]. Lists the cells whose stored value changed (bit for bit), first + i
+/// ascending, in changed[0 .. returned count).
+using StorePosteriorsFn = int (*)(const double* scale, bool per_cell, const float* priors,
+                                  const int32_t* cells, int first, int n, double p_min, float* base,
                                   int* changed);
 /// The same with each cell's address: stores at *cells[i].
-using StorePosteriorsAtFn = int (*)(const double* posterior, float* const* cells,
-                                    const float* priors, int first, int n, double p_min,
+using StorePosteriorsAtFn = int (*)(const double* scale, bool per_cell, const float* priors,
+                                    float* const* cells, int first, int n, double p_min,
                                     int* changed);
 
 /// The GrowingGrid cells of a batch cast on a window of its lattice (OccupancyMap::CastLattice):
@@ -133,10 +134,11 @@ class ScopedTargetForTest {
 void WalkLanesScalar(const RaySegment* rays, int count, const bool* started, detail::RayWalk* walks,
                      const Eigen::Vector3d& origin_m, double resolution, double* distance,
                      int32_t* linear, int32_t* size);
-int StorePosteriorsScalar(const double* posterior, const int32_t* cells, const float* priors,
-                          int first, int n, double p_min, float* base, int* changed);
-int StorePosteriorsAtScalar(const double* posterior, float* const* cells, const float* priors,
-                            int first, int n, double p_min, int* changed);
+int StorePosteriorsScalar(const double* scale, bool per_cell, const float* priors,
+                          const int32_t* cells, int first, int n, double p_min, float* base,
+                          int* changed);
+int StorePosteriorsAtScalar(const double* scale, bool per_cell, const float* priors,
+                            float* const* cells, int first, int n, double p_min, int* changed);
 bool ResolveWindowCellsScalar(const int32_t* linear, const int* size, int rows, int shift,
                               float* const* blocks, float** cells, uint32_t* slot_cells);
 /// The vector kernels of every Highway target compiled in (simd_kernels.cc), whether or not this

@@ -21,21 +21,23 @@
 HWY_BEFORE_NAMESPACE();
 namespace kestrel::kernels::HWY_NAMESPACE {
 
-// The write step of ExactBayesUpdater's update for n cells, Lanes(D8) at a time: clamps
-// posterior[i] (ClampProbability as min then max with the scalar code's operand order, so ties
-// and values agree), converts it to float, hands the floats of cells i .. i + Lanes(D8) - 1 to
-// store(i, floats), and lists the cells whose stored value changed, first + i ascending, in
-// changed[0 .. returned count); priors[i] is the value stored before (compared bit for bit).
-// The last n % Lanes(D8) cells go through the scalar code (StoreCells) with `cell_at`.
-template <class Store, class CellAt>
-HWY_INLINE int StoreRows(const double* posterior, const float* priors, int first, int n,
-                         double p_min, int* changed, const Store& store, const CellAt& cell_at) {
+// The write step of ExactBayesUpdater's update for n cells, Lanes(D8) at a time: the posterior
+// scale * P_i (scale[i] per cell, or scale[0]) with P_i = priors[i] as a double, clamped
+// (ClampProbability as min then max with the scalar code's operand order, so ties and values
+// agree), converted to float and handed to store(i, floats) for cells i .. i + Lanes(D8) - 1;
+// lists the cells whose stored value changed, first + i ascending, in changed[0 .. returned
+// count) (compared bit for bit with priors[i]). The last n % Lanes(D8) cells go through the
+// scalar code (StoreCells) with `cell_at`.
+template <bool kPerCell, class Store, class CellAt>
+HWY_INLINE int StoreRows(const double* scale, const float* priors, int first, int n, double p_min,
+                         int* changed, const Store& store, const CellAt& cell_at) {
   const D8 d;
   const hn::Rebind<float, D8> df;
   const hn::Rebind<int32_t, D8> di;
   const int lanes_in_d = static_cast<int>(hn::Lanes(d));
   const auto lower = hn::Set(d, p_min);
   const auto upper = hn::Set(d, 1.0 - p_min);
+  const auto run_scale = hn::Set(d, scale[0]);
 #if (HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3) || HWY_HAVE_SCALABLE
   auto k = hn::Iota(di, first);  // first + i + lane
   const auto step = hn::Set(di, lanes_in_d);
@@ -43,10 +45,13 @@ HWY_INLINE int StoreRows(const double* posterior, const float* priors, int first
   int m = 0;
   int i = 0;
   for (; i + lanes_in_d <= n; i += lanes_in_d) {
-    const auto p = hn::LoadU(d, posterior + i);
+    const auto prior = hn::LoadU(df, priors + i);
+    auto scale_i = run_scale;
+    if constexpr (kPerCell) scale_i = hn::LoadU(d, scale + i);
+    const auto p = hn::Mul(scale_i, hn::PromoteTo(d, prior));
     // upper < p ? upper : p, then below_upper < p_min ? p_min : below_upper.
     const auto stored = hn::DemoteTo(df, MaxLikeScalar(d, lower, MinLikeScalar(d, upper, p)));
-    const auto differ = hn::Ne(hn::BitCast(di, stored), hn::BitCast(di, hn::LoadU(df, priors + i)));
+    const auto differ = hn::Ne(hn::BitCast(di, stored), hn::BitCast(di, prior));
 #if (HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3) || HWY_HAVE_SCALABLE
     // The changed cells' numbers packed in a register (one instruction here), then stored whole
     // (room: m + Lanes <= i + Lanes <= n); AVX-512's compress into memory costs far more on AMD
@@ -67,36 +72,36 @@ HWY_INLINE int StoreRows(const double* posterior, const float* priors, int first
     // A ray never lists a cell twice, so the order of the stores does not matter.
     store(i, stored);
   }
-  return StoreCells(posterior, priors, first, i, n, p_min, cell_at, changed, m);
+  return StoreCells(scale, kPerCell, priors, first, i, n, p_min, cell_at, changed, m);
 }
 
 // kernels::StorePosteriorsFn: the floats stored at base[cells[i]] (a scatter).
-int StorePosteriors(const double* posterior, const int32_t* cells, const float* priors, int first,
-                    int n, double p_min, float* base, int* changed) {
+int StorePosteriors(const double* scale, bool per_cell, const float* priors, const int32_t* cells,
+                    int first, int n, double p_min, float* base, int* changed) {
   const ZeroUpperOnReturn zero_upper;
   const hn::Rebind<float, D8> df;
   const hn::Rebind<int32_t, D8> di;
-  return StoreRows(
-      posterior, priors, first, n, p_min, changed,
-      [&](int i, hn::Vec<hn::Rebind<float, D8>> stored) {
-        hn::ScatterIndex(stored, df, base, hn::LoadU(di, cells + i));
-      },
-      [base, cells](int i) -> float& { return base[cells[i]]; });
+  const auto store = [&](int i, hn::Vec<hn::Rebind<float, D8>> stored) {
+    hn::ScatterIndex(stored, df, base, hn::LoadU(di, cells + i));
+  };
+  const auto cell_at = [base, cells](int i) -> float& { return base[cells[i]]; };
+  return per_cell ? StoreRows<true>(scale, priors, first, n, p_min, changed, store, cell_at)
+                  : StoreRows<false>(scale, priors, first, n, p_min, changed, store, cell_at);
 }
 
 // kernels::StorePosteriorsAtFn: the floats stored at *cells[i], one by one.
-int StorePosteriorsAt(const double* posterior, float* const* cells, const float* priors, int first,
-                      int n, double p_min, int* changed) {
+int StorePosteriorsAt(const double* scale, bool per_cell, const float* priors, float* const* cells,
+                      int first, int n, double p_min, int* changed) {
   const ZeroUpperOnReturn zero_upper;
   const hn::Rebind<float, D8> df;
-  return StoreRows(
-      posterior, priors, first, n, p_min, changed,
-      [&](int i, hn::Vec<hn::Rebind<float, D8>> stored) {
-        alignas(64) float values[lanes::kLanes];
-        hn::StoreU(stored, df, values);
-        for (size_t j = 0; j < hn::Lanes(df); ++j) *cells[static_cast<size_t>(i) + j] = values[j];
-      },
-      [cells](int i) -> float& { return *cells[i]; });
+  const auto store = [&](int i, hn::Vec<hn::Rebind<float, D8>> stored) {
+    alignas(64) float values[lanes::kLanes];
+    hn::StoreU(stored, df, values);
+    for (size_t j = 0; j < hn::Lanes(df); ++j) *cells[static_cast<size_t>(i) + j] = values[j];
+  };
+  const auto cell_at = [cells](int i) -> float& { return *cells[i]; };
+  return per_cell ? StoreRows<true>(scale, priors, first, n, p_min, changed, store, cell_at)
+                  : StoreRows<false>(scale, priors, first, n, p_min, changed, store, cell_at);
 }
 
 }  // namespace kestrel::kernels::HWY_NAMESPACE

@@ -18,17 +18,19 @@ inline uint32_t BitsOf(float v) {
   return bits;
 }
 
-// The write step for cells i in [begin, n), cell i's value at cell_at(i) (a float&): clamps
-// posterior[i], stores it as float and lists first + i in changed[m ...] where the stored bits
-// differ from priors[i]. Returns m plus the cells listed.
+// The write step for cells i in [begin, n), cell i's value at cell_at(i) (a float&): the
+// posterior scale[per_cell ? i : 0] * priors[i] (kernels.h, StorePosteriorsFn) clamped, stored as
+// float, and first + i listed in changed[m ...] where the stored bits differ from priors[i].
+// Returns m plus the cells listed.
 template <class CellAt>
-int StoreCells(const double* posterior, const float* priors, int first, int begin, int n,
+int StoreCells(const double* scale, bool per_cell, const float* priors, int first, int begin, int n,
                double p_min, const CellAt& cell_at, int* changed, int m) {
   for (int i = begin; i < n; ++i) {
+    const double posterior = scale[per_cell ? i : 0] * static_cast<double>(priors[i]);
     // docs/algorithms.md §1.2: clamp to [P_min, 1 - P_min] after each update. Branch-free:
     // a cell held at its value (typically a free cell at the clamp) is rewritten unchanged
     // and not reported.
-    const float stored = static_cast<float>(ClampProbability(posterior[i], p_min));
+    const float stored = static_cast<float>(ClampProbability(posterior, p_min));
     changed[m] = first + i;
     m += BitsOf(stored) != BitsOf(priors[i]) ? 1 : 0;  // no NaN here: compare the bits
     cell_at(i) = stored;

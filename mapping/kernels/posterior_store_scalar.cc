@@ -7,17 +7,18 @@
 
 namespace kestrel::kernels {
 
-int StorePosteriorsScalar(const double* posterior, const int32_t* cells, const float* priors,
-                          int first, int n, double p_min, float* base, int* changed) {
+int StorePosteriorsScalar(const double* scale, bool per_cell, const float* priors,
+                          const int32_t* cells, int first, int n, double p_min, float* base,
+                          int* changed) {
   return StoreCells(
-      posterior, priors, first, 0, n, p_min,
+      scale, per_cell, priors, first, 0, n, p_min,
       [base, cells](int i) -> float& { return base[cells[i]]; }, changed, 0);
 }
 
-int StorePosteriorsAtScalar(const double* posterior, float* const* cells, const float* priors,
-                            int first, int n, double p_min, int* changed) {
+int StorePosteriorsAtScalar(const double* scale, bool per_cell, const float* priors,
+                            float* const* cells, int first, int n, double p_min, int* changed) {
   return StoreCells(
-      posterior, priors, first, 0, n, p_min, [cells](int i) -> float& { return *cells[i]; },
+      scale, per_cell, priors, first, 0, n, p_min, [cells](int i) -> float& { return *cells[i]; },
       changed, 0);
 }
 
