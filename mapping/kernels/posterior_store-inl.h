@@ -60,14 +60,18 @@ HWY_INLINE int StoreRows(const double* scale, const float* priors, int first, in
     m += static_cast<int>(hn::CountTrue(di, differ));
     k = hn::Add(k, step);
 #else
-    // Without a compress instruction Highway's Compress looks its shuffle up in a table it
-    // builds on the stack each time: append the numbers branch-free from the mask's bits.
+    // Without a compress instruction (Highway's Compress builds its shuffle table on the stack
+    // each time): the lanes whose bit is set, packed, from a table of the 16 masks of four lanes
+    // (two-lane vectors use its first two columns), plus first + i, stored whole.
+    static_assert(hn::MaxLanes(hn::Rebind<int32_t, D8>()) <= 4, "SSE4, NEON, AVX2");
+    alignas(16) static constexpr int32_t kPacked[16][4] = {
+        {0, 0, 0, 0}, {0, 0, 0, 0}, {1, 0, 0, 0}, {0, 1, 0, 0}, {2, 0, 0, 0}, {0, 2, 0, 0},
+        {1, 2, 0, 0}, {0, 1, 2, 0}, {3, 0, 0, 0}, {0, 3, 0, 0}, {1, 3, 0, 0}, {0, 1, 3, 0},
+        {2, 3, 0, 0}, {0, 2, 3, 0}, {1, 2, 3, 0}, {0, 1, 2, 3}};
     uint8_t bits[8] = {};
     hn::StoreMaskBits(di, differ, bits);
-    for (int j = 0; j < lanes_in_d; ++j) {
-      changed[m] = first + i + j;
-      m += (bits[0] >> j) & 1;
-    }
+    hn::StoreU(hn::Add(hn::LoadU(di, kPacked[bits[0]]), hn::Set(di, first + i)), di, changed + m);
+    m += static_cast<int>(hwy::PopCount(bits[0]));
 #endif
     // A ray never lists a cell twice, so the order of the stores does not matter.
     store(i, stored);

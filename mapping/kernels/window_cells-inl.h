@@ -28,7 +28,6 @@ bool ResolveWindowCells(const int32_t* linear, const int* size, int rows, int sh
   const ZeroUpperOnReturn zero_upper;
   static_assert(sizeof(float*) == sizeof(int64_t), "64-bit addresses");
   const hn::Rebind<int32_t, D8> di;
-  const hn::Rebind<int64_t, D8> dl;
   const size_t n = hn::Lanes(di);
   const auto mask = hn::Set(di, (int32_t{1} << shift) - 1);
   const auto seven = hn::Set(di, 7);
@@ -52,6 +51,7 @@ bool ResolveWindowCells(const int32_t* linear, const int* size, int rows, int sh
       hn::StoreU(hn::BitCast(hn::Rebind<uint32_t, D8>(), hn::Or(hn::ShiftLeft<9>(slot), offset)),
                  hn::Rebind<uint32_t, D8>(), slot_cells + at);
 #if HWY_HAVE_SCALABLE || (HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX2)
+      const hn::Rebind<int64_t, D8> dl;
       // A gather of the block addresses (dead lanes read blocks[0] and are not checked), then
       // the address of float `offset` of the block: block + 4 offset bytes.
       const auto block =

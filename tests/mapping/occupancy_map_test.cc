@@ -697,15 +697,18 @@ TEST(ScanIntegrator, RefusesInstructionSetsTheCpuLacksWithTheListItRuns) {
       const std::string why = RefusalOf(all[wider]->name);
       EXPECT_NE(why.find(std::string("it runs scalar") + (i > 0 ? ", " : " (")), std::string::npos)
           << why;
-      if (i > 0) EXPECT_NE(why.find(all[i]->name), std::string::npos) << why;
+      if (i > 0) {
+        EXPECT_NE(why.find(all[i]->name), std::string::npos) << why;
+      }
     }
   }
   EXPECT_EQ(kernels::Supported(), all);  // Highway's own detection again
   for (const char* unknown : {"sse9", "AVX2", "emu128", "avx3 "}) {
     EXPECT_NE(RefusalOf(unknown).find("it runs scalar"), std::string::npos) << unknown;
   }
-  if (kernels::UsesAvx512(*all.back()))
+  if (kernels::UsesAvx512(*all.back())) {
     EXPECT_EQ(ScanIntegrator::ResolveInstructionSet("avx512"), "avx3");
+  }
   for (const kernels::Kernels* k : all) {
     ASSERT_EQ(setenv("KESTREL_ISA", k->name, 1), 0);
     EXPECT_EQ(ScanIntegrator::ResolveInstructionSet(""), k->name);
