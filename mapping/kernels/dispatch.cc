@@ -49,8 +49,13 @@ const Kernels& Named(const std::string& name) {
   for (const Kernels* k : Supported()) {
     if (canonical == k->name) return *k;
   }
+#if HWY_ARCH_X86
+  const char* const alias = " (avx512 is another name of avx3)";
+#else
+  const char* const alias = "";
+#endif
   throw std::invalid_argument("instruction set '" + name + "' is not one this CPU runs; it runs " +
-                              SupportedNames() + " (avx512 is another name of avx3)");
+                              SupportedNames() + alias);
 }
 
 bool UsesAvx512(const Kernels& kernels) {
