@@ -82,7 +82,8 @@ int Run(Map* map, const std::string& kind, int frames, int threads) {
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   std::printf(
-      "%s %s isa=%s frames=%d threads=%d rays=%llu cells=%llu cpu_s=%.4f main_cpu_s=%.4f wall_s=%.4f "
+      "%s %s isa=%s frames=%d threads=%d rays=%llu cells=%llu cpu_s=%.4f main_cpu_s=%.4f "
+      "wall_s=%.4f "
       "rays_per_cpu_s=%.3fM rays_per_busiest_thread_cpu_s=%.3fM rays_per_wall_s=%.3fM "
       "hash=%016llx entropy=%.17g\n",
       map->updater().name(), kind.c_str(), integrator.instruction_set(), frames, threads,
