@@ -73,8 +73,9 @@ HWY_INLINE int StoreRows(const double* scale, const float* priors, int first, in
     hn::StoreU(hn::Add(hn::LoadU(di, kPacked[bits[0]]), hn::Set(di, first + i)), di, changed + m);
     m += static_cast<int>(hwy::PopCount(bits[0]));
 #endif
-    // A ray never lists a cell twice, so the order of the stores does not matter.
-    store(i, stored);
+    // Only where a value changed (most cells of a ray sit at the clamp and keep their value). A
+    // ray never lists a cell twice, so the order of the stores does not matter.
+    if (!hn::AllFalse(di, differ)) store(i, stored);
   }
   return StoreCells(scale, kPerCell, priors, first, i, n, p_min, cell_at, changed, m);
 }
