@@ -25,6 +25,7 @@
 #include "kestrel/grid_map_t.hpp"
 #include "mapping/mapper_node.h"
 #include "sim/ground_truth.h"
+#include "sim/ray_reach.h"
 #include "sim/sim_node.h"
 #include "tools/map_score/map_scorer.h"
 
@@ -370,12 +371,27 @@ MissionResult RunMission(const MissionConfig& mc) {
   std::optional<MapScorer> scorer;
   if (mc.compute_quality) {
     scorer.emplace(world, sim.simulator().caster(), grid, mapper_config.sensors[0].model.z_max_m,
-                   sim_config.depth.vfov_deg * M_PI / 180.0);
+                   sim_config.depth.vfov_deg * M_PI / 180.0,
+                   mapper_config.sensors[0].model.no_return_informs);
   }
   auto quality = [&]() {
     return scorer->Score([&](const CellIndex& c) { return mapper.ProbabilityAt(c); },
                          mapper_config.occupancy.p_init);
   };
+  // Where the simulator's rays reached, and the map's claims against it (docs/algorithms.md
+  // §12.5): sampled with the quality.
+  std::optional<RayReach> reach;
+  std::optional<ClaimTracker> claims;
+  auto known_free = [&]() {
+    return KnownFreeBelow(
+        scorer->Probabilities([&](const CellIndex& c) { return mapper.ProbabilityAt(c); }),
+        mapper_config.occupancy.p_init);
+  };
+  if (mc.compute_quality) {
+    reach.emplace(grid);
+    sim.mutable_simulator().SetRayReach(&*reach);
+    claims.emplace(world, grid, scorer->truth());
+  }
 
   // --- Fault injection: relay the simulator's sensors, dropping a seeded fraction of depth
   // images and scans, and every pose during the motion-capture outage.
@@ -617,6 +633,7 @@ MissionResult RunMission(const MissionConfig& mc) {
       s.position_m = p;
       s.explorer_state = explorers.front() ? explorer().state() : -1;
       if (mc.compute_quality) {
+        claims->Sample(t, known_free());
         const MapQuality q = quality();
         s.known_fraction = q.known_fraction;
         s.accuracy = q.accuracy;
@@ -660,6 +677,11 @@ MissionResult RunMission(const MissionConfig& mc) {
     }
     if (t >= mc.max_time_s) {
       r.end_reason = "time limit " + std::to_string(mc.max_time_s) + " s";
+      break;
+    }
+    if (mc.stop_requested && mc.stop_requested()) {
+      r.interrupted = true;
+      r.end_reason = "interrupted after " + Fixed3(t) + " s simulated";
       break;
     }
   }
@@ -735,7 +757,15 @@ MissionResult RunMission(const MissionConfig& mc) {
   r.mapper_applied_every_message = mapper.applied_every_message();
   r.map_hash = mapper.map_hash();
   r.final_entropy_nats = mapper.entropy_nats();
-  if (mc.compute_quality) r.quality = quality();
+  if (mc.compute_quality) {
+    r.quality = quality();
+    sim.mutable_simulator().SetRayReach(nullptr);
+    r.claims = claims->Claims(known_free(), &reach->first_reach_s());
+    if (!mc.reach_path.empty()) {
+      std::string error;
+      if (!WriteRayReachFile(mc.reach_path, *reach, &error)) throw std::runtime_error(error);
+    }
+  }
   if (!mc.map_path.empty()) mapper.SaveMapFile(mc.map_path);
   if (!mc.octomap_path.empty()) mapper.ExportOctoMapFile(mc.octomap_path);
   if (!mc.ply_path.empty()) mapper.ExportPlyFile(mc.ply_path);
@@ -803,6 +833,11 @@ std::string MissionSummary(const MissionResult& r) {
     << "known fraction: " << r.quality.known_fraction << " of " << r.quality.observable_cells
     << " observable cells; accuracy " << r.quality.accuracy << "; Brier " << r.quality.brier
     << "; ROC AUC " << r.quality.roc_auc << "\n"
+    << "claims without grounds: " << r.claims.known_free << " cells known free, of which "
+    << r.claims.free_in_solid << " half a cell or more inside a solid, " << r.claims.free_outside
+    << " outside the building (not connected to the start), " << r.claims.free_unreached
+    << " never reached by a ray; " << r.claims.freed_early << " freed before a ray reached them"
+    << " (up to " << r.claims.max_lead_s << " s early)\n"
     << "first exploration plan: " << r.first_plan_time_s << " s\n"
     << "time to 95% known: " << r.time_to_95_s << " s\n"
     << "faults: " << r.sensor_messages_dropped << " sensor messages and " << r.poses_dropped
