@@ -48,5 +48,5 @@ set(CPACK_DEBIAN_HOST_PACKAGE_RECOMMENDS
     "python3-matplotlib, liblcm-java, libjchart2d-java, default-jre-headless")
 # What find_package(Kestrel) and the exported kestrel:: targets need to compile and link.
 set(CPACK_DEBIAN_HOST_PACKAGE_SUGGESTS
-    "liblcm-dev, libeigen3-dev, libyaml-cpp-dev, zlib1g-dev, libbullet-dev, liboctomap-dev, libusb-1.0-0-dev, libopenni2-dev, pkg-config")
+    "liblcm-dev, libeigen3-dev, libyaml-cpp-dev, zlib1g-dev, libbullet-dev, liboctomap-dev, libhwy-dev, libusb-1.0-0-dev, libopenni2-dev, pkg-config")
 include(CPack)

@@ -328,7 +328,7 @@ RayEntropy ExpectedEntropy::Fast(const SensorModel& model, const double* entry_m
 RayEntropy ExpectedEntropy::Evaluate(const SensorModel& model, const RayKernel& kernel,
                                      const double* prior, int n, WeightMode mode,
                                      ExpectedEntropyScratch* scratch, EntropySum sum) {
-  static const bool kHaveLanes = kernels::Best().isa == kernels::Isa::kAvx512;
+  static const bool kHaveLanes = kernels::UsesAvx512(kernels::Best());
   const bool lanes = sum == EntropySum::kLanes && kHaveLanes;
   KESTREL_THROW_UNLESS(n >= 0 && n <= kernel.size(),
                        "ExpectedEntropy::Evaluate: n = " << n << ", kernel of " << kernel.size());

@@ -9,7 +9,10 @@
 ///   1/eta   = S_nr + pi_(nr+1) a_(nr+1)    = p(z), eq. (4)
 ///   P'_k    = eta (P_k S_(k-1) + pi_k a_k)  posterior, eqs. (2)-(3)
 /// One forward pass accumulates pi and S in double; a second writes P'_k, computed as
-/// eta P_k C_k with C_k = S_(k-1) + Pbar_(k-1) a_k (the same value; see ExactUpdate::Apply).
+/// (eta C_k) P_k with C_k = S_(k-1) + Pbar_(k-1) a_k (the same value; see ExactUpdate::Apply).
+/// C_k is one constant over a run of cells with the same a_k, and the forward pass's products and
+/// sums are formed in blocks of eight cells in a fixed order (docs/algorithms.md §4.7): the
+/// canonical arithmetic every instruction set's kernels follow, so maps are bit-identical.
 ///
 /// Which cells are written (docs/algorithms.md §3.5, §4.2):
 ///  - a return z updates every cell of the ray, except that cells with d_k > z + c*sigma are left
@@ -35,17 +38,19 @@ class InverseSensorModelScratch {
  public:
   /// Scratch for rays of up to `capacity` cells.
   explicit InverseSensorModelScratch(int capacity)
-      : c_term_(static_cast<size_t>(capacity)), prior_(static_cast<size_t>(capacity)) {}
+      : scale_(static_cast<size_t>(capacity)), prior_(static_cast<size_t>(capacity)) {}
   /// Largest n_r this scratch holds.
-  [[nodiscard]] int capacity() const { return static_cast<int>(c_term_.size()); }
-  /// Cells visited by ComputeExactPosteriors since construction (both passes): the work counter
-  /// the linear-cost test reads.
+  [[nodiscard]] int capacity() const { return static_cast<int>(scale_.size()); }
+  /// Cells visited by the updates since construction (both passes): the work counter the
+  /// linear-cost test reads.
   [[nodiscard]] uint64_t cell_visits() const { return cell_visits_; }
+  /// eta C_k of the cells of the last ExactUpdate::Forward's per-cell segment (ExactForward).
+  [[nodiscard]] const double* scale() const { return scale_.data(); }
 
  private:
   friend struct ExactUpdate;
-  std::vector<double> c_term_;  // C_k = S_(k-1) + Pbar_(k-1) a_k (ExactUpdate::Apply)
-  std::vector<double> prior_;   // P_k as read in the forward pass
+  std::vector<double> scale_;  // C_k, then eta C_k (ExactUpdate::Forward)
+  std::vector<double> prior_;  // P_k as read in the forward pass (ExactUpdate::Apply)
   uint64_t cell_visits_{0};
 };
 
@@ -64,6 +69,25 @@ struct ExactUpdateResult {
   int first{0};         ///< index of the first cell written
   int count{0};         ///< number of cells written
   double inv_eta{0.0};  ///< 1/eta = p(z) (a density, 1/m, for a return; a probability otherwise)
+};
+
+/// What ExactUpdate::Forward leaves for the write step: the cells written, [first, end), get
+/// P'_k = scale_k P_k (then clamped), in up to three segments in cell order. A segment of cells
+/// with the same a_k (a run) has one scale, eta C_run; the Gaussian window's cells each have
+/// their own, eta C_k, in InverseSensorModelScratch::scale()[k] (docs/algorithms.md §4.7).
+struct ExactForward {
+  /// Cells [begin, end) of a segment.
+  struct Segment {
+    int begin{0};          ///< first cell
+    int end{0};            ///< one past the last cell
+    double scale{0.0};     ///< eta C_run for a run
+    bool per_cell{false};  ///< scale_k in the scratch's scale()[k] instead
+  };
+  Segment segments[3];   ///< in cell order, covering [first, end)
+  int segment_count{0};  ///< segments in use
+  int first{0};          ///< index of the first cell written
+  int end{0};            ///< one past the last cell written (the shortcut's cut for a return)
+  double inv_eta{0.0};   ///< 1/eta = p(z)
 };
 
 /// The exact update as a pure function (a struct only to befriend the scratch).
@@ -94,6 +118,15 @@ struct ExactUpdate {
                                  Write&& write, InverseSensorModelScratch* scratch,
                                  Likelihood likelihood = nullptr);
 
+  /// The forward pass of Apply (docs/algorithms.md §4.1, §4.7): reads P_k through prior_at(k)
+  /// (once per cell, in order) and returns the scale of every cell written, for a write step
+  /// that computes P'_k = scale_k P_k itself (ExactBayesUpdater's kernels). Arguments as Apply's.
+  /// @throws std::invalid_argument on a kInvalid reading or n out of range.
+  template <class Distance, class PriorAt, class Likelihood = const double*>
+  static ExactForward Forward(const SensorModel& model, const Reading& reading,
+                              const Distance& distance_m, int n, PriorAt&& prior_at,
+                              InverseSensorModelScratch* scratch, Likelihood likelihood = nullptr);
+
   /// The cells a reading uses (the shortcut's cut for a return, all for "no return"), and their
   /// a_k written to likelihood[0 .. returned count). Reads no map.
   static int ForwardLikelihoods(const SensorModel& model, const Reading& reading,
@@ -115,90 +148,161 @@ inline ExactUpdateResult ComputeExactPosteriors(const SensorModel& model, const 
 // ---------------------------------------------------------------------------------------------
 // Implementation.
 
+// The canonical order of the forward pass (docs/algorithms.md §4.7). Eqs. (2)-(3) rewritten:
+// P_k S_(k-1) + pi_k a_k = P_k (S_(k-1) + Pbar_(k-1) a_k) = P_k C_k, so P'_k = (eta C_k) P_k with
+// C_k = S_(k-1) + Pbar_(k-1) a_k (a sum of non-negative terms, no cancellation). Over a run of
+// cells whose a_k is one constant A, entered with S and Pbar (the sum and product of the cells
+// before it), S_(k-1) = S + A Pbar (1 - prod_run Pbar_j), hence C_k = S + A Pbar for every cell of
+// the run: a run needs neither a_k nor C_k per cell, only its sum T = sum_k P_k prod_{j<k} Pbar_j
+// and product Q = prod_k Pbar_k. Runs: for a return the cells nearer than z_min or more than
+// c sigma before z (a_k = p_rand u), most of a ray; for "no return" the cells below z_min, in
+// range and beyond z_max (a_k = 1 - p_rand, (1 - p_rand) p_miss, 1 - p_rand). Only a return's
+// Gaussian window has a_k per cell. Both kinds of segment are summed in blocks of eight cells from
+// the segment's start: left to right inside a block, then block after block, so the loop-carried
+// chain is one product and one sum per block instead of per cell.
+// The first k in [begin, end) where holds(distance_m[k]) is false, for a predicate that holds on a
+// prefix (d_k does not decrease): a binary search without branches on the data.
+template <class Distance, class Holds>
+int PrefixEnd(const Distance& distance_m, int begin, int end, const Holds& holds) {
+  int base = begin, length = end - begin;  // the answer lies in [base, base + length]
+  while (length > 1) {
+    const int half = length / 2;
+    base += holds(distance_m[base + half - 1]) ? half : 0;
+    length -= half;
+  }
+  return base + (length == 1 && holds(distance_m[base]) ? 1 : 0);
+}
+
+template <class Distance, class PriorAt, class Likelihood>
+ExactForward ExactUpdate::Forward(const SensorModel& model, const Reading& reading,
+                                  const Distance& distance_m, int n, PriorAt&& prior_at,
+                                  InverseSensorModelScratch* scratch, Likelihood likelihood) {
+  constexpr int kBlock = 8;
+  CheckInput(reading, n, scratch);
+  ExactForward f;
+  double* const scale = scratch->scale_.data();  // C_k, then eta C_k (window)
+  double s = 0.0;                                // S before the next segment
+  double pbar = 1.0;                             // prod Pbar_j before the next segment
+  double c_run[3] = {0.0, 0.0, 0.0};
+  // A run of cells [begin, end) with a_k = a: S and Pbar move past it; its C_run is kept.
+  const auto run = [&](int begin, int end, double a) {
+    double t_run = 0.0;  // sum_k P_k prod_{j<k} Pbar_j over the run
+    double q_run = 1.0;  // prod_k Pbar_k over the run
+    for (int block = begin; block < end; block += kBlock) {
+      const int block_end = std::min(block + kBlock, end);
+      double t = 0.0, q = 1.0;
+      for (int k = block; k < block_end; ++k) {
+        const double p = prior_at(k);
+        KESTREL_ASSERT(p >= 0.0 && p <= 1.0);
+        t += p * q;
+        q *= 1.0 - p;
+      }
+      t_run += q_run * t;
+      q_run *= q;
+    }
+    ExactForward::Segment& seg = f.segments[f.segment_count];
+    seg = ExactForward::Segment{begin, end, 0.0, false};
+    c_run[f.segment_count++] = s + pbar * a;  // C_k of every cell of the run
+    s += a * (pbar * t_run);
+    pbar *= q_run;
+  };
+  // The Gaussian window [begin, end): C_k per cell, a_k from a_of(k).
+  const auto window = [&](int begin, int end, auto&& a_of) {
+    for (int block = begin; block < end; block += kBlock) {
+      const int block_end = std::min(block + kBlock, end);
+      double u = 0.0, q = 1.0;  // the block's S and prod Pbar before cell k, relative to its start
+      for (int k = block; k < block_end; ++k) {
+        const double p = prior_at(k);
+        KESTREL_ASSERT(p >= 0.0 && p <= 1.0);
+        const double w = q * a_of(k);
+        scale[k] = u + w;
+        u += p * w;
+        q *= 1.0 - p;
+      }
+      for (int k = block; k < block_end; ++k) scale[k] = s + pbar * scale[k];  // C_k
+      s += pbar * u;
+      pbar *= q;
+    }
+    f.segments[f.segment_count++] = ExactForward::Segment{begin, end, 0.0, true};
+  };
+  double tail_a;  // a_(nr+1), the empty ray's likelihood
+  if (reading.kind == ReadingKind::kReturn) {
+    const double z = reading.z_m;
+    // Shortcut: cells with d_k > z + c sigma are left out (docs/algorithms.md §4.2).
+    const double reach_m = model.GaussianReach(z);
+    f.end = n;
+    while (f.end > 0 && distance_m[f.end - 1] > reach_m) --f.end;  // the last cell or two
+    const int run_end =
+        PrefixEnd(distance_m, 0, f.end, [&](double d) { return model.SpuriousOnly(z, d); });
+    run(0, run_end, model.spurious_density());
+    if (run_end < f.end) {
+      if (likelihood) {
+        window(run_end, f.end, [likelihood](int k) { return likelihood[k]; });
+      } else {
+        const ReturnLikelihoodEvaluator a_k = model.ReturnEvaluator();
+        window(run_end, f.end, [&a_k, z, &distance_m](int k) { return a_k(z, distance_m[k]); });
+      }
+    }
+    tail_a = model.spurious_density();  // eq. (4), completed tail: p_rand u prod Pbar
+  } else {
+    // NoReturnProbability: in range [z_min, z_max) or not; d_k does not decrease.
+    const double z_min = model.config().z_min_m, z_max = model.config().z_max_m;
+    f.end = n;
+    const int near_end = PrefixEnd(distance_m, 0, n, [z_min](double d) { return d < z_min; });
+    const int in_range_end =
+        PrefixEnd(distance_m, near_end, n, [z_max](double d) { return d < z_max; });
+    const double out_of_range_a = model.empty_no_return_probability();  // 1 - p_rand
+    run(0, near_end, out_of_range_a);
+    if (in_range_end > near_end) run(near_end, in_range_end, model.NoReturnProbability(z_min));
+    if (n > in_range_end) run(in_range_end, n, out_of_range_a);
+    tail_a = model.empty_no_return_probability();
+    // Only cells with d_k >= z_min are written (docs/algorithms.md §3.5): not the first run.
+    f.first = near_end;
+  }
+  f.inv_eta = s + pbar * tail_a;  // eq. (4)
+  KESTREL_DEMAND(f.inv_eta > 0.0);
+  const double eta = 1.0 / f.inv_eta;
+  // The segments written, their scales: eta C_run, or eta C_k per cell.
+  int written = 0;
+  for (int i = 0; i < f.segment_count; ++i) {
+    ExactForward::Segment& seg = f.segments[i];
+    seg.begin = std::max(seg.begin, f.first);
+    if (seg.begin >= seg.end) continue;
+    if (seg.per_cell) {
+      for (int k = seg.begin; k < seg.end; ++k) scale[k] = eta * scale[k];
+    } else {
+      seg.scale = eta * c_run[i];
+    }
+    f.segments[written++] = seg;
+  }
+  f.segment_count = written;
+  scratch->cell_visits_ += static_cast<uint64_t>(f.end) + static_cast<uint64_t>(f.end - f.first);
+  return f;
+}
+
 template <class Distance, class PriorAt, class Write, class Likelihood>
 ExactUpdateResult ExactUpdate::Apply(const SensorModel& model, const Reading& reading,
                                      const Distance& distance_m, int n, PriorAt&& prior_at,
                                      Write&& write, InverseSensorModelScratch* scratch,
                                      Likelihood likelihood) {
-  // Eqs. (2)-(3) rewritten: P_k S_(k-1) + pi_k a_k = P_k (S_(k-1) + Pbar_(k-1) a_k) = P_k C_k,
-  // so P'_k = eta P_k C_k with C_k = S_(k-1) + Pbar_(k-1) a_k (a sum of non-negative terms, no
-  // cancellation). Over a leading run of cells whose a_k is the same constant A (for a return:
-  // cells nearer than z_min or more than c sigma before z, where a_k = p_rand u), S_(k-1) =
-  // A (1 - Pbar_(k-1)), hence C_k = A exactly and P'_k = (eta A) P_k: those cells need neither
-  // a_k nor a stored C_k, which is most of a ray (docs/algorithms.md §4.3).
-  CheckInput(reading, n, scratch);
-  ExactUpdateResult result;
-  double* const c_term = scratch->c_term_.data();  // C_k
-  double* const prior = scratch->prior_.data();    // P_k as read in the forward pass
-  double s = 0.0;                                  // S_k
-  double pbar_run = 1.0;                           // prod_{j<=k} Pbar_j = Pbar_k
-  int end = n;
-  int run_end = 0;     // cells [0, run_end) form the leading run with a_k = run_a
-  double run_a = 0.0;  // A of the leading run
-  double tail_a;       // a_(nr+1), the empty ray's likelihood
-  if (reading.kind == ReadingKind::kReturn) {
-    const double z = reading.z_m;
-    // Shortcut: cells with d_k > z + c sigma are left out (docs/algorithms.md §4.2).
-    const double reach_m = model.GaussianReach(z);
-    while (end > 0 && distance_m[end - 1] > reach_m) --end;
-    run_a = model.spurious_density();
-    double pi_sum = 0.0;  // sum_{i<=k} pi_i over the run
-    while (run_end < end && model.SpuriousOnly(z, distance_m[run_end])) {
-      const double p = prior_at(run_end);
-      KESTREL_ASSERT(p >= 0.0 && p <= 1.0);
-      prior[run_end] = p;
-      pi_sum += p * pbar_run;  // pi_k
-      pbar_run *= 1.0 - p;
-      ++run_end;
-    }
-    s = run_a * pi_sum;  // S_k over the run: sum pi_i A
-    // The Gaussian window: a_k per cell (precomputed, or evaluated with the model's constants
-    // held in registers).
-    const auto window = [&](auto&& a_of) {
-      for (int k = run_end; k < end; ++k) {
+  double* const prior = scratch->prior_.data();  // P_k as read in the forward pass
+  const ExactForward f = Forward(
+      model, reading, distance_m, n,
+      [&](int k) {
         const double p = prior_at(k);
-        KESTREL_ASSERT(p >= 0.0 && p <= 1.0);
         prior[k] = p;
-        const double pbar_a = pbar_run * a_of(k);  // Pbar_(k-1) a_k
-        c_term[k] = s + pbar_a;                    // C_k
-        s += p * pbar_a;                           // S_k = S_(k-1) + pi_k a_k
-        pbar_run *= 1.0 - p;
-      }
-    };
-    if (likelihood) {
-      window([likelihood](int k) { return likelihood[k]; });
-    } else {
-      const ReturnLikelihoodEvaluator a_k = model.ReturnEvaluator();
-      window([&a_k, z, &distance_m](int k) { return a_k(z, distance_m[k]); });
+        return p;
+      },
+      scratch, likelihood);
+  // The write step, P'_k = scale_k P_k (ExactForward), as the map's kernels compute it.
+  const double* const scale = scratch->scale();
+  for (int i = 0; i < f.segment_count; ++i) {
+    const ExactForward::Segment& seg = f.segments[i];
+    for (int k = seg.begin; k < seg.end; ++k) {
+      write(k, (seg.per_cell ? scale[k] : seg.scale) * prior[k]);
     }
-    tail_a = model.spurious_density();  // eq. (4), completed tail: p_rand u prod Pbar
-  } else {
-    for (int k = 0; k < end; ++k) {
-      const double p = prior_at(k);
-      KESTREL_ASSERT(p >= 0.0 && p <= 1.0);
-      prior[k] = p;
-      const double a = likelihood ? likelihood[k] : model.NoReturnProbability(distance_m[k]);
-      const double pbar_a = pbar_run * a;  // Pbar_(k-1) a_k
-      c_term[k] = s + pbar_a;              // C_k
-      s += p * pbar_a;                     // S_k
-      pbar_run *= 1.0 - p;
-    }
-    tail_a = model.empty_no_return_probability();
-    // Only cells with d_k >= z_min are written (docs/algorithms.md §3.5).
-    const double z_min = model.config().z_min_m;
-    while (result.first < end && distance_m[result.first] < z_min) ++result.first;
   }
-  result.inv_eta = s + pbar_run * tail_a;  // eq. (4)
-  KESTREL_DEMAND(result.inv_eta > 0.0);
-  const double eta = 1.0 / result.inv_eta;
-  const double run_ratio = eta * run_a;  // P'_k / P_k over the leading run
-  for (int k = result.first; k < run_end; ++k) write(k, run_ratio * prior[k]);
-  for (int k = std::max(result.first, run_end); k < end; ++k) {
-    write(k, eta * (c_term[k] * prior[k]));  // eqs. (2)-(3): eta P_k C_k
-  }
-  result.count = end - result.first;
-  scratch->cell_visits_ += static_cast<uint64_t>(end) + static_cast<uint64_t>(result.count);
-  return result;
+  return ExactUpdateResult{f.first, f.end - f.first, f.inv_eta};
 }
 
 /// Clamps p to [p_min, 1 - p_min] (docs/algorithms.md §1.2). Precondition: p not NaN (then the

@@ -3,12 +3,14 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <stdexcept>
 
 #include "common/check.h"
 #include "common/identity.h"
 #include "common/vehicle_config.h"
 #include "common/vehicle_prefixes.h"
 #include "mapping/mapping_config.h"
+#include "mapping/scan_integrator.h"
 
 namespace kestrel {
 
@@ -35,9 +37,11 @@ void MapperConfig::Validate() const {
                        "grid = '" << grid << "' must be dense or growing");
   KESTREL_THROW_UNLESS(model == "exact" || model == "log_odds",
                        "model = '" << model << "' must be exact or log_odds");
-  KESTREL_THROW_UNLESS(
-      instruction_set.empty() || instruction_set == "scalar" || instruction_set == "avx512",
-      "instruction_set = '" << instruction_set << "' must be empty, scalar or avx512");
+  try {
+    (void)ScanIntegrator::ResolveInstructionSet(instruction_set);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("instruction_set = '" + instruction_set + "': " + e.what());
+  }
   limits.Validate();
   occupancy.Validate();
   log_odds.Validate();
@@ -168,7 +172,7 @@ MapperConfig LoadMapperConfig(const ConfigNode& node) {
   node.Read("catch_up_log", &c.catch_up_log);
   node.Read("catch_up_wait_s", &c.catch_up_wait_s, Range::NonNegative());
   node.Read("traversal_thread", &c.traversal_thread);
-  node.Read("instruction_set", &c.instruction_set, {"", "scalar", "avx512"});
+  node.Read("instruction_set", &c.instruction_set);
   try {
     c.Validate();
   } catch (const std::invalid_argument& e) {

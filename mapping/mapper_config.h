@@ -125,12 +125,14 @@ struct MapperConfig {
 
   /// The kernels that cast eight rays at a time, evaluate their forward models and store their
   /// posteriors (ScanIntegrator::Options::instruction_set): "" for the widest the CPU runs
-  /// (AVX-512 vector registers where the CPU has them: faster than the scalar kernels,
-  /// bench/mapping; docs/STATUS.md, "Mapping"), "scalar" or "avx512". The same map bit for bit
+  /// (faster than the scalar kernels, bench/mapping; docs/STATUS.md, "Mapping"; the environment
+  /// variable KESTREL_ISA overrides ""), "scalar", or a Highway target's name in lower case the
+  /// CPU runs ("sse4", "avx2", "avx3" = "avx512", "neon", "sve", ...). The same map bit for bit
   /// with each.
   std::string instruction_set;
 
-  /// @throws ConfigError-like std::invalid_argument naming the field, value and range.
+  /// @throws ConfigError-like std::invalid_argument naming the field, value and range (for
+  /// instruction_set: the instruction sets this CPU runs).
   void Validate() const;
 };
 

@@ -154,6 +154,14 @@ void MapperNode::CreateIntegrator() {
   const ScanIntegrator::Options options{config_.traversal_thread, config_.instruction_set};
   integrator_ =
       std::visit([&](auto& m) { return std::make_unique<ScanIntegrator>(m.get(), options); }, map_);
+  std::string supported;
+  for (const std::string& name : ScanIntegrator::SupportedInstructionSets()) {
+    supported += (supported.empty() ? "" : ", ") + name;
+  }
+  Log(LogLevel::kInfo, std::string("kernels: ") + integrator_->instruction_set() +
+                           " (this CPU runs " + supported +
+                           "; instruction_set or KESTREL_ISA "
+                           "choose, the map is the same with each)");
 }
 
 void MapperNode::RefuseCheckpoint(const std::string& why) {

@@ -20,8 +20,7 @@ ExactBayesUpdater::ExactBayesUpdater(const OccupancyLimits& limits, int capacity
       scratch_(capacity),
       lane_cells_(static_cast<size_t>(capacity)),
       lane_pointers_(static_cast<size_t>(capacity)),
-      lane_priors_(static_cast<size_t>(capacity)),
-      lane_posteriors_(static_cast<size_t>(capacity)) {
+      lane_priors_(static_cast<size_t>(capacity)) {
   limits_.Validate();
 }
 
@@ -49,18 +48,23 @@ int ExactBayesUpdater::UpdateLane(const SensorModel& model, const Reading& readi
   const LaneView distance{batch.distance_m.data() + lane};
   const LaneView likelihood{batch.has_likelihood ? batch.likelihood.data() + lane : nullptr};
   float* const priors = lane_priors_.data();
-  double* const posteriors = lane_posteriors_.data();
-  // docs/algorithms.md §4.1 with the cells read once (their indices and values kept in order), then
-  // the write step for the cells written (the kernels': eight at a time on AVX-512).
-  const ExactUpdateResult r = ExactUpdate::Apply(
+  // docs/algorithms.md §4.1 and §4.7 with the cells read once (their indices and values kept in
+  // order), then the write step, P'_k = scale_k P_k segment by segment, by the kernels.
+  const ExactForward f = ExactUpdate::Forward(
       model, reading, distance, n,
       [&](int k) {
         priors[k] = read_cell(k);
         return static_cast<double>(priors[k]);
       },
-      [posteriors](int k, double posterior) { posteriors[k] = posterior; }, &scratch_, likelihood);
-  *cells_written += static_cast<uint64_t>(r.count);
-  return store(posteriors, priors, r.first, r.count);
+      &scratch_, likelihood);
+  *cells_written += static_cast<uint64_t>(f.end - f.first);
+  int changed = 0;
+  for (int i = 0; i < f.segment_count; ++i) {
+    const ExactForward::Segment& seg = f.segments[i];
+    const double* const scale = seg.per_cell ? scratch_.scale() + seg.begin : &seg.scale;
+    changed += store(scale, seg.per_cell, seg.begin, seg.end - seg.begin, changed);
+  }
+  return changed;
 }
 
 int ExactBayesUpdater::UpdateBatchLane(const SensorModel& model, const Reading& reading,
@@ -69,6 +73,7 @@ int ExactBayesUpdater::UpdateBatchLane(const SensorModel& model, const Reading& 
                                        int* changed) {
   const int32_t* const linear = batch.linear_index.data() + lane;
   int32_t* const cells = lane_cells_.data();
+  const float* const priors = lane_priors_.data();
   return UpdateLane(
       model, reading, batch, lane,
       [&](int k) {
@@ -76,9 +81,9 @@ int ExactBayesUpdater::UpdateBatchLane(const SensorModel& model, const Reading& 
         cells[k] = cell;
         return base[cell];
       },
-      [&](const double* posteriors, const float* priors, int first, int count) {
-        return kernels.store_posteriors(posteriors + first, cells + first, priors + first, first,
-                                        count, limits_.p_min, base, changed);
+      [&](const double* scale, bool per_cell, int first, int count, int listed) {
+        return kernels.store_posteriors(scale, per_cell, priors + first, cells + first, first,
+                                        count, limits_.p_min, base, changed + listed);
       },
       cells_written);
 }
@@ -88,6 +93,7 @@ int ExactBayesUpdater::UpdateBatchLaneAt(const SensorModel& model, const Reading
                                          const kernels::Kernels& kernels, uint64_t* cells_written,
                                          int* changed) {
   float** const pointers = lane_pointers_.data();
+  const float* const priors = lane_priors_.data();
   return UpdateLane(
       model, reading, batch, lane,
       [&](int k) {
@@ -95,9 +101,9 @@ int ExactBayesUpdater::UpdateBatchLaneAt(const SensorModel& model, const Reading
         pointers[k] = cell;
         return *cell;
       },
-      [&](const double* posteriors, const float* priors, int first, int count) {
-        return kernels.store_posteriors_at(posteriors + first, pointers + first, priors + first,
-                                           first, count, limits_.p_min, changed);
+      [&](const double* scale, bool per_cell, int first, int count, int listed) {
+        return kernels.store_posteriors_at(scale, per_cell, priors + first, pointers + first, first,
+                                           count, limits_.p_min, changed + listed);
       },
       cells_written);
 }

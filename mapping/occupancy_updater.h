@@ -99,8 +99,9 @@ class ExactBayesUpdater final : public OccupancyUpdater {
 
  private:
   // The update of lane `lane` of `batch` (a_k from the batch if it holds them): cell k's stored
-  // value from read_cell(k) (once, in order), then store(posteriors, priors, first, count)
-  // writes the posteriors of the cells written and returns the number changed.
+  // value from read_cell(k) (once, in order), then for each segment of cells written
+  // (ExactForward) store(scale, per_cell, first, count, listed) writes their posteriors, lists
+  // the changed ones from `listed` on and returns how many.
   template <class ReadCell, class Store>
   int UpdateLane(const SensorModel& model, const Reading& reading, const RayBatch& batch, int lane,
                  const ReadCell& read_cell, const Store& store, uint64_t* cells_written);
@@ -108,11 +109,10 @@ class ExactBayesUpdater final : public OccupancyUpdater {
   OccupancyLimits limits_;
   double diagonal_m_;  // sqrt(3) alpha: the longest chord through one cell, m
   InverseSensorModelScratch scratch_;
-  // UpdateBatchLane(At): the lane's cell indices or addresses, priors (as stored) and posteriors.
+  // UpdateBatchLane(At): the lane's cell indices or addresses and priors (as stored).
   std::vector<int32_t> lane_cells_;
   std::vector<float*> lane_pointers_;
   std::vector<float> lane_priors_;
-  std::vector<double> lane_posteriors_;
 };
 
 /// OctoMap's defaults for the log-odds baseline.

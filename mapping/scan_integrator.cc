@@ -52,6 +52,10 @@ std::vector<std::string> ScanIntegrator::SupportedInstructionSets() {
   return out;
 }
 
+std::string ScanIntegrator::ResolveInstructionSet(const std::string& name) {
+  return kernels::Named(name).name;
+}
+
 void ScanIntegrator::SetWorkerThread(bool enabled) {
   if (!enabled) {
     pipeline_.reset();

@@ -65,8 +65,10 @@ struct SensorRay {
 struct ScanIntegratorOptions {
   /// Casts on a worker thread ahead of the updates (ScanIntegrator::SetWorkerThread).
   bool worker_thread{false};
-  /// The kernels: "scalar", "avx512", or "" for the widest this CPU runs (the environment
-  /// variable KESTREL_ISA=scalar lowers that). The map is the same bit for bit with each.
+  /// The kernels: "" for the widest this CPU runs (or those the environment variable KESTREL_ISA
+  /// names), "scalar", or a Highway target's name in lower case that this CPU runs ("sse4",
+  /// "avx2", "avx3" = "avx512", "neon", "sve", ...; SupportedInstructionSets()). The map is the
+  /// same bit for bit with each.
   std::string instruction_set;
 };
 
@@ -78,8 +80,8 @@ class ScanIntegrator {
   using Options = ScanIntegratorOptions;
 
   /// An integrator into `map`.
-  /// @throws std::invalid_argument if map is null or the instruction set unknown or not run by
-  /// this CPU.
+  /// @throws std::invalid_argument if map is null or the instruction set (Options, or
+  /// KESTREL_ISA for "") is not one this CPU runs (the message lists those it runs).
   explicit ScanIntegrator(DenseOccupancyMap* map, const Options& options = Options());
   explicit ScanIntegrator(GrowingOccupancyMap* map, const Options& options = Options());
   ~ScanIntegrator();
@@ -127,10 +129,17 @@ class ScanIntegrator {
   void SetWorkerThread(bool enabled);
   /// Whether a worker thread is in use.
   [[nodiscard]] bool worker_thread() const { return pipeline_ != nullptr; }
-  /// Name of the instruction set the kernels are compiled for ("scalar", "avx512").
+  /// Name of the instruction set the kernels are compiled for ("scalar", "sse4", "avx2",
+  /// "avx3", "neon", ...).
   [[nodiscard]] const char* instruction_set() const;
-  /// The instruction sets this CPU runs, scalar first (Options::instruction_set).
+  /// The instruction sets this CPU runs, scalar first, then from the narrowest vectors to the
+  /// widest (Options::instruction_set).
   [[nodiscard]] static std::vector<std::string> SupportedInstructionSets();
+  /// The name of the instruction set Options::instruction_set = `name` selects ("" and
+  /// KESTREL_ISA resolved, "avx512" = "avx3").
+  /// @throws std::invalid_argument, listing the instruction sets this CPU runs, if it runs no
+  /// such instruction set.
+  [[nodiscard]] static std::string ResolveInstructionSet(const std::string& name);
 
  private:
   // What IntegrateRays applies (the worker's choice is kept per kind).

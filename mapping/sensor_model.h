@@ -161,7 +161,9 @@ class SensorModel {
   /// the near side (d < z_min, or z - d > c sigma): then ReturnLikelihood(z_m, d_m) is exactly
   /// spurious_density(). Cheap; used to find the leading cells of a ray that need no a_k.
   [[nodiscard]] bool SpuriousOnly(double z_m, double d_m) const {
-    return d_m < config_.z_min_m || z_m - d_m > cutoff_m_;
+    // | instead of ||: no branch (ExactUpdate::Forward's binary search over the cells).
+    return static_cast<bool>(static_cast<int>(d_m < config_.z_min_m) |
+                             static_cast<int>(z_m - d_m > cutoff_m_));
   }
 
   /// a_k = p(z | r_k+), 1/m, for a return z_m and first occupied cell at distance d_m (file

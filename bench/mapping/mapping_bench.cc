@@ -3,19 +3,24 @@
 // insertPointCloud (liboctomap, discretize = false, maxrange 4 m), 0.075 m cells, the paper's map
 // x -4..4, y -6..6, z -0.15..1.5 m. One iteration applies one frame; frames cycle.
 // Counters: rays/s (returns and "no return" rays to 4 m) and cell updates/s. Rays are cast eight
-// at a time (ScanIntegrator) with the widest kernels the CPU runs (AVX-512 here); *Scalar* forces
-// the scalar kernels (the same map), as on CPUs without AVX-512. The *Threaded*
-// variants (worker thread on) are timed in wall time and also report rays/busiest_cpu_s: rays
-// per CPU second of the busier of the two threads, the rate on two otherwise idle cores (the
-// machine is shared, so wall time overstates their cost).
+// at a time (ScanIntegrator); the exact model runs once per instruction set this CPU runs
+// (BM_KestrelExact_<isa>_*: scalar, sse4, avx2, avx3 here; the same map with each), or only the
+// one the environment variable KESTREL_ISA names; the log-odds baseline with the default
+// kernels. The *Threaded* variants (worker thread on) are timed in wall time and also report
+// rays/busiest_cpu_s: rays per CPU second of the busier of the two threads, the rate on two
+// otherwise idle cores (the machine is shared, so wall time overstates their cost).
 #include <benchmark/benchmark.h>
 
 #include <octomap/OcTree.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <ctime>
 #include <map>
 #include <memory>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "bench/mapping/synthetic_scene.h"
 #include "mapping/scan_integrator.h"
@@ -113,55 +118,26 @@ void RunScan(benchmark::State& state, ScanIntegrator* integrator) {
       static_cast<double>(total.cells_updated) / static_cast<double>(total.rays_applied);
 }
 
-// The scalar kernels: the path of CPUs without AVX-512.
-const ScanIntegrator::Options kScalar{false, "scalar"};
-// A worker thread casts ahead of the updates.
-const ScanIntegrator::Options kThreaded{true, ""};
-
-void BM_KestrelExact_Depth(benchmark::State& state) {
+// The exact model with the kernels of instruction set `isa`, on one thread or with the worker.
+void BM_KestrelExact_Depth(benchmark::State& state, const std::string& isa, bool threaded) {
   auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  ScanIntegrator integrator(map.get());
+  ScanIntegrator integrator(map.get(), ScanIntegrator::Options{threaded, isa});
   RunDepth(state, &integrator);
 }
-void BM_KestrelExactScalar_Depth(benchmark::State& state) {
-  auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  ScanIntegrator integrator(map.get(), kScalar);
-  RunDepth(state, &integrator);
-}
-void BM_KestrelExactThreaded_Depth(benchmark::State& state) {
-  auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  ScanIntegrator integrator(map.get(), kThreaded);
-  RunDepth(state, &integrator);
-}
-void BM_KestrelExactGrowing_Depth(benchmark::State& state) {
+void BM_KestrelExactGrowing_Depth(benchmark::State& state, const std::string& isa) {
   auto map = MakeExactGrowingMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  ScanIntegrator integrator(map.get());
+  ScanIntegrator integrator(map.get(), ScanIntegrator::Options{false, isa});
   RunDepth(state, &integrator);
 }
-void BM_KestrelExactGrowingScalar_Depth(benchmark::State& state) {
-  auto map = MakeExactGrowingMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  ScanIntegrator integrator(map.get(), kScalar);
-  RunDepth(state, &integrator);
+void BM_KestrelExact_Scan682(benchmark::State& state, const std::string& isa, bool threaded) {
+  auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  ScanIntegrator integrator(map.get(), ScanIntegrator::Options{threaded, isa});
+  RunScan(state, &integrator);
 }
 void BM_KestrelLogOdds_Depth(benchmark::State& state) {
   auto map = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
   ScanIntegrator integrator(map.get());
   RunDepth(state, &integrator);
-}
-void BM_KestrelExact_Scan682(benchmark::State& state) {
-  auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  ScanIntegrator integrator(map.get());
-  RunScan(state, &integrator);
-}
-void BM_KestrelExactScalar_Scan682(benchmark::State& state) {
-  auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  ScanIntegrator integrator(map.get(), kScalar);
-  RunScan(state, &integrator);
-}
-void BM_KestrelExactThreaded_Scan682(benchmark::State& state) {
-  auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
-  ScanIntegrator integrator(map.get(), kThreaded);
-  RunScan(state, &integrator);
 }
 void BM_KestrelLogOdds_Scan682(benchmark::State& state) {
   auto map = MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0);
@@ -249,41 +225,64 @@ void BM_OctoMap_Scan682(benchmark::State& state) {
   RunOcto(state, frames);
 }
 
-BENCHMARK(BM_KestrelExact_Depth)
-    ->Args({160, 120})
-    ->Args({320, 240})
-    ->Args({640, 480})
-    ->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_KestrelExactScalar_Depth)
-    ->Args({160, 120})
-    ->Args({320, 240})
-    ->Args({640, 480})
-    ->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_KestrelExactThreaded_Depth)
-    ->Args({160, 120})
-    ->Args({320, 240})
-    ->Args({640, 480})
-    ->Unit(benchmark::kMillisecond)
-    ->UseRealTime();
-BENCHMARK(BM_KestrelExactGrowing_Depth)->Args({160, 120})->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_KestrelExactGrowingScalar_Depth)->Args({160, 120})->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_KestrelLogOdds_Depth)
-    ->Args({160, 120})
-    ->Args({320, 240})
-    ->Args({640, 480})
-    ->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_OctoMap_Depth)
-    ->Args({160, 120})
-    ->Args({320, 240})
-    ->Args({640, 480})
-    ->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_KestrelExact_Scan682)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_KestrelExactScalar_Scan682)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_KestrelExactThreaded_Scan682)->Unit(benchmark::kMicrosecond)->UseRealTime();
-BENCHMARK(BM_KestrelLogOdds_Scan682)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_OctoMap_Scan682)->Unit(benchmark::kMicrosecond);
+// Registers every benchmark, workload by workload (each depth resolution, then the scan): the
+// exact model once per instruction set, on one thread and with the worker, then the log-odds
+// baseline and OctoMap. The instruction sets are those this CPU runs
+// (ScanIntegrator::SupportedInstructionSets), or the one KESTREL_ISA names.
+void RegisterAll() {
+  std::vector<std::string> isas = ScanIntegrator::SupportedInstructionSets();
+  const char* forced = std::getenv("KESTREL_ISA");
+  if (forced != nullptr && forced[0] != '\0') isas = {ScanIntegrator::ResolveInstructionSet("")};
+  const auto name = [](const char* what, const std::string& isa, const char* kind) {
+    return std::string("BM_") + what + "_" + isa + "_" + kind;
+  };
+  for (const auto& [width, height] : {std::pair{160, 120}, {320, 240}, {640, 480}}) {
+    for (const bool threaded : {false, true}) {
+      for (const std::string& isa : isas) {
+        auto* b = benchmark::RegisterBenchmark(
+            name(threaded ? "KestrelExactThreaded" : "KestrelExact", isa, "Depth").c_str(),
+            BM_KestrelExact_Depth, isa, threaded);
+        b->Args({width, height})->Unit(benchmark::kMillisecond);
+        if (threaded) b->UseRealTime();
+      }
+    }
+    if (width == 160) {
+      for (const std::string& isa : isas) {
+        benchmark::RegisterBenchmark(name("KestrelExactGrowing", isa, "Depth").c_str(),
+                                     BM_KestrelExactGrowing_Depth, isa)
+            ->Args({width, height})
+            ->Unit(benchmark::kMillisecond);
+      }
+    }
+    for (auto* b :
+         {benchmark::RegisterBenchmark("BM_KestrelLogOdds_Depth", BM_KestrelLogOdds_Depth),
+          benchmark::RegisterBenchmark("BM_OctoMap_Depth", BM_OctoMap_Depth)}) {
+      b->Args({width, height})->Unit(benchmark::kMillisecond);
+    }
+  }
+  for (const bool threaded : {false, true}) {
+    for (const std::string& isa : isas) {
+      auto* b = benchmark::RegisterBenchmark(
+          name(threaded ? "KestrelExactThreaded" : "KestrelExact", isa, "Scan682").c_str(),
+          BM_KestrelExact_Scan682, isa, threaded);
+      b->Unit(benchmark::kMicrosecond);
+      if (threaded) b->UseRealTime();
+    }
+  }
+  benchmark::RegisterBenchmark("BM_KestrelLogOdds_Scan682", BM_KestrelLogOdds_Scan682)
+      ->Unit(benchmark::kMicrosecond);
+  benchmark::RegisterBenchmark("BM_OctoMap_Scan682", BM_OctoMap_Scan682)
+      ->Unit(benchmark::kMicrosecond);
+}
 
 }  // namespace
 }  // namespace kestrel::bench
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  kestrel::bench::RegisterAll();
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -7,8 +7,8 @@
 // frames (default 16) inside a callgrind instrumentation window and prints rays, cells, the
 // CPU time of every thread of the process, the wall time, rays per CPU second, and the map hash
 // and entropy (identical inputs must give identical hashes, whatever `threads` is).
-// threads = 2 enables the scan integrator's worker thread. KESTREL_ISA=scalar forces the scalar
-// kernels.
+// threads = 2 enables the scan integrator's worker thread. KESTREL_ISA=<name> forces an
+// instruction set's kernels (scalar, sse4, avx2, avx3, ...; printed as isa=).
 #if __has_include(<valgrind/callgrind.h>)
 #include <valgrind/callgrind.h>
 #else  // without valgrind's header (Debian package valgrind) the window marks are no-ops
@@ -82,10 +82,11 @@ int Run(Map* map, const std::string& kind, int frames, int threads) {
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   std::printf(
-      "%s %s frames=%d threads=%d rays=%llu cells=%llu cpu_s=%.4f main_cpu_s=%.4f wall_s=%.4f "
+      "%s %s isa=%s frames=%d threads=%d rays=%llu cells=%llu cpu_s=%.4f main_cpu_s=%.4f "
+      "wall_s=%.4f "
       "rays_per_cpu_s=%.3fM rays_per_busiest_thread_cpu_s=%.3fM rays_per_wall_s=%.3fM "
       "hash=%016llx entropy=%.17g\n",
-      map->updater().name(), kind.c_str(), frames, threads,
+      map->updater().name(), kind.c_str(), integrator.instruction_set(), frames, threads,
       static_cast<unsigned long long>(total.rays_applied),
       static_cast<unsigned long long>(total.cells_updated), cpu, main_cpu, wall,
       1e-6 * static_cast<double>(total.rays_applied) / cpu,

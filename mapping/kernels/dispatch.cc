@@ -1,73 +1,77 @@
-#include <cstdlib>
-#include <cstring>
+// The table of kernels (kernels.h): the scalar code's, and those of every Highway target this
+// CPU runs (simd_kernels.cc), as Highway's runtime detection reports them.
+#include <hwy/targets.h>
 
-#include "common/check.h"
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+
 #include "mapping/kernels/kernels.h"
 
 namespace kestrel::kernels {
 
-namespace {
-// Each table in the order of Kernels' fields.
-constexpr Kernels kScalarKernels{Isa::kScalar,
-                                 "scalar",
-                                 &WalkLanesScalar,
-                                 nullptr,
-                                 &StorePosteriorsScalar,
-                                 &StorePosteriorsAtScalar,
-                                 &ResolveWindowCellsScalar};
-#if defined(__x86_64__)
-constexpr Kernels kAvx512Kernels{Isa::kAvx512,
-                                 "avx512",
-                                 &WalkLanesAvx512,
-                                 &FillLikelihoodsAvx512,
-                                 &StorePosteriorsAvx512,
-                                 &StorePosteriorsAtAvx512,
-                                 &ResolveWindowCellsAvx512};
-#endif
-const char* NameOf(Isa isa) { return isa == Isa::kAvx512 ? "avx512" : "scalar"; }
-}  // namespace
-
-bool CpuSupports(Isa isa) {
-  if (isa == Isa::kScalar) return true;
-#if defined(__x86_64__)
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
-         __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw");
-#else
-  return false;
-#endif
+const Kernels& Scalar() {
+  // In the order of Kernels' fields.
+  static constexpr Kernels kScalar{0,
+                                   "scalar",
+                                   &WalkLanesScalar,
+                                   nullptr,
+                                   &StorePosteriorsScalar,
+                                   &StorePosteriorsAtScalar,
+                                   &ResolveWindowCellsScalar};
+  return kScalar;
 }
 
-const Kernels& For(Isa isa) {
-  KESTREL_THROW_UNLESS(CpuSupports(isa), "this CPU does not run " << NameOf(isa) << " code");
-#if defined(__x86_64__)
-  if (isa == Isa::kAvx512) return kAvx512Kernels;
-#endif
-  return kScalarKernels;
+std::vector<const Kernels*> Supported() {
+  std::vector<const Kernels*> out{&Scalar()};
+  const int64_t targets = hwy::SupportedTargets();
+  for (const Kernels& k : CompiledSimdKernels()) {
+    if ((targets & k.target) != 0) out.push_back(&k);
+  }
+  return out;
+}
+
+std::string SupportedNames() {
+  std::string names;
+  for (const Kernels* k : Supported()) names += (names.empty() ? "" : ", ") + std::string(k->name);
+  return names;
 }
 
 const Kernels& Best() {
-  static const Kernels& best = []() -> const Kernels& {
-    const char* want = std::getenv("KESTREL_ISA");
-    if (want != nullptr && std::strcmp(want, NameOf(Isa::kScalar)) == 0) return kScalarKernels;
-    return For(CpuSupports(Isa::kAvx512) ? Isa::kAvx512 : Isa::kScalar);
-  }();
-  return best;
+  const char* want = std::getenv("KESTREL_ISA");
+  if (want != nullptr && want[0] != '\0') return Named(want);
+  return *Supported().back();
 }
 
 const Kernels& Named(const std::string& name) {
   if (name.empty()) return Best();
-  const bool avx512 = name == NameOf(Isa::kAvx512);
-  KESTREL_THROW_UNLESS(avx512 || name == NameOf(Isa::kScalar),
-                       "unknown instruction set '" << name << "', accepted scalar, avx512 or "
-                                                   << "empty (the best this CPU runs)");
-  return For(avx512 ? Isa::kAvx512 : Isa::kScalar);
+  const std::string canonical = name == "avx512" ? "avx3" : name;  // AVX3 is AVX-512 F/BW/DQ/VL
+  for (const Kernels* k : Supported()) {
+    if (canonical == k->name) return *k;
+  }
+#if HWY_ARCH_X86
+  const char* const alias = " (avx512 is another name of avx3)";
+#else
+  const char* const alias = "";
+#endif
+  throw std::invalid_argument("instruction set '" + name + "' is not one this CPU runs; it runs " +
+                              SupportedNames() + alias);
 }
 
-std::vector<const Kernels*> Supported() {
-  std::vector<const Kernels*> out{&For(Isa::kScalar)};
-  if (CpuSupports(Isa::kAvx512)) out.push_back(&For(Isa::kAvx512));
-  return out;
+bool UsesAvx512(const Kernels& kernels) {
+#if HWY_ARCH_X86
+  return kernels.target == HWY_AVX3 || kernels.target == HWY_AVX3_DL;
+#else
+  (void)kernels;
+  return false;
+#endif
 }
+
+ScopedTargetForTest::ScopedTargetForTest(const Kernels& kernels) {
+  // Highway's fallback bit stands for "no vector target": only the scalar code remains.
+  hwy::SetSupportedTargetsForTest(kernels.target != 0 ? kernels.target : HWY_SCALAR);
+}
+
+ScopedTargetForTest::~ScopedTargetForTest() { hwy::SetSupportedTargetsForTest(0); }
 
 }  // namespace kestrel::kernels

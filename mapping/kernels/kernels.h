@@ -2,18 +2,22 @@
 /// @file
 /// The instruction-set kernels of the batched hot paths, where eight rays are worked on at once
 /// (lanes.h: ray casting, RayCaster::CastBatch; the forward model, SensorModel::FillLikelihoods;
-/// the posterior stores, ExactBayesUpdater::UpdateBatchLane), and the table that dispatches
-/// them, chosen once by what the CPU offers (ScanIntegrator picks it at construction). Internal
-/// to mapping/: public headers only name kernels::Kernels (declared there, defined here), so no
-/// instruction set or intrinsic type leaves this folder. Each instruction set's kernels live in
-/// their own files (*_scalar.cc, *_avx512.cc).
+/// the posterior stores, ExactBayesUpdater::UpdateBatchLane; a growing grid's cells,
+/// OccupancyMap::UpdateRays), and the one table that dispatches them, chosen by what the CPU
+/// offers (ScanIntegrator picks one at construction). Internal to mapping/: public headers only
+/// name kernels::Kernels (declared there, defined here), so no instruction set or vector type
+/// leaves this folder.
 ///
-/// The AVX-512 kernels do, in every lane, the IEEE operations of the scalar code with the same
-/// expression, and the library is built with -ffp-contract=off (no fused multiply-add), so each
-/// lane's result is the scalar result bit for bit: a map does not depend on the machine or the
-/// instruction set (tests/mapping/ray_caster_test.cc, inverse_sensor_model_test.cc and
-/// occupancy_map_test.cc check every instruction set this machine offers against the scalar
-/// code). Elsewhere (kScalar) the same entry points run the scalar code lane by lane.
+/// Two implementations: the scalar code (*_scalar.cc, lane by lane), and one source for every
+/// vector instruction set (*-inl.h, written with Google Highway and compiled by simd_kernels.cc
+/// once per Highway target: SSE4, AVX2, AVX3 = AVX-512 F/BW/DQ/VL on x86-64; NEON and SVE on
+/// arm64). Highway's runtime detection says which targets this CPU runs. Every lane does the
+/// scalar code's IEEE operations with the same expression (a < b ? a : b where the scalar code
+/// has it, never a fused multiply-add: the library is built with -ffp-contract=off and no kernel
+/// calls Highway's MulAdd), so each lane's result is the scalar result bit for bit and a map does
+/// not depend on the machine or the instruction set (tests/mapping/ray_caster_test.cc,
+/// inverse_sensor_model_test.cc and occupancy_map_test.cc check every target this machine runs,
+/// each also forced through Highway, against the scalar code).
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -28,12 +32,6 @@ struct RayWalk;
 }  // namespace detail
 
 namespace kernels {
-
-/// The instruction sets the kernels are written for.
-enum class Isa {
-  kScalar,  ///< scalar code, what the whole build targets (x86-64, arm64)
-  kAvx512,  ///< x86-64 with AVX-512 F, DQ, VL and BW
-};
 
 /// RayCaster::CastBatch after each lane's set-up (StartWalk): for every lane l < count with
 /// started[l], the walk of walks[l] from rays[l].origin_W on the lattice with lower corner
@@ -59,16 +57,17 @@ struct LikelihoodLanes {
 using FillLikelihoodsFn = void (*)(const LikelihoodLanes& c, const double* z, unsigned is_return,
                                    const double* distance_m, int rows, double* likelihood);
 
-/// The write step of ExactBayesUpdater's update for n cells: clamps posterior[i] to
-/// [p_min, 1 - p_min] (ClampProbability), converts it to float, stores it at base[cells[i]],
-/// and lists the cells whose stored value changed, first + i ascending, in
-/// changed[0 .. returned count); priors[i] is the value stored before (compared bit for bit).
-using StorePosteriorsFn = int (*)(const double* posterior, const int32_t* cells,
-                                  const float* priors, int first, int n, double p_min, float* base,
+/// The write step of ExactBayesUpdater's update for n cells (docs/algorithms.md §4.7): cell i's
+/// posterior is scale[per_cell ? i : 0] * P_i with P_i = priors[i] (the value stored before) as a
+/// double; it is clamped to [p_min, 1 - p_min] (ClampProbability), converted to float and stored
+/// at base[cells[i]]. Lists the cells whose stored value changed (bit for bit), first + i
+/// ascending, in changed[0 .. returned count).
+using StorePosteriorsFn = int (*)(const double* scale, bool per_cell, const float* priors,
+                                  const int32_t* cells, int first, int n, double p_min, float* base,
                                   int* changed);
 /// The same with each cell's address: stores at *cells[i].
-using StorePosteriorsAtFn = int (*)(const double* posterior, float* const* cells,
-                                    const float* priors, int first, int n, double p_min,
+using StorePosteriorsAtFn = int (*)(const double* scale, bool per_cell, const float* priors,
+                                    float* const* cells, int first, int n, double p_min,
                                     int* changed);
 
 /// The GrowingGrid cells of a batch cast on a window of its lattice (OccupancyMap::CastLattice):
@@ -84,8 +83,12 @@ using ResolveWindowCellsFn = bool (*)(const int32_t* linear, const int* size, in
 
 /// One instruction set's kernels.
 struct Kernels {
-  Isa isa;                 ///< what they are compiled for
-  const char* name;        ///< "scalar", "avx512" (logs, tests, KESTREL_ISA)
+  /// The Highway target they are compiled for (hwy/detect_targets.h: HWY_AVX2, HWY_NEON, ...);
+  /// 0 for the scalar code.
+  int64_t target;
+  /// Highway's name of the target in lower case ("sse4", "avx2", "avx3", "neon", "sve", ...), or
+  /// "scalar": what logs print and instruction_set / KESTREL_ISA accept.
+  const char* name;
   WalkLanesFn walk_lanes;  ///< RayCaster::CastBatch's walk
   /// a_k of a batch; null where evaluating a_k inside the update is faster (scalar).
   FillLikelihoodsFn fill_likelihoods;
@@ -94,43 +97,53 @@ struct Kernels {
   ResolveWindowCellsFn resolve_window_cells;  ///< a GrowingGrid's cells of a batch
 };
 
-/// Whether this CPU runs code compiled for `isa`.
-[[nodiscard]] bool CpuSupports(Isa isa);
-/// The kernels of `isa`.
-/// @throws std::invalid_argument if the CPU does not run them.
-[[nodiscard]] const Kernels& For(Isa isa);
-/// The kernels of the widest instruction set this CPU supports (evaluated once). The environment
-/// variable KESTREL_ISA=scalar lowers it, e.g. to compare speeds.
-[[nodiscard]] const Kernels& Best();
-/// The kernels named `name` ("" = Best()).
-/// @throws std::invalid_argument for an unknown name or one this CPU does not run.
-[[nodiscard]] const Kernels& Named(const std::string& name);
-/// The kernels of every instruction set this CPU supports, scalar first.
+/// The scalar code's kernels (every CPU runs them).
+[[nodiscard]] const Kernels& Scalar();
+/// The kernels of every instruction set this CPU runs (as Highway's runtime detection reports
+/// it, hwy::SupportedTargets), scalar first, then from the narrowest vectors to the widest.
 [[nodiscard]] std::vector<const Kernels*> Supported();
+/// The names of Supported(), comma-separated ("scalar, sse4, avx2, avx3").
+[[nodiscard]] std::string SupportedNames();
+/// The kernels named by the environment variable KESTREL_ISA if it is set and not empty (any
+/// name Named() accepts, e.g. to compare speeds), otherwise the widest this CPU runs (the last
+/// of Supported()).
+/// @throws std::invalid_argument if KESTREL_ISA names kernels this CPU does not run.
+[[nodiscard]] const Kernels& Best();
+/// The kernels named `name`: "" = Best(), "scalar", or a Highway target's name in lower case
+/// ("sse4", "avx2", "avx3", "neon", "sve", "sve2", ...; "avx512" is another name of "avx3").
+/// @throws std::invalid_argument, listing SupportedNames(), for a name this CPU does not run
+/// (unknown names included).
+[[nodiscard]] const Kernels& Named(const std::string& name);
+/// Whether `kernels` use AVX-512 registers (Highway's AVX3 targets): code outside these kernels
+/// with its own AVX-512 path (exploration's entropy lanes) follows the choice.
+[[nodiscard]] bool UsesAvx512(const Kernels& kernels);
 
-// Each instruction set's kernels (*_scalar.cc, *_avx512.cc; the AVX-512 ones on x86-64 only).
+/// For tests: while it lives, Supported(), Best() and Named() see only the scalar code and the
+/// target of `kernels` (hwy::SetSupportedTargetsForTest), as on a CPU whose widest instruction
+/// set it is; restores Highway's own detection when destroyed. One at a time, not thread-safe.
+class ScopedTargetForTest {
+ public:
+  /// Limits the targets to those of `kernels` (one of Supported()).
+  explicit ScopedTargetForTest(const Kernels& kernels);
+  ~ScopedTargetForTest();
+  ScopedTargetForTest(const ScopedTargetForTest&) = delete;
+  ScopedTargetForTest& operator=(const ScopedTargetForTest&) = delete;
+};
+
+// The scalar kernels (*_scalar.cc).
 void WalkLanesScalar(const RaySegment* rays, int count, const bool* started, detail::RayWalk* walks,
                      const Eigen::Vector3d& origin_m, double resolution, double* distance,
                      int32_t* linear, int32_t* size);
-int StorePosteriorsScalar(const double* posterior, const int32_t* cells, const float* priors,
-                          int first, int n, double p_min, float* base, int* changed);
-int StorePosteriorsAtScalar(const double* posterior, float* const* cells, const float* priors,
-                            int first, int n, double p_min, int* changed);
+int StorePosteriorsScalar(const double* scale, bool per_cell, const float* priors,
+                          const int32_t* cells, int first, int n, double p_min, float* base,
+                          int* changed);
+int StorePosteriorsAtScalar(const double* scale, bool per_cell, const float* priors,
+                            float* const* cells, int first, int n, double p_min, int* changed);
 bool ResolveWindowCellsScalar(const int32_t* linear, const int* size, int rows, int shift,
                               float* const* blocks, float** cells, uint32_t* slot_cells);
-#if defined(__x86_64__)
-void WalkLanesAvx512(const RaySegment* rays, int count, const bool* started, detail::RayWalk* walks,
-                     const Eigen::Vector3d& origin_m, double resolution, double* distance,
-                     int32_t* linear, int32_t* size);
-void FillLikelihoodsAvx512(const LikelihoodLanes& c, const double* z, unsigned is_return,
-                           const double* distance_m, int rows, double* likelihood);
-int StorePosteriorsAvx512(const double* posterior, const int32_t* cells, const float* priors,
-                          int first, int n, double p_min, float* base, int* changed);
-int StorePosteriorsAtAvx512(const double* posterior, float* const* cells, const float* priors,
-                            int first, int n, double p_min, int* changed);
-bool ResolveWindowCellsAvx512(const int32_t* linear, const int* size, int rows, int shift,
-                              float* const* blocks, float** cells, uint32_t* slot_cells);
-#endif
+/// The vector kernels of every Highway target compiled in (simd_kernels.cc), whether or not this
+/// CPU runs them, from the narrowest vectors to the widest.
+[[nodiscard]] const std::vector<Kernels>& CompiledSimdKernels();
 
 }  // namespace kernels
 }  // namespace kestrel

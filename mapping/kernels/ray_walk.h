@@ -9,6 +9,8 @@
 #include <cstdint>
 
 #include "mapping/grid.h"
+#include "mapping/lanes.h"
+#include "mapping/ray_caster.h"
 
 namespace kestrel {
 namespace detail {
@@ -109,6 +111,51 @@ template <bool kLinear, bool kCells, bool kFirstCell = false>
   }
   end.cells = static_cast<int>(at / stride);
   return end;
+}
+
+// The lanes of a batch after their set-up and first cell (StartLanes), as arrays of eight: what
+// the vector walks (ray_walk-inl.h) load into their registers.
+struct LaneStart {
+  alignas(64) double t_in[lanes::kLanes];
+  alignas(64) double length[lanes::kLanes];
+  alignas(64) double t_max[3][lanes::kLanes];
+  alignas(64) double exit_index[3][lanes::kLanes];
+  alignas(64) double step_d[3][lanes::kLanes];
+  alignas(64) double inv_u[3][lanes::kLanes];
+  alignas(64) double o[3][lanes::kLanes];
+  alignas(64) double linear[lanes::kLanes];  // exact in a double below 2^53
+  alignas(64) double linear_step[3][lanes::kLanes];
+  unsigned active;  // lanes still walking (bit l)
+};
+
+// Each lane's first cell as WalkRay stores it (scalar, into the batch's layout: distance and
+// linear_out at [l], size[l] = 0 or 1), and the lanes' state after it in *start: afterwards every
+// lane in start->active has stored exactly one cell, in row 0, and goes on from row 1.
+inline void StartLanes(const RaySegment* rays, int count, const bool* started, RayWalk* walks,
+                       const Eigen::Vector3d& origin, double resolution, double* distance,
+                       int32_t* linear_out, int32_t* size, LaneStart* start) {
+  using lanes::kLanes;
+  *start = LaneStart{};
+  for (int l = 0; l < count; ++l) {
+    if (!started[l]) continue;
+    RayWalk& w = walks[l];
+    const Eigen::Vector3d& o = rays[l].origin_W;
+    const WalkEnd first = WalkRay<true, false, true>(&w, o, origin, resolution, kLanes,
+                                                     distance + l, linear_out + l, nullptr);
+    size[l] = first.cells;
+    if (first.walking) start->active |= 1u << l;
+    start->t_in[l] = first.t_in;
+    start->length[l] = w.length;
+    start->linear[l] = static_cast<double>(w.linear);
+    for (int a = 0; a < 3; ++a) {
+      start->t_max[a][l] = w.t_max[a];
+      start->exit_index[a][l] = w.exit_index[a];
+      start->step_d[a][l] = w.step_d[a];
+      start->inv_u[a][l] = w.inv_u[a];
+      start->o[a][l] = o[a];
+      start->linear_step[a][l] = static_cast<double>(w.linear_step[a]);
+    }
+  }
 }
 
 }  // namespace detail

@@ -1265,6 +1265,25 @@ TEST(DecisionHistory, GathersMessagesInAnyOrderAndNamesWhatIsMissing) {
 // A chunk whose block index times its edge overflows int (2^28 x 8) is refused, not applied:
 // the replica computed its cells in int before (undefined behaviour, caught by UBSan in
 // tests/fuzz/lcm_fuzz.cc); the codec now checks the index range first.
+// instruction_set takes the name of any instruction set this CPU runs; any other is refused with
+// the file, the key and the list of those the CPU runs.
+TEST(MapperConfig, InstructionSetIsOneThisCpuRuns) {
+  for (const std::string& isa : ScanIntegrator::SupportedInstructionSets()) {
+    const ConfigNode node = ConfigNode::FromString("instruction_set: " + isa + "\n", "mapper.yaml");
+    EXPECT_EQ(LoadMapperConfig(node).instruction_set, isa);
+  }
+  try {
+    (void)LoadMapperConfig(ConfigNode::FromString("instruction_set: sse9\n", "mapper.yaml"));
+    ADD_FAILURE() << "sse9 accepted";
+  } catch (const ConfigError& e) {
+    const std::string what = e.what();
+    for (const std::string& part : {std::string("mapper.yaml"), std::string("instruction_set"),
+                                    ScanIntegrator::SupportedInstructionSets().back()}) {
+      EXPECT_NE(what.find(part), std::string::npos) << what;
+    }
+  }
+}
+
 TEST(MapReplica, BlockIndexOutsideTheCellRangeIsRefused) {
   MapReplica replica(Eigen::Vector3d::Zero(), 0.1, Eigen::Vector3i(16, 16, 16), 0.5);
   map3d_chunk_t chunk{};

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <map>
 #include <random>
 #include <set>
@@ -120,7 +121,7 @@ TEST(OccupancyMap, PrecomputedLikelihoodsAndCellAddressesGiveIdenticalCells) {
   const int capacity = RayCells::CapacityFor(4.0, g.resolution_m());
   const RayCaster caster(g);
   // Reference: the scalar kernels, a_k in the update, cells by linear index.
-  const kernels::Kernels& scalar = kernels::For(kernels::Isa::kScalar);
+  const kernels::Kernels& scalar = kernels::Scalar();
   ExactBayesUpdater reference_updater(kOccupancy, capacity, g.resolution_m());
   DenseGrid reference(MapLimits{}, reference_updater.initial_value());
   RayBatch batch(4.0, g.resolution_m());
@@ -609,17 +610,24 @@ TEST(OccupancyMap, WorkerThreadGivesBitIdenticalMaps) {
 }
 
 // Every instruction set's kernels give the same map bit for bit as the scalar kernels, with the
-// same statistics and entropy, for the exact model on both grids and the log-odds baseline.
+// same statistics and entropy, for the exact model on both grids and the log-odds baseline. Each
+// target is forced through Highway (kernels::ScopedTargetForTest, as on a CPU whose widest it
+// is): the integrator's default choice must be it, and Highway's detection is back after it.
 TEST(OccupancyMap, EveryInstructionSetGivesBitIdenticalMaps) {
-  const auto compare = [](auto make) {
+  ASSERT_EQ(unsetenv("KESTREL_ISA"), 0);  // the default must be the forced target
+  const std::vector<std::string> supported = ScanIntegrator::SupportedInstructionSets();
+  const auto compare = [&](auto make) {
     auto scalar = make();
     ScanIntegrator scalar_integrator(scalar.get(), ScanIntegrator::Options{false, "scalar"});
     EXPECT_STREQ(scalar_integrator.instruction_set(), "scalar");
     const ScanStats expected = ApplyMixedFrames(&scalar_integrator);
-    for (const std::string& isa : ScanIntegrator::SupportedInstructionSets()) {
-      SCOPED_TRACE(isa);
+    for (const kernels::Kernels* k : kernels::Supported()) {
+      SCOPED_TRACE(k->name);
       auto map = make();
-      ScanIntegrator integrator(map.get(), ScanIntegrator::Options{false, isa});
+      const kernels::ScopedTargetForTest forced(*k);
+      ASSERT_EQ(kernels::Supported().back(), k);
+      ScanIntegrator integrator(map.get());
+      ASSERT_STREQ(integrator.instruction_set(), k->name);
       const ScanStats got = ApplyMixedFrames(&integrator);
       EXPECT_EQ(map->Hash(), scalar->Hash());
       EXPECT_EQ(got.rays_applied, expected.rays_applied);
@@ -634,6 +642,7 @@ TEST(OccupancyMap, EveryInstructionSetGivesBitIdenticalMaps) {
   compare([] { return MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0); });
   compare([] { return MakeExactGrowingMap(MapLimits{}, kOccupancy, 4.0); });
   compare([] { return MakeLogOddsDenseMap(MapLimits{}, LogOddsConfig{}, 4.0); });
+  EXPECT_EQ(ScanIntegrator::SupportedInstructionSets(), supported);
 }
 
 TEST(OccupancyMap, RejectsBadImages) {
@@ -663,6 +672,54 @@ TEST(OccupancyMap, RejectsBadImages) {
 }
 
 // Unknown instruction sets are refused; a growing map's window limits its range per cell edge.
+// The message an instruction-set name gets refused with ("" if accepted).
+std::string RefusalOf(const std::string& name) {
+  try {
+    (void)ScanIntegrator::ResolveInstructionSet(name);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// An instruction set the CPU lacks is refused with the list of those it runs: with each target
+// forced as the widest, the wider ones are refused (and the one forced is what "" chooses);
+// unknown names too. "avx512" is another name of "avx3"; KESTREL_ISA picks the default.
+TEST(ScanIntegrator, RefusesInstructionSetsTheCpuLacksWithTheListItRuns) {
+  ASSERT_EQ(unsetenv("KESTREL_ISA"), 0);
+  const std::vector<const kernels::Kernels*> all = kernels::Supported();
+  for (size_t i = 0; i < all.size(); ++i) {
+    SCOPED_TRACE(all[i]->name);
+    const kernels::ScopedTargetForTest forced(*all[i]);
+    EXPECT_EQ(ScanIntegrator::ResolveInstructionSet(""), all[i]->name);
+    EXPECT_EQ(ScanIntegrator::ResolveInstructionSet("scalar"), "scalar");
+    // The list of the forced CPU: scalar and the target forced, nothing after them.
+    const std::string list =
+        std::string("it runs scalar") + (i > 0 ? ", " : "") + (i > 0 ? all[i]->name : "");
+    for (size_t wider = i + 1; wider < all.size(); ++wider) {
+      const std::string why = RefusalOf(all[wider]->name);
+      const size_t at = why.find(list);
+      ASSERT_NE(at, std::string::npos) << why;
+      EXPECT_TRUE(at + list.size() == why.size() || why[at + list.size()] == ' ') << why;
+    }
+  }
+  EXPECT_EQ(kernels::Supported(), all);  // Highway's own detection again
+  for (const char* unknown : {"sse9", "AVX2", "emu128", "avx3 "}) {
+    EXPECT_NE(RefusalOf(unknown).find("it runs scalar"), std::string::npos) << unknown;
+  }
+  if (kernels::UsesAvx512(*all.back())) {
+    EXPECT_EQ(ScanIntegrator::ResolveInstructionSet("avx512"), "avx3");
+  }
+  for (const kernels::Kernels* k : all) {
+    ASSERT_EQ(setenv("KESTREL_ISA", k->name, 1), 0);
+    EXPECT_EQ(ScanIntegrator::ResolveInstructionSet(""), k->name);
+  }
+  ASSERT_EQ(setenv("KESTREL_ISA", "sse9", 1), 0);
+  EXPECT_NE(RefusalOf("").find("'sse9'"), std::string::npos);
+  ASSERT_EQ(unsetenv("KESTREL_ISA"), 0);
+  EXPECT_EQ(ScanIntegrator::ResolveInstructionSet(""), all.back()->name);
+}
+
 TEST(ScanIntegrator, RejectsUnknownInstructionSetsAndNullMaps) {
   auto map = MakeExactDenseMap(MapLimits{}, kOccupancy, 4.0);
   EXPECT_THROW(ScanIntegrator(map.get(), ScanIntegrator::Options{false, "sse9"}),
