@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "common/config.h"
-#include "exploration/explorer_node.h"
+#include "exploration/explorer_config.h"
 #include "exploration/frontiers.h"
 #include "exploration/information_gain.h"
 #include "exploration/planner.h"
@@ -71,7 +71,8 @@ int FrontierOnce(char** argv) {
   const LoadedMap<DenseOccupancyMap> loaded = LoadDenseMap(argv[2]);
   // The shipped explorer configuration (run from the repository root), in frontier mode.
   PlannerConfig config =
-      LoadExplorerConfig(ConfigNode::LoadFile("config/exploration/explorer.yaml")).planner;
+      LoadExplorerNodeConfig(ConfigNode::LoadFile("config/exploration/explorer.yaml"))
+          .explorer.planner;
   config.mode = ExplorationMode::kFrontier;
   config.projection.height_m = std::atof(argv[5]);
   const std::unique_ptr<ExplorationPlanner> planner = MakePlanner(config);

@@ -21,7 +21,9 @@
 #include "common/log.h"
 #include "control/controller_node.h"
 #include "exploration/explorer_node.h"
+#include "exploration/explorer_state.h"
 #include "kestrel/command_t.hpp"
+#include "kestrel/exploration_status_t.hpp"
 #include "kestrel/grid_map_t.hpp"
 #include "mapping/mapper_node.h"
 #include "sim/ground_truth.h"
@@ -37,26 +39,6 @@ ConfigNode Load(const std::string& root, const std::string& file,
   ConfigNode node = ConfigNode::LoadFile(PathUnderRoot(root, file));
   for (const auto& o : overrides) node.ApplyOverride(o);
   return node;
-}
-
-// The explorer's state in words (exploration_status_t::STATE_*).
-std::string ExplorerStateName(int state) {
-  switch (state) {
-    case exploration_status_t::STATE_WAITING:
-      return "waiting";
-    case exploration_status_t::STATE_STARTUP:
-      return "start-up";
-    case exploration_status_t::STATE_EXPLORING:
-      return "exploring";
-    case exploration_status_t::STATE_RETURNING:
-      return "returning";
-    case exploration_status_t::STATE_DONE:
-      return "done";
-    case exploration_status_t::STATE_FAILED:
-      return "failed";
-    default:
-      return "state " + std::to_string(state);
-  }
 }
 
 std::string Fixed3(double v) {
@@ -191,15 +173,16 @@ MissionResult RunMission(const MissionConfig& mc) {
     mapper_config.sensors[1].X_BS = sim_config.vehicle.X_BS_hokuyo;
 
   ConfigNode explorer_cfg = Load(mc.root, mc.explorer_file, mc.explorer_overrides);
-  ExplorerConfig explorer_config = LoadExplorerConfig(explorer_cfg);
+  ExplorerNodeConfig explorer_config = LoadExplorerNodeConfig(explorer_cfg);
   explorer_cfg.CheckNoUnknownKeys();
-  explorer_config.map = mapper_config.limits;
-  explorer_config.p_init = mapper_config.occupancy.p_init;
-  explorer_config.planner.projection.height_m = world.exploration_height_m;
-  explorer_config.planner.projection.p_init = mapper_config.occupancy.p_init;
+  explorer_config.explorer.map = mapper_config.limits;
+  explorer_config.explorer.p_init = mapper_config.occupancy.p_init;
+  explorer_config.explorer.planner.projection.height_m = world.exploration_height_m;
+  explorer_config.explorer.planner.projection.p_init = mapper_config.occupancy.p_init;
   // The vehicle that flies is the simulator's: its diameter sets k_C and the disc checked.
-  explorer_config.planner.projection.vehicle_diameter_m = sim_config.vehicle.diameter_m;
-  explorer_config.planner.trajectory.vehicle_radius_m = 0.5 * sim_config.vehicle.diameter_m;
+  explorer_config.explorer.planner.projection.vehicle_diameter_m = sim_config.vehicle.diameter_m;
+  explorer_config.explorer.planner.trajectory.vehicle_radius_m =
+      0.5 * sim_config.vehicle.diameter_m;
 
   ControllerConfig controller_config;
   ConfigNode controller_cfg = ConfigNode::FromString("{}", "(defaults)");
@@ -236,7 +219,7 @@ MissionResult RunMission(const MissionConfig& mc) {
     explorer_config.run_id = controller_config.run_id;
   }
   std::vector<ControllerConfig> controller_configs;
-  std::vector<ExplorerConfig> explorer_configs;
+  std::vector<ExplorerNodeConfig> explorer_configs;
   std::vector<std::unique_ptr<ControllerNode>> controllers;
   for (const std::string& p : prefixes) {
     ControllerConfig c = controller_config;
@@ -251,10 +234,10 @@ MissionResult RunMission(const MissionConfig& mc) {
   MapperNode mapper(lcm, mapper_config, clock);
   std::vector<std::unique_ptr<ExplorerNode>> explorers;
   for (const std::string& p : prefixes) {
-    ExplorerConfig e = explorer_config;
+    ExplorerNodeConfig e = explorer_config;
     e.vehicle_prefix = p;
     for (const std::string& q : prefixes) {
-      if (q != p) e.peer_prefixes.push_back(q);
+      if (q != p) e.explorer.peers.push_back(q);
     }
     explorer_configs.push_back(e);
     explorers.push_back(std::make_unique<ExplorerNode>(lcm, e, clock));
@@ -353,10 +336,10 @@ MissionResult RunMission(const MissionConfig& mc) {
             std::string row = "    ";
             for (int x = std::max(0, vx - 8); x <= std::min(m.width - 1, vx + 8); ++x) {
               const float p = m.values[static_cast<size_t>(y * m.width + x)];
-              row += (x == vx && y == vy)                                          ? 'V'
-                     : p <= explorer_config.planner.projection.collision_threshold ? '.'
-                     : p > 0.5                                                     ? '#'
-                                                                                   : '?';
+              row += (x == vx && y == vy)                                                   ? 'V'
+                     : p <= explorer_config.explorer.planner.projection.collision_threshold ? '.'
+                     : p > 0.5                                                              ? '#'
+                                                                                            : '?';
             }
             std::fprintf(stderr, "%s\n", row.c_str());
           }
@@ -427,9 +410,9 @@ MissionResult RunMission(const MissionConfig& mc) {
   int64_t takeoff_utime = -1, land_utime = -1;
   int reported_collisions = 0;
   // The collision cell of the take-off point (section 7: edge alpha_C from the map's corner).
-  const double alpha_c =
-      CollisionFactor(explorer_config.planner.projection, mapper_config.limits.resolution_m) *
-      mapper_config.limits.resolution_m;
+  const double alpha_c = CollisionFactor(explorer_config.explorer.planner.projection,
+                                         mapper_config.limits.resolution_m) *
+                         mapper_config.limits.resolution_m;
   const Eigen::Vector2d start_cell =
       ((world.start_X_WB.p.head<2>() - world.map_min_m.head<2>()) / alpha_c).array().floor();
   Eigen::Vector3d last_position = world.start_X_WB.p;
@@ -440,7 +423,7 @@ MissionResult RunMission(const MissionConfig& mc) {
     r.vehicles[k].start_offset_m = offsets[k];
     last_positions.push_back(sim.simulator().vehicle(k).state().p_W);
   }
-  auto all_explorers = [&](int8_t state) {
+  auto all_explorers = [&](ExplorerState state) {
     return std::all_of(explorers.begin(), explorers.end(),
                        [state](const auto& e) { return e && e->state() == state; });
   };
@@ -501,7 +484,7 @@ MissionResult RunMission(const MissionConfig& mc) {
       const double left_s = c != nullptr && c->trajectory_seq() >= 0
                                 ? c->trajectory_end_s() - UtimeToSeconds(now)
                                 : std::numeric_limits<double>::infinity();
-      const bool exploring = explorer().state() == exploration_status_t::STATE_EXPLORING;
+      const bool exploring = explorer().state() == ExplorerState::kExploring;
       if (left_s <= mc.explorer_kill_max_left_s && (exploring || t >= mc.explorer_kill_at_s + 60)) {
         r.explorer_kill_trajectory_left_s = left_s;
         explorers.front().reset();
@@ -530,7 +513,7 @@ MissionResult RunMission(const MissionConfig& mc) {
     }
     if (explorer_restarted_at >= 0) {
       r.explorer_resume = explorer().resume_status();
-      if (explorer().state() == exploration_status_t::STATE_STARTUP) {
+      if (explorer().state() == ExplorerState::kStartup) {
         r.explorer_startup_after_restart = true;
       }
     }
@@ -583,10 +566,11 @@ MissionResult RunMission(const MissionConfig& mc) {
           ((p.head<2>() - world.map_min_m.head<2>()) / alpha_c).array().floor();
       r.left_start_collision_cell = cell_now != start_cell;
     }
-    if (explorers.front() && (explorer().state() == exploration_status_t::STATE_EXPLORING ||
-                              explorer().state() == exploration_status_t::STATE_RETURNING)) {
-      r.max_height_error_m = std::max(
-          r.max_height_error_m, std::abs(p.z() - explorer_config.planner.projection.height_m));
+    if (explorers.front() && (explorer().state() == ExplorerState::kExploring ||
+                              explorer().state() == ExplorerState::kReturning)) {
+      r.max_height_error_m =
+          std::max(r.max_height_error_m,
+                   std::abs(p.z() - explorer_config.explorer.planner.projection.height_m));
     }
     r.path_length_m += (p - last_position).norm();
     last_position = p;
@@ -598,14 +582,14 @@ MissionResult RunMission(const MissionConfig& mc) {
       for (size_t j = 0; j < k; ++j) {
         const Eigen::Vector3d d = q - sim.simulator().vehicle(j).state().p_W;
         r.min_distance_3d_m = std::min(r.min_distance_3d_m, d.norm());
-        if (std::abs(d.z()) < explorer_config.min_vertical_separation_m) {
+        if (std::abs(d.z()) < explorer_config.explorer.min_vertical_separation_m) {
           r.min_separation_m = std::min(r.min_separation_m, d.head<2>().norm());
         }
       }
     }
     r.vehicles[0].path_length_m += (p - last_positions[0]).norm();
     last_positions[0] = p;
-    if (land_utime < 0 && all_explorers(exploration_status_t::STATE_DONE)) {
+    if (land_utime < 0 && all_explorers(ExplorerState::kDone)) {
       land_utime = now;
       r.exploration_time_s = UtimeToSeconds(now - takeoff_utime);
     }
@@ -615,7 +599,7 @@ MissionResult RunMission(const MissionConfig& mc) {
       s.time_s = t;
       s.entropy_nats = mapper.entropy_nats();
       s.position_m = p;
-      s.explorer_state = explorers.front() ? explorer().state() : -1;
+      s.explorer_state = explorers.front() ? static_cast<int>(explorer().state()) : -1;
       if (mc.compute_quality) {
         const MapQuality q = quality();
         s.known_fraction = q.known_fraction;
@@ -648,8 +632,8 @@ MissionResult RunMission(const MissionConfig& mc) {
           return c && c->flight().supervisor().mode() == FlightMode::kIdle;
         })) {
       r.landed = true;
-      r.end_reason = "exploration ended by the " + explorer().end_rule() + "; " +
-                     explorer().landing() + "; landed";
+      r.end_reason = "exploration ended by the " + explorer().explorer().end_rule() + "; " +
+                     explorer().explorer().landing() + "; landed";
       if (num_vehicles > 1) r.end_reason = "every vehicle landed (" + r.end_reason + ")";
       break;
     }
@@ -683,35 +667,35 @@ MissionResult RunMission(const MissionConfig& mc) {
     v.collisions = sim.simulator().vehicle(k).collision_count();
     r.collisions += v.collisions;
     if (v.collisions > 0) r.last_collision = sim.simulator().vehicle(k).last_collision();
-    v.end_rule = explorers[k]->end_rule();
-    v.landing = explorers[k]->landing();
-    v.yields = explorers[k]->yields();
-    v.plans = static_cast<int>(explorers[k]->plans());
+    v.end_rule = explorers[k]->explorer().end_rule();
+    v.landing = explorers[k]->explorer().landing();
+    v.yields = explorers[k]->explorer().count(ExplorerEvent::kYielded);
+    v.plans = static_cast<int>(explorers[k]->explorer().plans());
     v.landed = r.landed;
   }
   r.inter_vehicle_contacts = sim.simulator().inter_vehicle_collision_count();
   if (controllers.front()) {
     r.far_start_refusals = controllers.front()->drops().count("refused trajectory (far start)");
   }
-  r.explorer_controller_holds = explorer().controller_holds();
-  r.vertical_separation_m = explorer_config.min_vertical_separation_m;
+  r.explorer_controller_holds = explorer().explorer().count(ExplorerEvent::kControllerHolds);
+  r.vertical_separation_m = explorer_config.explorer.min_vertical_separation_m;
   r.plans = 0;
-  for (const auto& e : explorers) r.plans += static_cast<int>(e->plans());
-  r.planning_wall_s = explorer().total_planning_s();
-  r.end_rule = explorer().end_rule();
-  r.landing = explorer().landing();
-  if (!explorer().plan_times_s().empty()) {
-    std::vector<double> times = explorer().plan_times_s();
+  for (const auto& e : explorers) r.plans += static_cast<int>(e->explorer().plans());
+  r.planning_wall_s = explorer().explorer().total_planning_s();
+  r.end_rule = explorer().explorer().end_rule();
+  r.landing = explorer().explorer().landing();
+  if (!explorer().explorer().plan_times_s().empty()) {
+    std::vector<double> times = explorer().explorer().plan_times_s();
     std::sort(times.begin(), times.end());
     r.plan_median_s = times[times.size() / 2];
     r.plan_max_s = times.back();
-    std::vector<double> cpu = explorer().plan_cpu_times_s();
+    std::vector<double> cpu = explorer().explorer().plan_cpu_times_s();
     std::sort(cpu.begin(), cpu.end());
     r.plan_cpu_median_s = cpu[cpu.size() / 2];
     r.plan_cpu_max_s = cpu.back();
     auto stage_median = [&](double PlanTimings::*stage) {
       std::vector<double> v;
-      for (const PlanTimings& t : explorer().plan_timings()) v.push_back(t.*stage);
+      for (const PlanTimings& t : explorer().explorer().plan_timings()) v.push_back(t.*stage);
       return Median(std::move(v));
     };
     r.plan_stage_median_s.projection_s = stage_median(&PlanTimings::projection_s);
@@ -721,7 +705,7 @@ MissionResult RunMission(const MissionConfig& mc) {
     r.plan_stage_median_s.total_s = stage_median(&PlanTimings::total_s);
     std::vector<double> bounded, gained;
     long rays = 0, hits = 0;
-    for (const VolumetricGainStats& g : explorer().plan_gain_stats()) {
+    for (const VolumetricGainStats& g : explorer().explorer().plan_gain_stats()) {
       bounded.push_back(static_cast<double>(g.poses_bounded));
       gained.push_back(static_cast<double>(g.poses_gained));
       rays += g.rays;
@@ -744,9 +728,9 @@ MissionResult RunMission(const MissionConfig& mc) {
     std::ofstream out(mc.plans_csv_path);
     out << "plan,total_ms,projection_ms,distance_field_ms,gain_ms,trajectory_ms,positions,"
            "positions_bounded,positions_evaluated,cpu_ms\n";
-    const std::vector<PlanTimings>& t = explorer().plan_timings();
-    const std::vector<VolumetricGainStats>& g = explorer().plan_gain_stats();
-    const std::vector<double>& cpu = explorer().plan_cpu_times_s();
+    const std::vector<PlanTimings>& t = explorer().explorer().plan_timings();
+    const std::vector<VolumetricGainStats>& g = explorer().explorer().plan_gain_stats();
+    const std::vector<double>& cpu = explorer().explorer().plan_cpu_times_s();
     for (size_t i = 0; i < t.size() && i < g.size(); ++i) {
       out << i << "," << 1e3 * t[i].total_s << "," << 1e3 * t[i].projection_s << ","
           << 1e3 * t[i].dijkstra_s << "," << 1e3 * t[i].gain_s << "," << 1e3 * t[i].trajectory_s

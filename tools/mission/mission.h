@@ -92,8 +92,8 @@ struct MissionVehicle {
   double path_length_m{0};  ///< flown distance (true state)
   double path_to_95_m{-1};  ///< flown when the map first reached 95% known (-1: never)
   int collisions{0};        ///< with obstacles and the floor
-  std::string end_rule;     ///< ExplorerNode::end_rule
-  std::string landing;      ///< ExplorerNode::landing
+  std::string end_rule;     ///< Explorer::end_rule
+  std::string landing;      ///< Explorer::landing
   int64_t yields{0};        ///< plans refused by the separation check
   int plans{0};
   bool landed{false};
@@ -128,7 +128,7 @@ struct MissionResult {
   double time_to_95_s{-1};  ///< first sample with known fraction >= 0.95 (-1: never)
   std::vector<MissionSample> samples;
   std::string end_reason;
-  std::string end_rule;         ///< what ended exploration (ExplorerNode::end_rule)
+  std::string end_rule;         ///< what ended exploration (Explorer::end_rule)
   std::string landing;          ///< "returned home (...)" or "landed elsewhere: ..."
   double plan_median_s{0};      ///< median wall time of an exploration replan
   double plan_max_s{0};         ///< slowest exploration replan
