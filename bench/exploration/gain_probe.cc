@@ -23,6 +23,7 @@
 #include "exploration/planner.h"
 #include "exploration/projected_maps.h"
 #include "exploration/volumetric_gain.h"
+#include "exploration/volumetric_planner.h"
 #include "mapping/map_file.h"
 #include "mapping/occupancy_map.h"
 #include "mapping/ray_caster.h"

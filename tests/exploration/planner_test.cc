@@ -7,6 +7,9 @@
 #include <limits>
 #include <vector>
 
+#include "exploration/entropy_planner.h"
+#include "exploration/frontier_planner.h"
+#include "exploration/volumetric_planner.h"
 #include "tests/exploration/test_input.h"
 
 namespace kestrel {
