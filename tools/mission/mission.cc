@@ -191,8 +191,9 @@ MissionResult RunMission(const MissionConfig& mc) {
     controller_config = LoadControllerConfig(controller_cfg, sim_config.vehicle);
   }
   controller_config.flight.vehicle = sim_config.vehicle;
-  controller_config.flight.safety.geofence_min_m = world.map_min_m - Eigen::Vector3d(0, 0, 0.2);
-  controller_config.flight.safety.geofence_max_m = world.map_max_m + Eigen::Vector3d(0, 0, 1.0);
+  const Geofence fence = WorldGeofence(world);  // as the sheets' (scripts/world-env)
+  controller_config.flight.safety.geofence_min_m = fence.min_m;
+  controller_config.flight.safety.geofence_max_m = fence.max_m;
 
   int64_t r_sensor_dropped_ = 0;
   int64_t r_poses_dropped_ = 0;
