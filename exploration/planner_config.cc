@@ -1,6 +1,7 @@
 #include "exploration/planner_config.h"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "common/check.h"
@@ -21,21 +22,58 @@ const char* ModeName(ExplorationMode mode) {
   return "unknown";
 }
 
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// Finite numbers above 0, or at least 0.
+const Range kPositive{0.0, kInf, false, false};
+const Range kNonNegative{0.0, kInf, true, false};
+}  // namespace
+
+const ParamTable<FrontierConfig>& FrontierParams() {
+  using C = FrontierConfig;
+  static const ParamTable<C> table{{
+      {"min_distance_m", &C::min_distance_m, kNonNegative},
+      {"fine_traversability", &C::fine_traversability},
+      {"view_min_range_m", &C::view_min_range_m, kNonNegative},
+      {"view_max_range_m", &C::view_max_range_m, kPositive},
+      {"goal_max_range_m", &C::goal_max_range_m, kPositive},
+      {"horizontal_fov_deg", &C::horizontal_fov_deg, Range{0.0, 360.0, false, true}},
+      {"min_frontier_cells", &C::min_frontier_cells, Range::Closed(1, 1000000)},
+  }};
+  return table;
+}
+
+const ParamTable<VolumetricConfig>& VolumetricParams() {
+  using C = VolumetricConfig;
+  static const ParamTable<C> table{{
+      {"band_below_m", &C::band_below_m, kPositive},
+      {"band_above_m", &C::band_above_m, kPositive},
+      {"margin_m", &C::margin_m, kNonNegative},
+      {"passage_margin_m", &C::passage_margin_m, kNonNegative},
+      {"preferred_clearance_m", &C::preferred_clearance_m, kNonNegative},
+      {"clearance_weight", &C::clearance_weight, kNonNegative},
+      {"candidate_spacing_m", &C::candidate_spacing_m, kPositive},
+      {"end_gain_nats", &C::end_gain_nats, kPositive},
+      {"local_horizon_m", &C::local_horizon_m, kNonNegative},
+      {"skip_viewed_poses", &C::skip_viewed_poses},
+      {"skip_flown_poses", &C::skip_flown_poses},
+      {"peer_view_radius_m", &C::peer_view_radius_m, kPositive},
+  }};
+  return table;
+}
+
 void PlannerConfig::Validate() const {
   projection.Validate();
   gain.Validate();
   candidates.Validate();
   trajectory.Validate();
   volumetric.Validate();
+  CheckParams("frontier", FrontierParams(), frontier);
+  // The ranges that depend on each other.
   KESTREL_THROW_UNLESS(
-      frontier.min_distance_m >= 0.0 && std::isfinite(frontier.min_distance_m),
-      "frontier.min_distance_m = " << frontier.min_distance_m << ", accepted [0, inf)");
-  KESTREL_THROW_UNLESS(
-      frontier.view_min_range_m >= 0.0 && frontier.view_max_range_m > frontier.view_min_range_m &&
-          std::isfinite(frontier.view_max_range_m),
-      "frontier.view_min_range_m = " << frontier.view_min_range_m
-                                     << ", view_max_range_m = " << frontier.view_max_range_m
-                                     << ", accepted 0 <= min < max < inf");
+      frontier.view_max_range_m > frontier.view_min_range_m,
+      "frontier.view_min_range_m = " << frontier.view_min_range_m << ", view_max_range_m = "
+                                     << frontier.view_max_range_m << ", accepted min < max");
   KESTREL_THROW_UNLESS(frontier.goal_max_range_m > frontier.view_min_range_m &&
                            frontier.goal_max_range_m <= frontier.view_max_range_m,
                        "frontier.goal_max_range_m = "
@@ -43,43 +81,12 @@ void PlannerConfig::Validate() const {
                            << ", accepted (view_min_range_m = " << frontier.view_min_range_m
                            << ", view_max_range_m = " << frontier.view_max_range_m << "]");
   KESTREL_THROW_UNLESS(
-      frontier.horizontal_fov_deg > 0.0 && frontier.horizontal_fov_deg <= 360.0,
-      "frontier.horizontal_fov_deg = " << frontier.horizontal_fov_deg << ", accepted (0, 360]");
-  KESTREL_THROW_UNLESS(
-      frontier.min_frontier_cells >= 1,
-      "frontier.min_frontier_cells = " << frontier.min_frontier_cells << ", accepted >= 1");
-  KESTREL_THROW_UNLESS(
       startup_vertical_fov_rad > 0.0 && startup_vertical_fov_rad < M_PI,
       "startup_vertical_fov_rad = " << startup_vertical_fov_rad << ", accepted (0, pi)");
 }
 
 void VolumetricConfig::Validate() const {
-  KESTREL_THROW_UNLESS(std::isfinite(band_below_m) && band_below_m > 0.0,
-                       "volumetric.band_below_m = " << band_below_m << ", accepted (0, inf)");
-  KESTREL_THROW_UNLESS(std::isfinite(band_above_m) && band_above_m > 0.0,
-                       "volumetric.band_above_m = " << band_above_m << ", accepted (0, inf)");
-  KESTREL_THROW_UNLESS(std::isfinite(margin_m) && margin_m >= 0.0,
-                       "volumetric.margin_m = " << margin_m << ", accepted [0, inf)");
-  KESTREL_THROW_UNLESS(
-      std::isfinite(passage_margin_m) && passage_margin_m >= 0.0,
-      "volumetric.passage_margin_m = " << passage_margin_m << ", accepted [0, inf)");
-  KESTREL_THROW_UNLESS(
-      std::isfinite(candidate_spacing_m) && candidate_spacing_m > 0.0,
-      "volumetric.candidate_spacing_m = " << candidate_spacing_m << ", accepted (0, inf)");
-  KESTREL_THROW_UNLESS(std::isfinite(end_gain_nats) && end_gain_nats > 0.0,
-                       "volumetric.end_gain_nats = " << end_gain_nats << ", accepted (0, inf)");
-  KESTREL_THROW_UNLESS(
-      std::isfinite(local_horizon_m) && local_horizon_m >= 0.0,
-      "volumetric.local_horizon_m = " << local_horizon_m << ", accepted [0, inf) (0: off)");
-  KESTREL_THROW_UNLESS(
-      std::isfinite(peer_view_radius_m) && peer_view_radius_m > 0.0,
-      "volumetric.peer_view_radius_m = " << peer_view_radius_m << ", accepted (0, inf)");
-  KESTREL_THROW_UNLESS(std::isfinite(preferred_clearance_m) && preferred_clearance_m >= 0.0,
-                       "volumetric.preferred_clearance_m = " << preferred_clearance_m
-                                                             << ", accepted [0, inf) (0: off)");
-  KESTREL_THROW_UNLESS(
-      std::isfinite(clearance_weight) && clearance_weight >= 0.0,
-      "volumetric.clearance_weight = " << clearance_weight << ", accepted [0, inf) (0: off)");
+  CheckParams("volumetric", VolumetricParams(), *this);
   gain.Validate();
 }
 

@@ -6,6 +6,8 @@
 
 #include <cmath>
 
+#include "common/param_table.h"
+
 #include "exploration/candidates.h"
 #include "exploration/information_gain.h"
 #include "exploration/projected_maps.h"
@@ -113,6 +115,12 @@ struct PlannerConfig {
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
 };
+
+/// The scalar keys of the `frontier:` section, with their ranges (common/param_table.h): the
+/// loader (planner_config_io.h) and Validate take each key's range from here.
+[[nodiscard]] const ParamTable<FrontierConfig>& FrontierParams();
+/// The scalar keys of the `volumetric:` section (but gain.azimuth_bins), with their ranges.
+[[nodiscard]] const ParamTable<VolumetricConfig>& VolumetricParams();
 
 /// The fine traversability parameters of `config` (volumetric keys, height, C_thresh, P_init,
 /// vehicle radius).

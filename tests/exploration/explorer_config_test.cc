@@ -9,12 +9,12 @@
 #include <cmath>
 #include <fstream>
 #include <regex>
-#include <sstream>
 #include <string>
 
 #include "common/config.h"
 #include "common/vehicle_config.h"
 #include "mapping/mapper_config.h"
+#include "tests/exploration/param_table_checks.h"
 
 namespace kestrel {
 namespace {
@@ -33,21 +33,6 @@ std::string ExplorerLine(const std::string& key) {
   return "";
 }
 
-template <class T>
-double Value(const T& config, const Param<T>& p) {
-  return std::visit([&](auto member) { return static_cast<double>(config.*member); }, p.member);
-}
-
-template <class T>
-void Set(T* config, const Param<T>& p, double v) {
-  std::visit(
-      [&](auto member) {
-        using V = std::decay_t<decltype(config->*member)>;
-        config->*member = static_cast<V>(v);
-      },
-      p.member);
-}
-
 // Every key of the table is in the reference file, with a comment, at the struct's default.
 template <class T>
 void ExpectDocumentedAtDefault(const ParamTable<T>& table, const T& loaded, const T& defaults) {
@@ -56,7 +41,8 @@ void ExpectDocumentedAtDefault(const ParamTable<T>& table, const T& loaded, cons
     const std::string line = ExplorerLine(p.key);
     ASSERT_FALSE(line.empty()) << "not in " << kExplorerYaml;
     EXPECT_NE(line.find('#'), std::string::npos) << "no comment: " << line;
-    EXPECT_EQ(Value(loaded, p), Value(defaults, p)) << "the file and the struct disagree";
+    EXPECT_EQ(test::ParamValue(loaded, p), test::ParamValue(defaults, p))
+        << "the file and the struct disagree";
   }
 }
 
@@ -73,37 +59,15 @@ TEST(ExplorerConfig, ReferenceFileStatesTheDefaultsOfEveryKey) {
 }
 
 // The loader and the validation refuse the same values: each number just outside its row's
-// range (or a fraction of it) is a ConfigError from the file and an invalid_argument from
-// Validate, both naming the key.
-template <class T, class Load>
-void ExpectRangesEnforced(const ParamTable<T>& table, T valid, Load load) {
-  for (const Param<T>& p : table) {
-    if (std::holds_alternative<bool T::*>(p.member)) continue;
-    SCOPED_TRACE(p.key);
-    const double outside = std::isfinite(p.range.min) ? p.range.min - 1.0 : p.range.max + 1.0;
-    try {
-      (void)load("explorer: {" + std::string(p.key) + ": " + std::to_string(outside) + "}");
-      ADD_FAILURE() << "loaded " << outside;
-    } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find(p.key), std::string::npos) << e.what();
-    }
-    T bad = valid;
-    Set(&bad, p, outside);
-    try {
-      bad.Validate();
-      ADD_FAILURE() << "validated " << outside;
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find(p.key), std::string::npos) << e.what();
-    }
-  }
-}
-
+// range is a ConfigError from the file and an invalid_argument from Validate, both naming the key.
 TEST(ExplorerConfig, LoaderAndValidationShareOneRangePerKey) {
   const auto load = [](const std::string& yaml) {
     return LoadExplorerNodeConfig(ConfigNode::FromString(yaml, "test.yaml"));
   };
-  ExpectRangesEnforced(ExplorerParams(), ExplorerConfig{}, load);
-  ExpectRangesEnforced(ExplorerNodeParams(), ExplorerNodeConfig{}, load);
+  const auto validate = [](const auto& config) { config.Validate(); };
+  test::ExpectRangesEnforced("explorer", ExplorerParams(), ExplorerConfig{}, load, validate);
+  test::ExpectRangesEnforced("explorer", ExplorerNodeParams(), ExplorerNodeConfig{}, load,
+                             validate);
   // Strict ends are strict: end_stall_min_growth in [0, 1).
   EXPECT_THROW(load("explorer: {end_stall_min_growth: 1.0}"), ConfigError);
   EXPECT_NO_THROW(load("explorer: {end_stall_min_growth: 0.0}"));

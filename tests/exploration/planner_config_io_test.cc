@@ -7,6 +7,7 @@
 
 #include "common/config.h"
 #include "exploration/explorer_config.h"
+#include "tests/exploration/param_table_checks.h"
 
 namespace kestrel {
 namespace {
@@ -81,6 +82,34 @@ TEST(PlannerConfigIo, ErrorsNameKey) {
   EXPECT_EQ(c.mode, ExplorationMode::kTwoMap);
   EXPECT_EQ(c.trajectory.derivative_order, 3);
   EXPECT_EQ(c.trajectory.vehicle_radius_m, 0.25);
+}
+
+// The frontier and volumetric sections: every key of their tables at its default in the
+// reference file, and one range per key for the loader and the validation.
+TEST(PlannerConfigIo, FrontierAndVolumetricKeysFromOneTable) {
+  const PlannerConfig c =
+      LoadExplorerNodeConfig(ConfigNode::LoadFile(KESTREL_CONFIG_DIR "/exploration/explorer.yaml"))
+          .explorer.planner;
+  const PlannerConfig d;
+  for (const Param<FrontierConfig>& p : FrontierParams()) {
+    EXPECT_EQ(test::ParamValue(c.frontier, p), test::ParamValue(d.frontier, p)) << p.key;
+  }
+  for (const Param<VolumetricConfig>& p : VolumetricParams()) {
+    EXPECT_EQ(test::ParamValue(c.volumetric, p), test::ParamValue(d.volumetric, p)) << p.key;
+  }
+  const auto load = [](const std::string& yaml) {
+    return LoadPlannerConfig(ConfigNode::FromString(yaml, "test.yaml"));
+  };
+  test::ExpectRangesEnforced("volumetric", VolumetricParams(), VolumetricConfig{}, load,
+                             [](const VolumetricConfig& v) { v.Validate(); });
+  test::ExpectRangesEnforced("frontier", FrontierParams(), FrontierConfig{}, load,
+                             [](const FrontierConfig& f) {
+                               PlannerConfig with = PlannerConfig{};
+                               with.frontier = f;
+                               with.Validate();
+                             });
+  // Finite: an infinite band is refused by both.
+  EXPECT_THROW(load("volumetric: {band_below_m: .inf}"), ConfigError);
 }
 
 TEST(PlannerConfigIo, TheMapsClampIsOneValueForEAndTheVolumetricGain) {
