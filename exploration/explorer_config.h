@@ -119,8 +119,8 @@ struct ExplorerNodeConfig {
   std::string vehicle_prefix;
   int max_status_candidates{512};  ///< candidates listed in EXPLORATION_STATUS (best first)
   /// The 2D maps go out at most this often, s (0: with every plan). The volumetric mode's band is
-  /// at the map's resolution (lasr: 165 kB per message); at 1 Hz replans that traffic crowded the
-  /// receive buffers of every process on the multicast group.
+  /// at the map's resolution (its size per message: docs/STATUS.md); at 1 Hz replans that traffic
+  /// crowded the receive buffers of every process on the multicast group.
   double map2d_period_s{5.0};
   /// The explorer's state file ("" = none: a restarted explorer starts WAITING, as on a first
   /// start; docs/design.md §2.5).

@@ -66,6 +66,18 @@ class ExplorerTest : public ::testing::Test {
     explorer_ = std::make_unique<Explorer>(config_, kEpoch);
     return *explorer_;
   }
+  // A new explorer (config_) and the vehicle back at the start, hovering at h.
+  Explorer& Restart() {
+    t_ = 100.0;
+    flying_.reset();
+    accept_ = true;
+    report_ = ControllerReport{};
+    report_.mode = ControllerMode::kHold;
+    pose_ = Pose3{};
+    pose_.p.z() = config_.planner.projection.height_m;
+    all_.clear();
+    return Make();
+  }
   // The inputs of one step (pose, controller) and the step; the controller follows the actions.
   std::vector<ExplorerAction> Step() {
     if (flying_) {
@@ -266,13 +278,7 @@ TEST_F(ExplorerTest, ReplansOnPeriodAndAtTheEnd) {
   EXPECT_EQ(s[0].reason, "replan period");
   // Without periodic replans the trajectory runs out: "trajectory ended".
   config_.replan_period_s = 1e6;
-  t_ = 100.0;
-  flying_.reset();
-  report_ = ControllerReport{};
-  report_.mode = ControllerMode::kHold;
-  pose_.p = Eigen::Vector3d(0.0, 0.0, config_.planner.projection.height_m);
-  pose_.q.setIdentity();
-  Make();
+  Restart();
   ASSERT_TRUE(RunToState(ExplorerState::kExploring, 30.0));
   TakeStatuses();
   const double first_end = flying_->end_time_s();
@@ -337,14 +343,7 @@ TEST_F(ExplorerTest, WithoutReturnHomeOrLandAtEnd) {
   EXPECT_EQ(Of<SendLand>(all_).size(), 1u);
   EXPECT_EQ(explorer_->landing(), "landed where exploration ended (return_home off)");
   config_.land_at_end = false;
-  t_ = 100.0;
-  flying_.reset();
-  report_ = ControllerReport{};
-  report_.mode = ControllerMode::kHold;
-  pose_.p = Eigen::Vector3d(0.0, 0.0, config_.planner.projection.height_m);
-  pose_.q.setIdentity();
-  all_.clear();
-  Make();
+  Restart();
   ASSERT_TRUE(RunToState(ExplorerState::kDone, 30.0));
   EXPECT_TRUE(Of<SendLand>(all_).empty());
 }
@@ -603,17 +602,9 @@ TEST_F(ExplorerTest, EveryStateWithEveryInputOutOfOrder) {
     for (const Input& input : inputs) {
       SCOPED_TRACE(std::string(ToString(state)) + ", " + input.name);
       // A fresh flight to `state` (an explored room ends at the first plan).
-      t_ = 100.0;
-      flying_.reset();
-      accept_ = true;
-      report_ = ControllerReport{};
-      report_.mode = ControllerMode::kHold;
-      pose_ = Pose3{};
-      pose_.p.z() = config_.planner.projection.height_m;
       SetRoom(state == ExplorerState::kExploring ? 1.2 : 10.0);
       config_.peers = {"V2_"};
-      Make();
-      all_.clear();
+      Restart();
       if (state != ExplorerState::kWaiting) ASSERT_TRUE(RunToState(state, 60.0));
       all_.clear();
       input.apply(this);
