@@ -78,6 +78,13 @@ ExplorerNode::ExplorerNode(lcm::LCM& lcm, const ExplorerNodeConfig& config, cons
   subscriptions_.Add<map3d_chunk_t>(
       config_.map_channel,
       [this](const std::string&, const map3d_chunk_t& m) {
+        // The explorer's P_init (its projections, its known cells) must be the mapper's.
+        if (std::abs(m.p_init - config_.explorer.p_init) > 1e-9) {
+          drops_.Count("map_prior", "the mapper's P_init " + std::to_string(m.p_init) +
+                                        " is not the explorer's map.p_init " +
+                                        std::to_string(config_.explorer.p_init));
+          return;
+        }
         std::string error;
         if (!replica_.Apply(m, &error)) drops_.Count("map_chunk", error);
       },

@@ -38,9 +38,10 @@ class ExplorerNodeTest : public ::testing::Test {
     }
   }
 
-  // An empty map snapshot, a pose at the exploration height and the controller in `mode`
-  // tracking trajectory (seq, epoch).
-  void SendWorld(int8_t mode, int64_t trajectory_seq, int64_t trajectory_epoch) {
+  // An empty map snapshot (prior p_init, the explorer's by default), a pose at the exploration
+  // height and the controller in `mode` tracking trajectory (seq, epoch).
+  void SendWorld(int8_t mode, int64_t trajectory_seq, int64_t trajectory_epoch,
+                 double p_init = -1.0) {
     map3d_chunk_t chunk{};
     chunk.utime = clock_.NowUtime();
     chunk.snapshot_id = 1;
@@ -48,7 +49,7 @@ class ExplorerNodeTest : public ::testing::Test {
     chunk.num_chunks = 1;
     for (int a = 0; a < 3; ++a) chunk.origin_m[a] = config_.explorer.map.min_m[a];
     chunk.resolution_m = config_.explorer.map.resolution_m;
-    chunk.p_init = config_.explorer.p_init;
+    chunk.p_init = p_init > 0 ? p_init : config_.explorer.p_init;
     chunk.block_edge = 8;
     EncodeMapChunkCells({}, map3d_chunk_t::ENCODING_FLOAT32, 0, &chunk);
     lcm_.publish(config_.map_channel, &chunk);
@@ -150,6 +151,21 @@ TEST_F(ExplorerNodeTest, ResumesFromItsStateFileOnlyInTheSameRun) {
   }
   std::remove(config_.state_path.c_str());
   rmdir(dir);
+}
+
+// A snapshot from a mapper with another prior is refused, said why, and counted; the explorer
+// waits for a map it can use.
+TEST_F(ExplorerNodeTest, RefusesAMapWithAnotherPrior) {
+  ExplorerNode node(lcm_, config_, clock_);
+  SendWorld(controller_status_t::MODE_HOLD, -1, 0, 0.2);
+  node.Step();
+  EXPECT_EQ(node.drops().count("map_prior"), 1);
+  EXPECT_NE(node.drops().last_reason().find("map.p_init"), std::string::npos);
+  EXPECT_FALSE(node.replica().current());
+  EXPECT_EQ(node.state(), ExplorerState::kWaiting);
+  SendWorld(controller_status_t::MODE_HOLD, -1, 0);
+  node.Step();
+  EXPECT_EQ(node.state(), ExplorerState::kStartup);
 }
 
 // Two explorers in one process are two publishers.
