@@ -3,8 +3,8 @@
 /// kestrel-explorer's node: the wiring around the pure Explorer (exploration/explorer.h, where
 /// the state machine and every decision live). It keeps a copy of the mapper's 3D map (MAP3D
 /// snapshots and deltas, mapping/map_replica.h; a snapshot whose P_init is not the explorer's
-/// map.p_init is refused and counted as "map_prior"), decodes poses, controller status and the other
-/// vehicles' poses and trajectories (the guarded path; bad messages counted as drops and
+/// map.p_init is refused and counted as "map_prior"), decodes poses, controller status and the
+/// other vehicles' poses and trajectories (the guarded path; bad messages counted as drops and
 /// dropped), steps the Explorer, and publishes what it returns: TRAJECTORY, EXPLORATION_STATUS,
 /// the 2D maps (MAP2D_COLLISION, MAP2D_COMBINED, MAP2D_ENTROPY in two-map mode; at most every
 /// map2d_period_s), the land command on COMMAND, and a heartbeat with the drops and, apart, the

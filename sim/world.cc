@@ -213,8 +213,8 @@ World LoadWorld(const std::string& path, const ConfigNode& including) {
 Geofence WorldGeofence(const World& world) {
   Geofence fence;
   fence.min_m = world.map_min_m - Eigen::Vector3d::Constant(kGeofenceMarginM);
-  fence.max_m = world.map_max_m +
-                Eigen::Vector3d(kGeofenceMarginM, kGeofenceMarginM, kGeofenceHeadroomM);
+  fence.max_m =
+      world.map_max_m + Eigen::Vector3d(kGeofenceMarginM, kGeofenceMarginM, kGeofenceHeadroomM);
   return fence;
 }
 

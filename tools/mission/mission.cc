@@ -316,10 +316,10 @@ class Mission {
     }
   }
 
-  // The log (mc.log_path): every message, and first what each node runs with (docs/design.md
-  // §6). The values the mission sets from the world and the vehicle after loading (map limits,
-  // height, diameter) are not among them; the world and the vehicle files are, with the
-  // simulator's.
+  // The log (mc.log_path): every message, and first what each node runs with
+  // (docs/design.md §6). The values the mission sets from the world and the vehicle after loading
+  // (map limits, height, diameter) are not among them; the world and the vehicle files are, with
+  // the simulator's.
   void StartLog() {
     if (mc_.log_path.empty()) return;
     log_ = std::make_unique<lcm::LogFile>(mc_.log_path, "w");
