@@ -152,12 +152,11 @@ bool SearchSpace::Search(const PlannerInput& input, PlanResult* result,
 void SearchSpace::TrajectoryTo(const PlannerInput& input, const SearchedCells& cells, int goal_cell,
                                double goal_yaw_rad, PlanResult* result) const {
   const Clock::time_point t0 = Clock::now();
-  const double h = config_.projection.height_m;
+  TrajectoryConfig tc = config_.trajectory;
+  PathClearance room;
   if (fine_) {
-    TrajectoryConfig tc = config_.trajectory;
     tc.vehicle_radius_m = kPointRadius;
     // Shortcuts keep the room the clearance-weighted search chose (Traversability, step 4).
-    PathClearance room;
     if (result->traversability && config_.volumetric.preferred_clearance_m > 0.0 &&
         config_.volumetric.clearance_weight > 0.0) {
       room.clearance = &result->traversability->clearance;
@@ -165,14 +164,10 @@ void SearchSpace::TrajectoryTo(const PlannerInput& input, const SearchedCells& c
                          config_.volumetric.preferred_clearance_m;
     }
     if (result->traversability) room.path_points = &result->traversability->passage_points;
-    result->trajectory =
-        PlanTrajectory(result->collision.collision, cells.traversable, result->field, goal_cell,
-                       input.Start(), goal_yaw_rad, h, tc, room);
-  } else {
-    result->trajectory = PlanTrajectory(
-        result->collision.collision, cells.traversable, result->field, goal_cell, input.position_m,
-        input.velocity_mps, input.yaw_rad, goal_yaw_rad, h, input.time_s, config_.trajectory);
   }
+  result->trajectory =
+      PlanTrajectory(result->collision.collision, cells.traversable, result->field, goal_cell,
+                     StartOf(input), goal_yaw_rad, config_.projection.height_m, tc, room);
   result->timings.trajectory_s += SecondsSince(t0);
   if (result->trajectory.trajectory) {
     result->status = PlanStatus::kGoal;
@@ -180,6 +175,15 @@ void SearchSpace::TrajectoryTo(const PlannerInput& input, const SearchedCells& c
     result->status = PlanStatus::kFailed;
     result->reason = "trajectory: " + result->trajectory.error;
   }
+}
+
+TrajectoryStart SearchSpace::StartOf(const PlannerInput& input) const {
+  TrajectoryStart start = input.Start();
+  if (!fine_) {  // the paper's modes keep their own start (planning_pipeline.h)
+    start.acceleration_mps2.setZero();
+    start.yaw_rate_radps = 0.0;
+  }
+  return start;
 }
 
 bool SearchSpace::StillClear(const PlannerInput& input,

@@ -6,9 +6,9 @@
 ///      traversability) and Dijkstra from the vehicle's cell (SearchSpace::Search);
 ///   3. choose: the mode's objective scores candidates and picks the goals to try, best first,
 ///      or ends exploration (Objective::Choose);
-///   4. trajectory: the goals in turn, each to a trajectory from the input's start state (the
-///      same full state in every mode: position, velocity, acceleration, yaw and yaw rate),
-///      checked on the mode's cells (SearchSpace::TrajectoryTo) and against the other vehicles
+///   4. trajectory: the goals in turn, each to a trajectory from the start state
+///      (SearchSpace::StartOf: one rule for every mode), checked on the mode's cells
+///      (SearchSpace::TrajectoryTo) and against the other vehicles
 ///      (PlannerInput::trajectory_check), until one passes;
 ///   5. timing: each stage's wall time (PlanTimings).
 /// Each mode supplies its SearchSpace and its Objective (exploration/entropy_planner.h,
@@ -50,7 +50,16 @@ class SearchSpace {
   /// with result->reason when the map or the vehicle cannot be used.
   bool Search(const PlannerInput& input, PlanResult* result, SearchedCells* cells) const;
 
-  /// Stage 4 for one goal: a trajectory from input.Start() to the centre of goal_cell at the
+  /// The start state a trajectory of this space leaves from: input.Start(), the full state
+  /// (position, velocity, acceleration, yaw, yaw rate; on a spliced replan the flown
+  /// trajectory's, docs/exploration.md "Non-stop flight"). On the collision map C the
+  /// acceleration and the yaw rate are left out, as the paper's modes always planned: the full
+  /// state there changed their flights (lasr, seed 1: the combined mode's disc touched a desk's
+  /// corner twice where it had not), and stays off until a wider bench shows it safe
+  /// (docs/STATUS.md, Exploration).
+  [[nodiscard]] TrajectoryStart StartOf(const PlannerInput& input) const;
+
+  /// Stage 4 for one goal: a trajectory from StartOf(input) to the centre of goal_cell at the
   /// exploration height with heading goal_yaw_rad, into result->trajectory with result->status
   /// kGoal, or kFailed and result->reason; adds its time to timings.trajectory_s.
   void TrajectoryTo(const PlannerInput& input, const SearchedCells& cells, int goal_cell,
