@@ -36,6 +36,10 @@ static_assert(static_cast<int8_t>(ControllerMode::kHold) == controller_status_t:
 static_assert(static_cast<int8_t>(ControllerMode::kLand) == controller_status_t::MODE_LAND);
 static_assert(static_cast<int8_t>(ControllerMode::kEstop) == controller_status_t::MODE_ESTOP);
 
+// How far the mapper's P_init may be from the explorer's (map_prior): float cells and log-odds
+// read back differ from the configured double by 1e-8 at most.
+constexpr double kPriorTolerance = 1e-6;
+
 // The replica's lattice: the configured map's, at least one cell.
 Eigen::Vector3i ReplicaDims(const MapLimits& map) {
   const GridGeometry geometry = GridGeometry::Fixed(map);
@@ -78,8 +82,9 @@ ExplorerNode::ExplorerNode(lcm::LCM& lcm, const ExplorerNodeConfig& config, cons
   subscriptions_.Add<map3d_chunk_t>(
       config_.map_channel,
       [this](const std::string&, const map3d_chunk_t& m) {
-        // The explorer's P_init (its projections, its known cells) must be the mapper's.
-        if (std::abs(m.p_init - config_.explorer.p_init) > 1e-9) {
+        // The explorer's P_init (its projections, its known cells) must be the mapper's, to the
+        // precision of the mapper's cells (float probabilities, or log-odds read back).
+        if (std::abs(m.p_init - config_.explorer.p_init) > kPriorTolerance) {
           drops_.Count("map_prior", "the mapper's P_init " + std::to_string(m.p_init) +
                                         " is not the explorer's map.p_init " +
                                         std::to_string(config_.explorer.p_init));

@@ -49,7 +49,8 @@ class ExplorerNodeTest : public ::testing::Test {
     chunk.num_chunks = 1;
     for (int a = 0; a < 3; ++a) chunk.origin_m[a] = config_.explorer.map.min_m[a];
     chunk.resolution_m = config_.explorer.map.resolution_m;
-    chunk.p_init = p_init > 0 ? p_init : config_.explorer.p_init;
+    // As the mapper sends it: the prior its float cells hold.
+    chunk.p_init = p_init > 0 ? p_init : static_cast<float>(config_.explorer.p_init);
     chunk.block_edge = 8;
     EncodeMapChunkCells({}, map3d_chunk_t::ENCODING_FLOAT32, 0, &chunk);
     lcm_.publish(config_.map_channel, &chunk);
