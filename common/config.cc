@@ -92,18 +92,28 @@ struct ConfigNode::Document {
   std::set<std::string> used;
   std::vector<ConfigValue> values;
   std::map<std::string, size_t> value_index;  ///< key path -> index in `values`
-  std::set<std::string> overridden;           ///< key paths set by ApplyOverride
+  /// Key paths set by ApplyOverride, each with the assignment as given ("a.b=1").
+  std::map<std::string, std::string> overridden;
   std::vector<std::shared_ptr<const Document>> included;
 
-  /// Whether an override set `key_path` or a section or element above it.
-  [[nodiscard]] bool Overridden(std::string key_path) const {
+  /// The override that set `key_path` or a section or element above it (nullptr: none).
+  [[nodiscard]] const std::string* Overridden(std::string key_path) const {
     while (!key_path.empty()) {
-      if (overridden.count(key_path) != 0) return true;
+      const auto it = overridden.find(key_path);
+      if (it != overridden.end()) return &it->second;
       const size_t cut = key_path.find_last_of(".[");
       if (cut == std::string::npos) break;
       key_path.resize(cut);
     }
-    return false;
+    return nullptr;
+  }
+  /// Where the value at `key_path` came from, for an error: " (--set a.b=1)" for an override
+  /// (whose YAML was parsed on its own, so its line says nothing), else the file's line.
+  [[nodiscard]] std::string Where(const std::string& key_path, const YAML::Node& node) const {
+    if (const std::string* assignment = Overridden(key_path)) {
+      return " (from --set " + *assignment + ")";
+    }
+    return LineOf(node);
   }
   void Collect(std::vector<ConfigValue>* out) const {
     out->insert(out->end(), values.begin(), values.end());
@@ -201,7 +211,7 @@ void ConfigNode::ApplyOverride(const std::string& assignment) {
   } else {
     chain.back()[parts.back()] = value;
   }
-  doc_->overridden.insert(overridden_path);
+  doc_->overridden[overridden_path] = assignment;
 }
 
 ConfigNode ConfigNode::Include(const std::string& path) const {
@@ -218,9 +228,9 @@ std::vector<ConfigValue> ConfigNode::EffectiveValues() const {
 
 void ConfigNode::Record(const std::string& key, std::string value) const {
   const std::string key_path = KeyPath(key);
-  const ConfigSource source = !Has(key)                    ? ConfigSource::kDefault
-                              : doc_->Overridden(key_path) ? ConfigSource::kOverride
-                                                           : ConfigSource::kFile;
+  const ConfigSource source = !Has(key)                               ? ConfigSource::kDefault
+                              : doc_->Overridden(key_path) != nullptr ? ConfigSource::kOverride
+                                                                      : ConfigSource::kFile;
   const auto [it, inserted] = doc_->value_index.emplace(key_path, doc_->values.size());
   if (inserted) {
     doc_->values.push_back({doc_->file, key_path, std::move(value), source});
@@ -252,13 +262,13 @@ void ConfigNode::ThrowMissing(const std::string& key) const {
 
 void ConfigNode::ThrowBad(const std::string& key, const YAML::Node& value,
                           const std::string& expected) const {
-  throw ConfigError(file() + ": key '" + KeyPath(key) + "'" + LineOf(value) + " has value " +
-                    Describe(value) + "; accepted: " + expected);
+  throw ConfigError(file() + ": key '" + KeyPath(key) + "'" + doc_->Where(KeyPath(key), value) +
+                    " has value " + Describe(value) + "; accepted: " + expected);
 }
 
 void ConfigNode::Fail(const std::string& key, const std::string& reason) const {
   const YAML::Node n = node_[key];
-  throw ConfigError(file() + ": key '" + KeyPath(key) + "'" + LineOf(n) +
+  throw ConfigError(file() + ": key '" + KeyPath(key) + "'" + doc_->Where(KeyPath(key), n) +
                     (n.IsDefined() ? " = " + Describe(n) : std::string()) + ": " + reason);
 }
 
@@ -393,6 +403,22 @@ void ConfigNode::Read(const std::string& key, std::string* value,
   Record(key, *value);
 }
 
+void ConfigNode::Read(const std::string& key, std::vector<std::string>* value) const {
+  if (Has(key)) {
+    const YAML::Node n = Lookup(key);
+    if (!n.IsSequence()) ThrowBad(key, n, "a list of strings");
+    std::vector<std::string> out;
+    for (size_t i = 0; i < n.size(); ++i) {
+      if (!n[i].IsScalar()) ThrowBad(key, n, "a list of strings");
+      out.push_back(n[i].Scalar());
+    }
+    *value = std::move(out);
+  }
+  std::string text = "[";
+  for (size_t i = 0; i < value->size(); ++i) text += (i ? ", " : "") + (*value)[i];
+  Record(key, text + "]");
+}
+
 void ConfigNode::Read(const std::string& key, std::vector<double>* value, const Range& range,
                       int size) const {
   if (Has(key)) {
@@ -443,7 +469,7 @@ void ConfigNode::CollectUnknown(const YAML::Node& node, const std::string& path,
     const std::string key = KeyText(kv.first, file());
     const std::string key_path = path.empty() ? key : path + "." + key;
     if (doc_->used.count(key_path) == 0) {
-      unknown->push_back(key_path + LineOf(kv.first));
+      unknown->push_back(key_path + doc_->Where(key_path, kv.first));
       continue;
     }
     if (kv.second.IsMap()) CollectUnknown(kv.second, key_path, unknown);

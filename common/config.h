@@ -127,6 +127,8 @@ class ConfigNode {
             const Range& range = Range::Any()) const;
   void Read(const std::string& key, Eigen::Vector4d* value,
             const Range& range = Range::Any()) const;
+  /// A list of strings (scalars), of any length.
+  void Read(const std::string& key, std::vector<std::string>* value) const;
   /// A list of numbers of any length (or exactly `size` if size >= 0), each within `range`.
   void Read(const std::string& key, std::vector<double>* value, const Range& range = Range::Any(),
             int size = -1) const;

@@ -13,7 +13,7 @@ namespace kestrel {
 
 namespace {
 volatile std::sig_atomic_t g_signal_received = 0;
-extern "C" void OnStopSignal(int /*signum*/) { g_signal_received = 1; }
+extern "C" void OnStopSignal(int signum) { g_signal_received = signum; }
 }  // namespace
 
 NodeLoop::NodeLoop(lcm::LCM& lcm, const Clock& clock) : lcm_(lcm), clock_(clock) {}
@@ -36,7 +36,16 @@ void NodeLoop::InstallSignalHandlers() {
   sigaction(SIGTERM, &action, nullptr);
 }
 
+void NodeLoop::RestoreDefaultSignalActions() {
+  signal(SIGINT, SIG_DFL);
+  signal(SIGTERM, SIG_DFL);
+}
+
 bool NodeLoop::signal_received() { return g_signal_received != 0; }
+
+int NodeLoop::received_signal() { return static_cast<int>(g_signal_received); }
+
+int NodeLoop::ExitCodeForSignal(int signum) { return signum > 0 ? 128 + signum : 0; }
 
 void NodeLoop::FireDueTimers() {
   const int64_t now = clock_.NowUtime();

@@ -51,8 +51,17 @@ class NodeLoop {
   void RequestStop() { stop_requested_ = 1; }
   /// Routes SIGINT and SIGTERM to a stop request of every NodeLoop in the process.
   static void InstallSignalHandlers();
+  /// Gives SIGINT and SIGTERM back their default action (the process ends at once): for a batch
+  /// tool (a log replayed, a map scored) whose work has no loop that asks signal_received() and
+  /// nothing to save when stopped half-way.
+  static void RestoreDefaultSignalActions();
   /// True once SIGINT or SIGTERM arrived (after InstallSignalHandlers).
   [[nodiscard]] static bool signal_received();
+  /// The signal that arrived last (SIGINT or SIGTERM), 0 if none.
+  [[nodiscard]] static int received_signal();
+  /// A shell's exit code for a run ended by `signum`: 128 + signum (130 for SIGINT, 143 for
+  /// SIGTERM); 0 for no signal.
+  [[nodiscard]] static int ExitCodeForSignal(int signum);
 
   [[nodiscard]] int64_t skipped_ticks() const { return skipped_ticks_; }
 

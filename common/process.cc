@@ -1,11 +1,16 @@
 #include "common/process.h"
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <exception>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include <unistd.h>
 #include <CLI/CLI.hpp>
 
 #include "common/lcm_url.h"
@@ -83,6 +88,27 @@ ConfigNode LoadProcessConfig(const ProcessArgs& args) {
                                                : ConfigNode::LoadFile(args.config_path);
   for (const auto& o : args.overrides) config.ApplyOverride(o);
   return config;
+}
+
+double SecondsSinceProcessStart() {
+  std::ifstream in("/proc/self/stat");
+  std::string stat;
+  std::getline(in, stat);
+  // Field 22 (starttime, clock ticks after boot) counts from the field after the ")" that ends
+  // the command name (which may hold spaces): that is field 3.
+  const size_t close = stat.rfind(')');
+  if (close == std::string::npos) return std::nan("");
+  std::istringstream fields(stat.substr(close + 2));
+  std::string field;
+  for (int i = 3; i < 22 && fields >> field; ++i) {
+  }
+  unsigned long long start_ticks = 0;
+  if (!(fields >> start_ticks)) return std::nan("");
+  timespec now{};
+  if (clock_gettime(CLOCK_BOOTTIME, &now) != 0) return std::nan("");
+  const double ticks_per_s = static_cast<double>(sysconf(_SC_CLK_TCK));
+  return static_cast<double>(now.tv_sec) + 1e-9 * static_cast<double>(now.tv_nsec) -
+         static_cast<double>(start_ticks) / ticks_per_s;
 }
 
 int RunProcess(const std::string& name, int argc, char** argv, const std::string& usage,

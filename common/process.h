@@ -70,6 +70,10 @@ class CommandLineError : public std::runtime_error {
 /// @throws ConfigError
 [[nodiscard]] ConfigNode LoadProcessConfig(const ProcessArgs& args);
 
+/// Seconds since this process was started (exec), from /proc/self/stat's start time (10 ms
+/// resolution) and CLOCK_BOOTTIME; NaN where /proc cannot be read. For start-up timing logs.
+[[nodiscard]] double SecondsSinceProcessStart();
+
 /// Parses the arguments, loads the configuration, sets the log name, installs the SIGINT/SIGTERM
 /// handlers and runs `body`. A ConfigError (or any exception escaping `body`) is printed as one
 /// line and turns into exit code 2 (configuration) or 1 (anything else).

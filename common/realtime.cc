@@ -2,6 +2,7 @@
 
 #include <sched.h>
 #include <sys/mman.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -19,6 +20,7 @@ namespace kestrel {
 void RealtimeConfig::Validate() const {
   KESTREL_THROW_UNLESS(fifo_priority >= 0 && fifo_priority <= 99,
                        "realtime.fifo_priority = " << fifo_priority << ": 0 (off) or 1..99");
+  KESTREL_THROW_UNLESS(nice >= -20 && nice <= 19, "realtime.nice = " << nice << ": -20..19");
   const long online = sysconf(_SC_NPROCESSORS_CONF);
   for (const int cpu : cpus) {
     KESTREL_THROW_UNLESS(cpu >= 0 && cpu < CPU_SETSIZE,
@@ -39,6 +41,7 @@ RealtimeConfig ReadRealtimeConfig(const ConfigNode& root) {
     config.cpus.push_back(static_cast<int>(cpu));
   }
   node.Read("lock_memory", &config.lock_memory);
+  node.Read("nice", &config.nice, Range::Closed(-20, 19));
   config.Validate();
   return config;
 }
@@ -46,6 +49,7 @@ RealtimeConfig ReadRealtimeConfig(const ConfigNode& root) {
 std::string RealtimeOutcome::Summary(const RealtimeConfig& requested) const {
   std::ostringstream out;
   out << (fifo ? "SCHED_FIFO " + std::to_string(requested.fifo_priority) : "normal scheduling");
+  if (niced) out << " at nice " << requested.nice;
   out << (memory_locked ? ", memory locked" : ", memory not locked");
   if (affinity) {
     out << ", CPUs";
@@ -80,6 +84,17 @@ RealtimeOutcome ApplyRealtime(const RealtimeConfig& config) {
       outcome.warnings.push_back(std::string("mlockall refused (") + std::strerror(errno) +
                                  "): raise RLIMIT_MEMLOCK (ulimit -l, LimitMEMLOCK=infinity in a "
                                  "systemd unit) or grant CAP_IPC_LOCK; pages may fault");
+    }
+  }
+  if (config.nice != 0) {
+    // The calling thread's (Linux: nice is per thread), inherited by the threads it starts.
+    if (setpriority(PRIO_PROCESS, 0, config.nice) == 0) {
+      outcome.niced = true;
+    } else {
+      outcome.warnings.push_back(
+          "nice " + std::to_string(config.nice) + " refused (" + std::strerror(errno) +
+          "): grant CAP_SYS_NICE or a nice limit (ulimit -e, LimitNICE in a systemd unit, nice "
+          "in /etc/security/limits.conf); running at the inherited nice value");
     }
   }
   if (config.fifo_priority > 0) {

@@ -27,12 +27,21 @@ struct RealtimeConfig {
   int fifo_priority{0};     ///< SCHED_FIFO priority, 1..99; 0: the normal scheduler (SCHED_OTHER)
   bool lock_memory{false};  ///< mlockall(MCL_CURRENT | MCL_FUTURE): no page faults in the loop
   std::vector<int> cpus;    ///< CPUs the process may run on; empty: any
+  /// The nice value under the normal scheduler (-20..19; 0: unchanged; below 0 needs
+  /// CAP_SYS_NICE or an RLIMIT_NICE): a larger share of the CPU than normal processes without
+  /// SCHED_FIFO's power to starve them (and the kernel's network threads) when it runs long.
+  int nice{0};
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
+  /// True if anything differs from the defaults (a process that has nothing to apply says
+  /// nothing about it).
+  [[nodiscard]] bool requested() const {
+    return fifo_priority > 0 || lock_memory || !cpus.empty() || nice != 0;
+  }
 };
 
-/// Reads the optional `realtime:` section (keys fifo_priority, lock_memory, cpus); an absent
+/// Reads the optional `realtime:` section (keys fifo_priority, lock_memory, cpus, nice); an absent
 /// section or key keeps the default. @throws ConfigError naming the key.
 [[nodiscard]] RealtimeConfig ReadRealtimeConfig(const ConfigNode& root);
 
@@ -41,6 +50,7 @@ struct RealtimeOutcome {
   bool fifo{false};           ///< SCHED_FIFO is in force at the requested priority
   bool memory_locked{false};  ///< mlockall succeeded
   bool affinity{false};       ///< the CPU set is in force
+  bool niced{false};          ///< the requested nice value is in force
   /// One line per refused setting: what, the errno text, and what would allow it.
   std::vector<std::string> warnings;
   /// A one-line summary for the log ("SCHED_FIFO 80, memory locked, CPUs 2,3" / "normal").

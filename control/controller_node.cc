@@ -19,6 +19,9 @@ namespace kestrel {
 
 namespace {
 
+// How often the state file is rewritten in flight, s (its stamp is the life sign).
+constexpr double kStateRefreshS = 0.5;
+
 void CopyVector(const Eigen::Vector3d& v, double out[3]) {
   for (int i = 0; i < 3; ++i) out[i] = v[i];
 }
@@ -56,8 +59,8 @@ void ControllerConfig::Validate() const {
   KESTREL_THROW_UNLESS(run_id.empty() || CheckRunId(run_id).empty(),
                        "controller.run_id = '" << run_id << "': " << CheckRunId(run_id));
   KESTREL_THROW_UNLESS(
-      std::isfinite(takeover_window_s) && takeover_window_s > 0.0,
-      "controller.takeover_window_s = " << takeover_window_s << ", accepted (0, inf)");
+      std::isfinite(takeover_max_gap_s) && takeover_max_gap_s > 0.0,
+      "controller.takeover_max_gap_s = " << takeover_max_gap_s << ", accepted (0, inf)");
 }
 
 ControllerConfig LoadControllerConfig(const ConfigNode& node, const VehicleConfig& vehicle) {
@@ -67,7 +70,7 @@ ControllerConfig LoadControllerConfig(const ConfigNode& node, const VehicleConfi
   node.Read("status_decimation", &config.status_decimation, Range::Closed(1, 1000));
   node.Read("state_path", &config.state_path);
   node.Read("run_id", &config.run_id);
-  node.Read("takeover_window_s", &config.takeover_window_s, Range::Positive());
+  node.Read("takeover_max_gap_s", &config.takeover_max_gap_s, Range::Positive());
   if (node.Has("channels")) {
     const ConfigNode channels = node.Child("channels");
     channels.Read("pose", &config.pose_channel);
@@ -176,6 +179,7 @@ void ControllerNode::ReadStateFile() {
   const RunStateRead read =
       ReadRunStateFile(config_.state_path, "controller", run_id_, &file, &why);
   const std::string* mode = file.Find("mode");
+  double alive_utime = 0;
   if (read == RunStateRead::kAbsent) {
     takeover_status_ = "no state file: starting IDLE";
   } else if (read == RunStateRead::kCorrupt) {
@@ -184,16 +188,18 @@ void ControllerNode::ReadStateFile() {
   } else if (read == RunStateRead::kOtherRun) {
     takeover_status_ = why + ": starting IDLE (a new run never arms itself)";
     Log(LogLevel::kInfo, takeover_status_);
-  } else if (mode == nullptr || !file.GetDouble("ground_z_m", &takeover_ground_z_m_)) {
+  } else if (mode == nullptr || !file.GetDouble("ground_z_m", &previous_.ground_z_m) ||
+             !file.GetDouble("utime", &alive_utime)) {
     takeover_status_ = "state file refused (corrupt state file " + config_.state_path +
-                       ": no mode or ground_z_m): starting IDLE";
+                       ": no mode, ground_z_m or utime): starting IDLE";
     Log(LogLevel::kError, takeover_status_);
   } else if (*mode == "TAKEOFF" || *mode == "HOLD" || *mode == "TRACK" || *mode == "LAND") {
     takeover_pending_ = true;
-    takeover_landing_ = *mode == "LAND";
+    previous_.landing = *mode == "LAND";
+    previous_.alive_s = alive_utime * 1e-6;
     takeover_status_ = "controller restarted in flight (run " + run_id_ + ", was " + *mode +
-                       "): taking the vehicle over in " + (takeover_landing_ ? "LAND" : "HOLD") +
-                       " as soon as poses arrive";
+                       "): no motor command until a fresh pose shows whether it flies; then " +
+                       (previous_.landing ? "LAND" : "HOLD") + " if airborne";
     Log(LogLevel::kWarning, takeover_status_);
   } else if (*mode == "ESTOP") {
     // The e-stop stays latched across the restart (docs/design.md §2.3).
@@ -209,36 +215,37 @@ void ControllerNode::ReadStateFile() {
 
 void ControllerNode::TryTakeover(int64_t utime) {
   const double t = UtimeToSeconds(utime);
-  if (t - UtimeToSeconds(first_tick_utime_) > config_.takeover_window_s) {
+  const StateEstimator& estimator = flight_.estimator();
+  const VehicleState state = estimator.initialized() ? estimator.state() : VehicleState{};
+  const TakeoverDecision decision = DecideTakeover(
+      previous_, t, estimator.initialized() ? &state : nullptr, estimator.last_pose_time_s(),
+      config_.flight.safety, config_.takeover_max_gap_s);
+  if (decision.verdict == TakeoverVerdict::kWait) {
+    takeover_status_ = "takeover pending: " + decision.reason;
+    return;
+  }
+  if (decision.verdict == TakeoverVerdict::kStayIdle) {
     takeover_pending_ = false;
-    takeover_status_ = "no takeover: no fresh pose within takeover_window_s = " +
-                       std::to_string(config_.takeover_window_s) + " s; staying IDLE";
+    takeover_status_ = decision.reason + "; staying IDLE";
     Log(LogLevel::kError, takeover_status_);
     return;
   }
-  const StateEstimator& estimator = flight_.estimator();
-  if (!estimator.initialized()) return;
-  const SafetyConfig& safety = config_.flight.safety;
-  if (t - estimator.last_pose_time_s() <= safety.pose_timeout_s &&
-      estimator.state().position_m.z() <= takeover_ground_z_m_ + safety.landed_height_m &&
-      estimator.state().velocity_mps.norm() < safety.landed_speed_mps) {
-    takeover_pending_ = false;  // not airborne: never arm on the ground
-    takeover_status_ = "no takeover: the vehicle is on the ground; staying IDLE";
-    Log(LogLevel::kWarning, takeover_status_);
+  std::string why;
+  if (!flight_.Takeover(t, previous_.ground_z_m, decision.verdict == TakeoverVerdict::kLand,
+                        &why)) {
+    takeover_status_ = "takeover pending: " + why;  // the same freshness rule: not expected
     return;
   }
-  std::string why;
-  if (!flight_.Takeover(t, takeover_ground_z_m_, takeover_landing_, &why)) return;  // not yet
   takeover_pending_ = false;
   takeover_utime_ = utime;
   const Eigen::Vector3d& p = estimator.state().position_m;
-  char text[200];
+  char text[240];
   std::snprintf(text, sizeof(text),
                 "TAKEOVER: the flying vehicle taken over in %s at (%.2f, %.2f, %.2f) m, %.3f s "
-                "after the first control step",
-                takeover_landing_ ? "LAND" : "HOLD", p.x(), p.y(), p.z(),
-                t - UtimeToSeconds(first_tick_utime_));
-  takeover_status_ = text;
+                "after the first pose reached this controller (",
+                ToString(decision.verdict), p.x(), p.y(), p.z(),
+                UtimeToSeconds(utime - first_pose_utime_));
+  takeover_status_ = text + decision.reason + ")";
   Log(LogLevel::kWarning, takeover_status_);
 }
 
@@ -263,6 +270,8 @@ void ControllerNode::OnPose(const pose_t& msg) {
   pose.position_m = Eigen::Vector3d(msg.position_m[0], msg.position_m[1], msg.position_m[2]);
   if (!QuaternionFromWxyz(msg.orientation_wxyz, &pose.q_WB) || !flight_.AddPose(pose)) {
     drops_.Count("rejected pose", "non-finite, non-unit or older than the estimator history");
+  } else if (first_pose_utime_ < 0) {
+    first_pose_utime_ = clock_.NowUtime();
   }
 }
 
@@ -305,6 +314,24 @@ void ControllerNode::OnCommand(const command_t& msg) {
     return;
   }
   const auto command = static_cast<FlightCommand>(msg.command);
+  if (takeover_pending_ && command != FlightCommand::kEstop) {
+    // The vehicle may be flying on the previous controller's last command: only an e-stop acts
+    // before the verdict; a land order is kept for the takeover.
+    if (command == FlightCommand::kLand) {
+      previous_.landing = true;
+      Log(LogLevel::kWarning, "land command from " + msg.source +
+                                  " while a takeover is pending: the takeover will land");
+    } else {
+      drops_.Count("refused command", "command " + std::to_string(msg.command) + " from " +
+                                          msg.source + " refused: a takeover is pending");
+    }
+    return;
+  }
+  if (takeover_pending_) {
+    takeover_pending_ = false;
+    takeover_status_ = "e-stop from " + msg.source + " while a takeover was pending: ESTOP";
+    Log(LogLevel::kWarning, takeover_status_);
+  }
   if (!flight_.HandleCommand(command, UtimeToSeconds(clock_.NowUtime()), msg.height_m)) {
     drops_.Count("refused command", "command " + std::to_string(msg.command) + " from " +
                                         msg.source + " refused in mode " +
@@ -313,15 +340,25 @@ void ControllerNode::OnCommand(const command_t& msg) {
 }
 
 void ControllerNode::Tick(int64_t utime) {
-  if (first_tick_utime_ < 0) first_tick_utime_ = utime;
-  if (takeover_pending_) TryTakeover(utime);
+  if (takeover_pending_) {
+    TryTakeover(utime);
+    // Undecided: nothing goes out, so the ESC hold keeps the previous controller's last command
+    // (a disarmed command would stop the rotors of a flying vehicle), and no status claims a
+    // mode (docs/design.md §2.5).
+    if (takeover_pending_) return;
+  }
   last_ = flight_.Step(UtimeToSeconds(utime));
   motor_output_->Send(utime, last_);
-  // Not before a pending takeover is decided: a controller killed again meanwhile must still
-  // find "flying" in the file.
-  const int mode = static_cast<int>(last_.decision.mode);
-  if (!config_.state_path.empty() && !takeover_pending_ && mode != saved_mode_) {
-    saved_mode_ = mode;
+  // At every mode change, and every kStateRefreshS in flight: the file's stamp is the last life
+  // sign a respawned controller judges its evidence by (control/takeover.h).
+  const FlightMode mode = last_.decision.mode;
+  const bool flying = mode == FlightMode::kTakeoff || mode == FlightMode::kHold ||
+                      mode == FlightMode::kTrack || mode == FlightMode::kLand;
+  if (!config_.state_path.empty() &&
+      (static_cast<int>(mode) != saved_mode_ ||
+       (flying && utime - saved_utime_ >= SecondsToUtime(kStateRefreshS)))) {
+    saved_mode_ = static_cast<int>(mode);
+    saved_utime_ = utime;
     WriteStateFile(utime);
   }
   if (ticks_++ % config_.status_decimation == 0) PublishStatus(utime);

@@ -6,10 +6,11 @@
 /// MotorOutput (LCM MOTOR_COMMAND by default; a hardware backend implements the same interface)
 /// and publishes CONTROLLER_STATUS. No YAML or sockets inside. Channel names are configuration.
 /// The one file: with state_path set, the flight state (mode, take-off ground height, run id) is
-/// written there atomically at every mode change (common/run_state_file.h), and a controller
-/// started with the same run id whose file says it was flying takes the vehicle over where it is
-/// (HOLD, or LAND if it was landing) as soon as its estimator has a fresh pose
-/// (docs/design.md §2.5); another run, no file or a corrupt one: IDLE, as always.
+/// written there atomically at every mode change and every half second in flight
+/// (common/run_state_file.h). A controller started with the same run id whose file says it was
+/// flying sends nothing until a fresh pose comes, however late, then takes the vehicle over where
+/// it is (HOLD, or LAND if it was landing) if that pose shows it airborne (control/takeover.h,
+/// docs/design.md §2.5); another run, no file or a corrupt one: IDLE, as always.
 
 #include <cstdint>
 #include <memory>
@@ -21,6 +22,7 @@
 #include "common/lcm_decode.h"
 #include "common/log.h"
 #include "control/flight_controller.h"
+#include "control/takeover.h"
 #include "kestrel/command_t.hpp"
 #include "kestrel/imu_t.hpp"
 #include "kestrel/pose_t.hpp"
@@ -72,16 +74,17 @@ struct ControllerConfig {
   /// The run this controller belongs to (common/identity.h); "" = a fresh id, which takes nothing
   /// over. kestrel-controller fills it from $KESTREL_RUN_ID when unset.
   std::string run_id;
-  /// A takeover is tried only this long after the first control step, s (> 0): a controller never
-  /// arms itself later (the vehicle has fallen or landed by then).
-  double takeover_window_s{1.0};
+  /// A vehicle is taken over only when its first fresh pose comes at most this long after the
+  /// previous controller's last life sign in the state file, s (> 0; control/takeover.h): later,
+  /// whatever holds it up is not its rotors.
+  double takeover_max_gap_s{10.0};
 
   /// Throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
 };
 
 /// Reads a ControllerConfig from YAML: keys rate_hz, status_decimation, state_path, run_id,
-/// takeover_window_s, channels.{pose, imu, trajectory, command, motor, status, heartbeat},
+/// takeover_max_gap_s, channels.{pose, imu, trajectory, command, motor, status, heartbeat},
 /// controller.{attitude_error ("large_angle" | "cdc2010"), k_x_per_s2, ...}, estimator.{...},
 /// safety.{..., takeoff_track_min_rise_m, geofence_min_m, geofence_max_m,
 /// max_trajectory_start_offset_m}; absent keys keep their defaults. The vehicle comes from its own
@@ -100,7 +103,8 @@ class ControllerNode {
   ControllerNode(const ControllerNode&) = delete;
   ControllerNode& operator=(const ControllerNode&) = delete;
 
-  /// One control step at `utime` (us): FlightController::Step, motor output, status.
+  /// One control step at `utime` (us): FlightController::Step, motor output, status. While a
+  /// takeover is pending (takeover_pending()) it only decides it: no motor command, no status.
   void Tick(int64_t utime);
 
   [[nodiscard]] const FlightController& flight() const { return flight_; }
@@ -115,6 +119,10 @@ class ControllerNode {
   [[nodiscard]] int64_t epoch() const { return epoch_; }
   /// The control step at which this controller took a flying vehicle over (-1: none).
   [[nodiscard]] int64_t takeover_utime() const { return takeover_utime_; }
+  /// When the first valid pose reached this controller, its clock, us (-1: none yet).
+  [[nodiscard]] int64_t first_pose_utime() const { return first_pose_utime_; }
+  /// Whether the state file said "flying" and no verdict has come yet (nothing is sent).
+  [[nodiscard]] bool takeover_pending() const { return takeover_pending_; }
   /// What the start-up found in the state file and did (for logs and tests).
   [[nodiscard]] const std::string& takeover_status() const { return takeover_status_; }
   /// The stamp of the newest IMU sample the estimator took, us (-1: none yet): a motor command
@@ -150,13 +158,13 @@ class ControllerNode {
   int64_t last_imu_utime_{-1};
   double trajectory_end_s_{0.0};
   std::string run_id_;
-  bool takeover_pending_{false};   // the state file says the vehicle was flying
-  bool takeover_landing_{false};   // ... and landing
-  double takeover_ground_z_m_{0};  // its take-off ground height, m
-  int64_t first_tick_utime_{-1};
+  bool takeover_pending_{false};  // the state file says the vehicle was flying; no verdict yet
+  PreviousFlight previous_;       // what that file says
+  int64_t first_pose_utime_{-1};
   int64_t takeover_utime_{-1};
   std::string takeover_status_;
-  int saved_mode_{-1};  // the mode last written to the state file (-1: none)
+  int saved_mode_{-1};              // the mode last written to the state file (-1: none)
+  int64_t saved_utime_{INT64_MIN};  // when it was written, us
 };
 
 }  // namespace kestrel

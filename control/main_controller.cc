@@ -1,6 +1,7 @@
 // kestrel-controller: the geometric SE(3) flight controller process (runs on the vehicle).
 // Reads POSE_VICON, IMU, TRAJECTORY, COMMAND; writes MOTOR_COMMAND, CONTROLLER_STATUS and a
 // heartbeat. See control/controller_node.h.
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <stdexcept>
@@ -24,14 +25,15 @@ const char* const kUsage =
     "                          [--lcm-url URL] [--sim-clock SIM_TRUTH]\n"
     "  --vehicle FILE  vehicle parameters (default config/vehicle/paper.yaml)\n"
     "  --config FILE   controller YAML (rate_hz, channels, controller, estimator, safety,\n"
-    "                  state_path, run_id, takeover_window_s, realtime); optional, defaults\n"
+    "                  state_path, run_id, takeover_max_gap_s, realtime); optional, defaults\n"
     "                  otherwise\n"
     "  realtime.fifo_priority, realtime.lock_memory, realtime.cpus: the rate loop's real-time\n"
     "  settings (docs/design.md §2.6); off by default, a refused one is a warning\n"
     "  loop_timing_path: at exit, the run's histograms of the loop's lateness and of the IMU\n"
     "  sample's age at each motor command (CSV, 10 us bins); \"\" (default): none\n"
     "  run_id unset: $KESTREL_RUN_ID; with state_path set, a controller respawned within the same\n"
-    "  run takes a flying vehicle over in HOLD (docs/design.md §2.5)\n";
+    "  run sends nothing until a fresh pose comes, then takes the vehicle over in HOLD if that\n"
+    "  pose shows it airborne (docs/design.md §2.5)\n";
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -40,6 +42,8 @@ int main(int argc, char** argv) {
       "kestrel-controller", argc, argv, kUsage,
       [&](CLI::App& app) { app.add_option("--vehicle", vehicle_path); },
       [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
+        // Where a respawn's start-up goes (docs/design.md §2.5): logged at the first control step.
+        const double parsed_s = kestrel::SecondsSinceProcessStart();
         // The process's own keys first: LoadControllerConfig refuses any key it does not know.
         const kestrel::RealtimeConfig realtime = kestrel::ReadRealtimeConfig(node);
         std::string loop_timing_path;  // "": none; else the whole run's histograms, CSV, at exit
@@ -59,6 +63,8 @@ int main(int argc, char** argv) {
         const std::unique_ptr<kestrel::Clock> clock =
             kestrel::MakeProcessClock(lcm, args.sim_clock_channel);
         kestrel::ControllerNode controller(lcm, config, *clock);
+        const double ready_s = kestrel::SecondsSinceProcessStart();
+        bool first_step = true;
         kestrel::Heartbeat heartbeat(lcm, *clock, "kestrel-controller", config.heartbeat_channel);
         const kestrel::ConfigPublisher params(lcm, *clock, "kestrel-controller",
                                               kestrel::ParamsChannelFor(heartbeat.channel()), args,
@@ -68,21 +74,15 @@ int main(int argc, char** argv) {
         // The age of the newest IMU sample when a step's motor command went out. Per heartbeat
         // period, and over the whole run for loop_timing_path.
         kestrel::LoopTiming timing, imu_age, run_timing, run_imu_age;
-        loop.AddTimer("control", kestrel::SecondsToUtime(1.0 / config.rate_hz), [&](int64_t utime) {
-          const int64_t late_us = clock->NowUtime() - utime;
-          timing.Record(late_us);
-          run_timing.Record(late_us);
-          controller.Tick(utime);
-          if (controller.last_imu_utime() >= 0) {
-            const int64_t age_us = clock->NowUtime() - controller.last_imu_utime();
-            imu_age.Record(age_us);
-            run_imu_age.Record(age_us);
-          }
-        });
-        loop.AddTimer("heartbeat", 1000000, [&](int64_t) {
+        // The heartbeat: each second, and once at the first control step, so that a respawn is
+        // seen at once (the chaos regression times the controller's absence by it).
+        const auto beat = [&] {
           heartbeat.SetState(kestrel::heartbeat_t::STATE_OK);
           heartbeat.SetValue("mode", static_cast<double>(controller.flight().supervisor().mode()));
           heartbeat.SetValue("drops", static_cast<double>(controller.drops().total()));
+          // 1 while a respawned controller waits for the pose that decides its takeover (it then
+          // sends no motor command and no status).
+          heartbeat.SetValue("takeover_pending", controller.takeover_pending() ? 1.0 : 0.0);
           heartbeat.SetDropValues(controller.drops());
           // Over the last heartbeat period; ticks skipped (behind by whole periods) since start.
           heartbeat.SetValue("loop_late_p50_us", static_cast<double>(timing.QuantileUs(0.5)));
@@ -95,9 +95,32 @@ int main(int argc, char** argv) {
           heartbeat.SetValue("realtime_fifo", applied.fifo ? 1.0 : 0.0);
           timing.Reset();
           imu_age.Reset();
-          heartbeat.SetLastError(controller.drops().last_reason());
+          heartbeat.SetLastError(controller.takeover_pending() ? controller.takeover_status()
+                                                               : controller.drops().last_reason());
           heartbeat.Publish();
+        };
+        loop.AddTimer("control", kestrel::SecondsToUtime(1.0 / config.rate_hz), [&](int64_t utime) {
+          if (first_step) {
+            first_step = false;
+            char text[200];
+            std::snprintf(text, sizeof(text),
+                          "start-up: command line and configuration read %.3f s, LCM and node "
+                          "ready %.3f s, first control step %.3f s after exec",
+                          parsed_s, ready_s, kestrel::SecondsSinceProcessStart());
+            kestrel::Log(kestrel::LogLevel::kInfo, text);
+            beat();
+          }
+          const int64_t late_us = clock->NowUtime() - utime;
+          timing.Record(late_us);
+          run_timing.Record(late_us);
+          controller.Tick(utime);
+          if (controller.last_imu_utime() >= 0) {
+            const int64_t age_us = clock->NowUtime() - controller.last_imu_utime();
+            imu_age.Record(age_us);
+            run_imu_age.Record(age_us);
+          }
         });
+        loop.AddTimer("heartbeat", 1000000, [&](int64_t) { beat(); });
         loop.AddShutdownHook([&] {
           if (!loop_timing_path.empty()) {
             std::ofstream(loop_timing_path)

@@ -228,8 +228,15 @@ RayEntropy ExpectedEntropy::Direct(const SensorModel& model, const double* entry
   {
     double q = pi_empty * model.empty_no_return_probability();  // q_(n+1) = P(no return)
     for (int i = 0; i < n; ++i) q += pi[i] * model.NoReturnProbability(distance_m[i]);
-    double inv_eta = 0.0;
-    const double h = posterior_entropy(Reading{ReadingKind::kNoReturn, 0.0}, &inv_eta);
+    double inv_eta = q;
+    // A sensor whose "no return" is no evidence leaves the map as it was (docs/algorithms.md
+    // §3.4): the hypothesis keeps the prior entropy.
+    double h = 0.0;
+    if (c.no_return_informs) {
+      h = posterior_entropy(Reading{ReadingKind::kNoReturn, 0.0}, &inv_eta);
+    } else {
+      h = out.prior_entropy_nats;
+    }
     const double w = mode == WeightMode::kChordProbability ? q : inv_eta;
     weight_sum += w;
     weighted_h += w * h;
@@ -451,14 +458,15 @@ RayEntropy ExpectedEntropy::Evaluate(const SensorModel& model, const RayKernel& 
     }
     const double inv_eta = s + pi_empty * model.empty_no_return_probability();  // = q_(n+1)
     const double eta = 1.0 / inv_eta;
-    const int near = std::min(kernel.near_cells_, n);
+    // A sensor whose "no return" is no evidence writes nothing: every cell keeps its prior.
+    const int near = model.config().no_return_informs ? std::min(kernel.near_cells_, n) : n;
     double hk = 0.0;
     for (int j = 0; j < near; ++j) hk += BinaryEntropy(prior[j]);
-    if (lanes) {
+    if (near < n && lanes) {
       double* const post = scratch->z_.data();
       for (int j = near; j < n; ++j) post[j] = eta * (prior[j] * s_before[j] + term[j]);
       hk += SumBinaryEntropy(post + near, nullptr, n - near, true);
-    } else {
+    } else if (near < n) {
       for (int j = near; j < n; ++j) hk += BinaryEntropy(eta * (prior[j] * s_before[j] + term[j]));
     }
     weight_sum += inv_eta;

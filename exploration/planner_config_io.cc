@@ -37,6 +37,7 @@ void ReadSensor(const ConfigNode& n, GainSensor* s, VolumetricSensor* v) {
   n.Read("p_miss", &s->model.p_miss, Range::Open(0.0, 1.0));
   n.Read("cutoff_sigmas", &s->model.cutoff_sigmas, Range::AtLeast(5.0));
   n.Read("interpolated_gaussian", &s->model.interpolated_gaussian);
+  n.Read("no_return_informs", &s->model.no_return_informs);
   v->model = s->model;
   v->horizontal_fov_rad = s->horizontal_fov_rad;
   v->yaw_offset_rad = s->yaw_offset_rad;

@@ -136,6 +136,8 @@ MapperConfig LoadMapperConfig(const ConfigNode& node) {
   node.Read("resume", &c.resume, {"same_run", "any"});
   node.Read("max_queue", &c.max_queue, Range::Closed(1, 100000));
   node.Read("max_backlog_s", &c.max_backlog_s, Range::Positive());
+  node.Read("decisions_channel", &c.decisions_channel);
+  node.Read("decisions_log", &c.decisions_log);
   node.Read("order_wait_s", &c.order_wait_s, Range::NonNegative());
   node.Read("catch_up_log", &c.catch_up_log);
   node.Read("catch_up_wait_s", &c.catch_up_wait_s, Range::NonNegative());

@@ -69,6 +69,14 @@ struct MapperConfig {
 
   int max_queue{60};          ///< scans held at most; beyond, the oldest is dropped (counted)
   double max_backlog_s{0.5};  ///< backlog beyond which rays are decimated (status shows it)
+  /// Every decision on a queued scan (applied: which rays, which pose; skipped: why) goes out on
+  /// this channel (map_decisions_t), so that a replay rebuilds the live map whatever the load
+  /// (docs/design.md §3.6).
+  std::string decisions_channel{"MAP_DECISIONS"};
+  /// An LCM log file the decisions are also appended to, each message flushed as it is written,
+  /// so that none is lost to the network or to the logger stopping first ("" = none). The sheets
+  /// set $KESTREL_RUN/mapper-decisions.lcmlog.
+  std::string decisions_log;
   /// Scan order (docs/design.md §3.6, §7.10): a scan is applied only once every configured
   /// stream (vehicle, sensor) has delivered one with a stamp at least as new, or the newest input
   /// is this much newer than the scan (message time, s; 0: no wait, arrival order; a sensor that

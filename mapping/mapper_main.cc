@@ -2,33 +2,39 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <set>
 #include <thread>
+#include <tuple>
 
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/command_line.h"
 #include "common/config_publisher.h"
 #include "common/identity.h"
+#include "common/lcm_decode.h"
 #include "common/log.h"
 #include "common/log_tail.h"
 #include "common/node_loop.h"
 #include "common/process.h"
 #include "common/sim_truth_clock.h"
+#include "mapping/map_decisions.h"
 #include "mapping/mapper_node.h"
 
 namespace {
 const char* const kUsage =
     "usage: kestrel-mapper [--config config/mapper.yaml] [--set key=value]... [--lcm-url URL]\n"
     "                      [--save FILE] [--export-octomap FILE.bt|.ot] [--export-ply FILE]\n"
-    "                      [--replay LOG]\n"
+    "                      [--replay LOG [--decisions FILE | --ignore-decisions]]\n"
     "Subscribes to the sensors and poses of its configuration, publishes MAP3D snapshots,\n"
     "MAP3D_DELTA, MAP_STATUS and a heartbeat, checkpoints the map, and on exit (SIGINT/SIGTERM)\n"
     "applies what it can, saves the checkpoint and the files asked for. A mapper resumed from its\n"
-    "checkpoint first catches up from catch_up_log. --replay LOG feeds a recorded log into a "
-    "fresh\n"
-    "map instead, with no live input and no checkpoint, then saves the files asked for; both "
-    "print\n"
-    "the map hash at the end.\n";
+    "checkpoint first catches up from catch_up_log. Every decision on a queued scan (applied:\n"
+    "which rays, which pose; skipped: why) goes out on MAP_DECISIONS and into decisions_log.\n"
+    "--replay LOG feeds a recorded log into a fresh map instead, with no live input and no\n"
+    "checkpoint, following the live mapper's decisions (from FILE, its decisions_log, whose\n"
+    "scans are used first, else from LOG's MAP_DECISIONS; none recorded or --ignore-decisions:\n"
+    "as a mapper that kept up), then saves the files asked for; exit 1 if a decision names a\n"
+    "scan neither log holds. Both print the map hash at the end.\n";
 
 std::string HashText(uint64_t hash) {
   char text[32];
@@ -90,19 +96,128 @@ void CatchUp(lcm::LCM& lcm, kestrel::MapperNode& mapper, const kestrel::MapperCo
   }
 }
 
-// --replay: the log into a fresh map, in log order, as if received live by a mapper that kept up.
-int Replay(const std::string& path, kestrel::MapperConfig config, const std::string& save_path,
-           const std::string& octomap_path, const std::string& ply_path) {
+// The recorded decisions (docs/design.md §3.6) of the mapper that ran last, from `source` (an
+// LCM log holding map_decisions_t on `channel`): the history of its map. Empty with no decision
+// recorded; throws std::runtime_error if the history is incomplete.
+std::vector<kestrel::map_decision_t> RecordedDecisions(const std::string& source,
+                                                       const std::string& channel,
+                                                       std::string* summary) {
+  kestrel::DecisionHistory history;
+  kestrel::LogTail log(source);
+  int64_t refused = 0;
+  while (const std::optional<kestrel::LoggedEvent> e = log.Next()) {
+    if (e->channel != channel) continue;
+    kestrel::map_decisions_t m;
+    std::string why;
+    if (!kestrel::GuardedDecode(e->data.data(), e->data.size(), &m, &why) ||
+        !history.Add(m, &why)) {
+      ++refused;  // a malformed message on the channel (kestrel-fault's, say): not the mapper's
+      if (refused == 1)
+        kestrel::Log(kestrel::LogLevel::kWarning, source + ": " + channel + ": " + why);
+      continue;
+    }
+  }
+  if (history.lives().empty()) return {};
+  const int64_t last = history.lives().back();
+  std::string why;
+  std::vector<kestrel::map_decision_t> decisions = history.MapOf(last, &why);
+  if (decisions.empty()) {
+    throw std::runtime_error(source + ": the decisions of the last mapper (epoch " +
+                             std::to_string(last) + ") cannot be followed: " + why);
+  }
+  int64_t skipped = 0, thinned = 0;
+  for (const kestrel::map_decision_t& d : decisions) {
+    skipped += d.action == kestrel::map_decision_t::ACTION_SKIPPED ? 1 : 0;
+    thinned += d.action == kestrel::map_decision_t::ACTION_APPLIED && d.ray_stride > 1 ? 1 : 0;
+  }
+  *summary = "following " + std::to_string(decisions.size()) + " decisions of " +
+             std::to_string(history.lives().size()) + " mapper lives from " + source +
+             " (the last, epoch " + std::to_string(last) + ", with " +
+             std::to_string(history.decisions_of(last)) + "): " + std::to_string(thinned) +
+             " scans thinned, " + std::to_string(skipped) + " skipped" +
+             (refused > 0 ? "; " + std::to_string(refused) + " malformed messages ignored" : "");
+  return decisions;
+}
+
+// How many of the scans the live mapper applied the run's log lacks (the logger missed them
+// under load; the decisions log has them), as a sentence.
+std::string ScansMissingFrom(const std::string& path, const kestrel::MapperConfig& config,
+                             const std::vector<kestrel::map_decision_t>& decisions) {
+  std::set<std::tuple<std::string, int64_t, int64_t>> applied;
+  for (const kestrel::map_decision_t& d : decisions) {
+    if (d.action == kestrel::map_decision_t::ACTION_APPLIED)
+      applied.insert({d.channel, d.epoch, d.seq});
+  }
+  const size_t total = applied.size();
+  std::set<std::string> depth_channels, scan_channels;
+  for (const std::string& prefix : config.vehicle_prefixes) {
+    for (const kestrel::MapperSensorConfig& s : config.sensors) {
+      (s.kind == "depth" ? depth_channels : scan_channels).insert(prefix + s.channel);
+    }
+  }
+  kestrel::LogTail log(path);
+  while (const std::optional<kestrel::LoggedEvent> e = log.Next()) {
+    std::string why;
+    if (depth_channels.count(e->channel) != 0) {
+      kestrel::depth_image_t m;
+      if (kestrel::GuardedDecode(e->data.data(), e->data.size(), &m, &why)) {
+        applied.erase({e->channel, m.epoch, m.seq});
+      }
+    } else if (scan_channels.count(e->channel) != 0) {
+      kestrel::planar_scan_t m;
+      if (kestrel::GuardedDecode(e->data.data(), e->data.size(), &m, &why)) {
+        applied.erase({e->channel, m.epoch, m.seq});
+      }
+    }
+  }
+  return std::to_string(applied.size()) + " of the " + std::to_string(total) +
+         " scans the live mapper applied are not in " + path +
+         " (the logger missed them); taken from the decisions log";
+}
+
+// --replay: the log into a fresh map, in log order. With the live mapper's decisions recorded
+// (in DECISIONS, or else on the decisions channel of the log itself), they are followed: the map
+// is the live one whatever its load; without (or with --ignore-decisions), as a mapper that kept
+// up would have made it.
+int Replay(const std::string& path, kestrel::MapperConfig config, const std::string& decisions_path,
+           bool ignore_decisions, const std::string& save_path, const std::string& octomap_path,
+           const std::string& ply_path) {
+  // A batch run: Ctrl-C or SIGTERM ends it at once (a half-replayed map is worth nothing).
+  kestrel::NodeLoop::RestoreDefaultSignalActions();
   config.checkpoint_path.clear();  // never resume or overwrite a live mapper's checkpoint
   config.catch_up_log.clear();
+  config.decisions_log.clear();
+  std::string summary = "no decision followed (--ignore-decisions)";
+  std::vector<kestrel::map_decision_t> decisions;
+  if (!ignore_decisions) {
+    decisions = RecordedDecisions(decisions_path.empty() ? path : decisions_path,
+                                  config.decisions_channel, &summary);
+    if (decisions.empty()) summary = "no decision recorded: replayed as a mapper that kept up";
+  }
+  std::printf("%s\n", summary.c_str());
   lcm::LCM lcm("memq://");
   kestrel::SimClock clock(0);
   kestrel::MapperNode mapper(lcm, config, clock);
-  kestrel::LogTail log(path);
-  while (const std::optional<kestrel::LoggedEvent> e = log.Next()) {
-    if (e->timestamp > clock.NowUtime()) clock.SetUtime(e->timestamp);
-    mapper.HandleRecorded(e->channel, e->data.data(), e->data.size());
+  const bool following = !decisions.empty();
+  const std::vector<kestrel::map_decision_t> mapper_decisions = decisions;
+  if (following) mapper.FollowDecisions(std::move(decisions));
+  // Following decisions, the scans come from the decisions log first (it holds every scan the
+  // live mapper applied, as received), then from the run's log.
+  int64_t events = 0;
+  const auto feed = [&](const std::string& file) {
+    kestrel::LogTail log(file);
+    while (const std::optional<kestrel::LoggedEvent> e = log.Next()) {
+      if (e->timestamp > clock.NowUtime()) clock.SetUtime(e->timestamp);
+      mapper.HandleRecorded(e->channel, e->data.data(), e->data.size());
+    }
+    events += log.events_read();
+  };
+  std::string missing_from_log;
+  if (following && !decisions_path.empty() && decisions_path != path) {
+    feed(decisions_path);
+    missing_from_log = ScansMissingFrom(path, config, mapper_decisions);
   }
+  feed(path);
   mapper.ApplyRemaining();
   if (!save_path.empty()) mapper.SaveMapFile(save_path);
   if (!octomap_path.empty()) mapper.ExportOctoMapFile(octomap_path);
@@ -112,15 +227,26 @@ int Replay(const std::string& path, kestrel::MapperConfig config, const std::str
     skipped += " " + reason + "=" + std::to_string(n);
   }
   std::printf("replayed %lld messages: %lld scans applied, skipped:%s; map hash %s\n",
-              static_cast<long long>(log.events_read()),
-              static_cast<long long>(mapper.scans_applied()),
+              static_cast<long long>(events), static_cast<long long>(mapper.scans_applied()),
               skipped.empty() ? " none" : skipped.c_str(), HashText(mapper.map_hash()).c_str());
+  if (!missing_from_log.empty()) std::printf("%s\n", missing_from_log.c_str());
+  const std::deque<kestrel::map_decision_t>& left = mapper.decisions_to_follow();
+  if (!left.empty()) {
+    const kestrel::map_decision_t& d = left.front();
+    std::printf(
+        "FAILED to follow %zu decisions: the scan of the first, %s seq %lld of epoch %lld "
+        "(applied live), is in neither log: this map is not the live one\n",
+        left.size(), d.channel.c_str(), static_cast<long long>(d.seq),
+        static_cast<long long>(d.epoch));
+    return 1;
+  }
   return 0;
 }
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string save_path, octomap_path, ply_path, replay_path;
+  std::string save_path, octomap_path, ply_path, replay_path, decisions_path;
+  bool ignore_decisions = false;
   return kestrel::RunProcess(
       "kestrel-mapper", argc, argv, kUsage,
       [&](CLI::App& app) {
@@ -128,14 +254,18 @@ int main(int argc, char** argv) {
         app.add_option("--export-octomap", octomap_path);
         app.add_option("--export-ply", ply_path);
         app.add_option("--replay", replay_path);
+        app.add_option("--decisions", decisions_path);
+        app.add_flag("--ignore-decisions", ignore_decisions);
       },
       [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
         kestrel::MapperConfig config = kestrel::LoadMapperConfig(node);
         node.CheckNoUnknownKeys();
         // No run_id set: the run's, from the runner that started it (docs/design.md §3.5).
         if (config.run_id.empty()) config.run_id = kestrel::RunIdFromEnvironment();
-        if (!replay_path.empty())
-          return Replay(replay_path, config, save_path, octomap_path, ply_path);
+        if (!replay_path.empty()) {
+          return Replay(replay_path, config, decisions_path, ignore_decisions, save_path,
+                        octomap_path, ply_path);
+        }
         lcm::LCM lcm(args.lcm_url);
         if (!lcm.good()) throw std::runtime_error("cannot open LCM at '" + args.lcm_url + "'");
         const std::unique_ptr<kestrel::Clock> clock =
@@ -160,6 +290,7 @@ int main(int argc, char** argv) {
         mapper.ApplyRemaining();
         mapper.PublishStatus();
         mapper.SaveCheckpoint();
+        mapper.PublishDecisions();  // the last ones (SaveCheckpoint sent them if it saves one)
         if (!save_path.empty()) mapper.SaveMapFile(save_path);
         if (!octomap_path.empty()) mapper.ExportOctoMapFile(octomap_path);
         if (!ply_path.empty()) mapper.ExportPlyFile(ply_path);

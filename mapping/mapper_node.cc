@@ -13,6 +13,7 @@
 #include "common/identity.h"
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
+#include "kestrel/map_decisions_t.hpp"
 #include "kestrel/map_status_t.hpp"
 #include "lcmtypes/message_codecs.h"
 
@@ -91,6 +92,16 @@ MapperNode::MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& c
     CreateEmptyMap();
   }
   CreateIntegrator();
+  if (!config_.decisions_log.empty()) {
+    decisions_log_ = std::make_unique<lcm::LogFile>(config_.decisions_log, "a");
+    if (!decisions_log_->good()) {
+      decisions_log_.reset();
+      Log(LogLevel::kError, "cannot append to decisions_log " + config_.decisions_log + ": " +
+                                std::strerror(errno) + "; decisions go out on " +
+                                config_.decisions_channel + " only");
+      heartbeat_.SetLastError("decisions_log not writable: " + config_.decisions_log);
+    }
+  }
   auto on_error = [this](const std::string& channel, const std::string& reason) {
     skipped_.Count("malformed", channel + ": " + reason);
   };
@@ -197,6 +208,12 @@ void MapperNode::LoadCheckpoint() {
     return;
   }
   resumed_ = true;
+  // The decisions the checkpoint holds (docs/design.md §3.6): not an input stream.
+  const auto history = sequences_.find(kDecisionHistoryStream);
+  if (history != sequences_.end()) {
+    lives_ = history->second;
+    sequences_.erase(history);
+  }
   const std::string whose = info.run_id == run_id_
                                 ? "of this run"
                                 : "of run '" + info.run_id + "' (resume: any) into this run";
@@ -306,7 +323,7 @@ void MapperNode::OnDepth(size_t sensor, size_t vehicle, const std::string& chann
   metadata->data.clear();  // the pixels travel decoded, in counts
   metadata->data_size = 0;
   Enqueue(Pending{msg.utime, msg.seq, msg.epoch, sensor, vehicle, channel, std::move(metadata),
-                  std::move(counts), nullptr});
+                  std::move(counts), nullptr, RawForLog(msg)});
 }
 
 void MapperNode::OnScan(size_t sensor, size_t vehicle, const std::string& channel,
@@ -330,10 +347,22 @@ void MapperNode::OnScan(size_t sensor, size_t vehicle, const std::string& channe
     if (r == 0.0f) r = std::numeric_limits<float>::infinity();  // "no return"
   }
   Enqueue(Pending{msg.utime, msg.seq, msg.epoch, sensor, vehicle, channel, nullptr, nullptr,
-                  std::move(scan)});
+                  std::move(scan), RawForLog(msg)});
 }
 
 void MapperNode::Enqueue(Pending p) {
+  if (following_) {
+    // Held until its decision comes; a scan no decision names was not applied live.
+    const ScanKey key{p.channel, p.epoch, p.seq};
+    if (followed_keys_.count(key) != 0) {
+      arrived_.emplace(key, std::move(p));
+    } else {
+      skipped_.Count("not_applied_live", p.channel + " seq " + std::to_string(p.seq) +
+                                             " of epoch " + std::to_string(p.epoch) +
+                                             ": no decision of the live mapper applied it");
+    }
+    return;
+  }
   latest_input_utime_ = std::max(latest_input_utime_, p.utime);
   vehicle_latest_utime_[p.vehicle] = std::max(vehicle_latest_utime_[p.vehicle], p.utime);
   int64_t& latest = stream_latest_utime_[{p.vehicle, p.sensor}];
@@ -358,6 +387,91 @@ void MapperNode::Skip(const Pending& p, const std::string& reason, const std::st
   skipped_.Count(reason, p.channel + " seq " + std::to_string(p.seq) + " at " +
                              std::to_string(p.utime) + " us: " + detail);
   Record(p);
+  Decide(p, map_decision_t::ACTION_SKIPPED, reason, Pose3{});
+}
+
+void MapperNode::Decide(const Pending& p, int8_t action, const std::string& reason,
+                        const Pose3& X_WB) {
+  ++decision_count_;
+  if (following_) return;  // a replay: these are the recorded ones
+  map_decision_t d{};
+  d.channel = p.channel;
+  d.epoch = p.epoch;
+  d.seq = p.seq;
+  d.scan_utime = p.utime;
+  d.action = action;
+  d.ray_stride = static_cast<int16_t>(action == map_decision_t::ACTION_APPLIED ? ray_stride_ : 1);
+  d.reason = reason;
+  for (int a = 0; a < 3; ++a) d.position_m[a] = X_WB.p[a];
+  d.orientation_wxyz[0] = X_WB.q.w();
+  d.orientation_wxyz[1] = X_WB.q.x();
+  d.orientation_wxyz[2] = X_WB.q.y();
+  d.orientation_wxyz[3] = X_WB.q.z();
+  decisions_.push_back(std::move(d));
+  if (decisions_.size() >= 64) PublishDecisions();
+}
+
+void MapperNode::PublishDecisions() {
+  if (decisions_.empty()) return;
+  map_decisions_t m{};
+  m.utime = clock_.NowUtime();
+  m.seq = decisions_seq_++;
+  m.epoch = epoch_;
+  m.first_index = decision_count_ - static_cast<int64_t>(decisions_.size());
+  m.num_decisions = static_cast<int32_t>(decisions_.size());
+  m.decisions = std::move(decisions_);
+  decisions_.clear();
+  m.num_lives = static_cast<int32_t>(lives_.size());
+  for (const EpochSequence& life : lives_) {
+    m.life_epochs.push_back(life.epoch);
+    m.life_decisions.push_back(life.last_seq);
+  }
+  lcm_.publish(config_.decisions_channel, &m);
+  last_decisions_utime_ = m.utime;
+  if (!decisions_log_) return;
+  std::vector<uint8_t> bytes(static_cast<size_t>(m.getEncodedSize()));
+  m.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  // Flushed at once (the scans written before it too): a mapper killed with -9 has written every
+  // decision it published.
+  WriteDecisionsLog(config_.decisions_channel, bytes, m.utime, true);
+}
+
+void MapperNode::FollowDecisions(std::vector<map_decision_t> decisions) {
+  following_ = true;
+  for (map_decision_t& d : decisions) {
+    if (d.action == map_decision_t::ACTION_APPLIED) ++followed_keys_[{d.channel, d.epoch, d.seq}];
+    to_follow_.push_back(std::move(d));
+  }
+}
+
+int MapperNode::FollowPending() {
+  int done = 0;
+  while (!to_follow_.empty()) {
+    const map_decision_t& d = to_follow_.front();
+    Pending p{d.scan_utime, d.seq, d.epoch, 0, 0, d.channel, nullptr, nullptr, nullptr, nullptr};
+    if (d.action != map_decision_t::ACTION_APPLIED) {
+      skipped_.Count(d.reason, d.channel + " seq " + std::to_string(d.seq) + " at " +
+                                   std::to_string(d.scan_utime) + " us: as decided live");
+      Record(p);
+      ++decision_count_;
+    } else {
+      const ScanKey key{d.channel, d.epoch, d.seq};
+      const auto arrived = arrived_.find(key);
+      if (arrived == arrived_.end()) break;  // its scan is still to come
+      Pose3 X_WB;
+      X_WB.p = Eigen::Vector3d(d.position_m[0], d.position_m[1], d.position_m[2]);
+      X_WB.q = Eigen::Quaterniond(d.orientation_wxyz[0], d.orientation_wxyz[1],
+                                  d.orientation_wxyz[2], d.orientation_wxyz[3]);
+      ray_stride_ = std::max<int>(1, d.ray_stride);
+      if (ray_stride_ > 1) decimated_ever_ = true;
+      Apply(arrived->second, X_WB);
+      arrived_.erase(arrived);
+      if (--followed_keys_[key] == 0) followed_keys_.erase(key);
+    }
+    to_follow_.pop_front();
+    ++done;
+  }
+  return done;
 }
 
 int MapperNode::ApplyRemaining() {
@@ -383,6 +497,7 @@ bool MapperNode::StreamsPassed(int64_t utime) const {
 }
 
 int MapperNode::ProcessPending(int max_scans) {
+  if (following_) return FollowPending();
   int done = 0;
   while (!queue_.empty() && (max_scans <= 0 || done < max_scans)) {
     const Pending& front = queue_.front();
@@ -400,12 +515,21 @@ int MapperNode::ProcessPending(int max_scans) {
     } else {
       // Overload policy (file comment): decimate while the backlog exceeds max_backlog_s.
       const double backlog_s = UtimeToSeconds(latest_input_utime_ - front.utime);
+      const int stride_before = ray_stride_;
       if (backlog_s > config_.max_backlog_s) {
         ray_stride_ = std::min(kMaxRayStride, ray_stride_ * 2);
       } else if (ray_stride_ > 1 && backlog_s < 0.5 * config_.max_backlog_s) {
         ray_stride_ /= 2;
       }
       if (ray_stride_ > 1) decimated_ever_ = true;
+      if (ray_stride_ != stride_before) {
+        Log(LogLevel::kWarning, "overload: ray stride " + std::to_string(stride_before) + " -> " +
+                                    std::to_string(ray_stride_) + " (one ray in " +
+                                    std::to_string(ray_stride_) + ") from " + front.channel +
+                                    " seq " + std::to_string(front.seq) + " on (backlog " +
+                                    std::to_string(backlog_s) + " s, max_backlog_s " +
+                                    std::to_string(config_.max_backlog_s) + ")");
+      }
       Apply(front, X_WB);
       // A delta goes out as soon as it fills the largest map message (docs/design.md §7.6).
       if (config_.delta_period_s > 0 && ChangedCellCount() >= MaxDeltaCells()) PublishDelta();
@@ -475,6 +599,36 @@ void MapperNode::Apply(const Pending& p, const Pose3& X_WB) {
   ++scans_applied_;
   newest_applied_utime_ = std::max(newest_applied_utime_, p.utime);
   Record(p);
+  // The scan itself into decisions_log, before its decision: the run's log may lack it.
+  if (decisions_log_ && p.raw && !following_) {
+    WriteDecisionsLog(p.channel, *p.raw, p.utime, false);
+  }
+  Decide(p, map_decision_t::ACTION_APPLIED, "", X_WB);
+}
+
+template <class Message>
+std::shared_ptr<const std::vector<uint8_t>> MapperNode::RawForLog(const Message& msg) const {
+  if (!decisions_log_ || following_) return nullptr;
+  auto bytes = std::make_shared<std::vector<uint8_t>>(static_cast<size_t>(msg.getEncodedSize()));
+  msg.encode(bytes->data(), 0, static_cast<int>(bytes->size()));
+  return bytes;
+}
+
+void MapperNode::WriteDecisionsLog(const std::string& channel, const std::vector<uint8_t>& bytes,
+                                   int64_t utime, bool flush) {
+  lcm::LogEvent event{};
+  event.eventnum = 0;
+  event.timestamp = utime;
+  event.channel = channel;
+  event.datalen = static_cast<int32_t>(bytes.size());
+  event.data = const_cast<uint8_t*>(bytes.data());  // NOLINT: LogEvent's data is not const
+  if (decisions_log_->writeEvent(&event) != 0 ||
+      (flush && std::fflush(decisions_log_->getFilePtr()) != 0)) {
+    Log(LogLevel::kError, "decisions_log " + config_.decisions_log +
+                              ": write failed: " + std::strerror(errno) + "; no longer written");
+    heartbeat_.SetLastError("decisions_log write failed");
+    decisions_log_.reset();
+  }
 }
 
 std::vector<SensorRay> MapperNode::AppliedScan::Rays() const {
@@ -819,8 +973,15 @@ void MapperNode::PublishStatus() {
 
 bool MapperNode::SaveCheckpoint() {
   if (config_.checkpoint_path.empty()) return true;
+  // Every decision the checkpoint holds is out before it is saved (docs/design.md §3.6), and the
+  // checkpoint says which: the history it resumed, then this life's count.
+  PublishDecisions();
+  StreamSequences sequences = sequences_;
+  std::vector<EpochSequence>& history = sequences[kDecisionHistoryStream];
+  history = lives_;
+  history.push_back(EpochSequence{epoch_, decision_count_});
   try {
-    std::visit([&](const auto& m) { SaveMap(config_.checkpoint_path, *m, sequences_, run_id_); },
+    std::visit([&](const auto& m) { SaveMap(config_.checkpoint_path, *m, sequences, run_id_); },
                map_);
     return true;
   } catch (const std::exception& e) {
@@ -847,6 +1008,7 @@ void MapperNode::PublishDue() {
     PublishDelta();
   }
   if (due(&status_due_utime_, config_.status_period_s)) PublishStatus();
+  if (!decisions_.empty() && now - last_decisions_utime_ >= 100'000) PublishDecisions();
   if (!config_.checkpoint_path.empty() &&
       due(&last_checkpoint_utime_, config_.checkpoint_period_s)) {
     SaveCheckpoint();

@@ -26,6 +26,16 @@
 /// max_backlog_s behind the newest input, the next scans apply only every k-th ray (k doubles
 /// while behind, halves once caught up); when the queue exceeds max_queue scans the oldest is
 /// dropped. Both show in MAP_STATUS (ray_decimation, skip reasons, applied_every_message).
+///
+/// Decisions (docs/design.md §3.6): how far behind the node falls depends on the host's load,
+/// and what it receives on the network, so every decision on a queued scan is recorded, in the
+/// order taken: applied (with its ray stride and the vehicle's pose used) or skipped for good
+/// (with the reason). They go out on decisions_channel (map_decisions_t) and into decisions_log,
+/// which also holds every applied scan as received (the logger may miss one the node had).
+/// A node told to FollowDecisions() takes none of its own: it applies exactly the recorded ones,
+/// and so holds the map of the mapper that recorded them, bit for bit, whatever its load was.
+/// A checkpoint carries the history of decisions it holds (DecisionHistory), so a resumed
+/// mapper's decisions continue it.
 
 #include <cstdint>
 #include <deque>
@@ -33,6 +43,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <tuple>
 #include <unordered_set>
 #include <variant>
 #include <vector>
@@ -45,6 +56,7 @@
 #include "common/log.h"
 #include "kestrel/depth_image_t.hpp"
 #include "kestrel/map3d_chunk_t.hpp"
+#include "kestrel/map_decision_t.hpp"
 #include "kestrel/planar_scan_t.hpp"
 #include "kestrel/pose_t.hpp"
 #include "mapping/map_file.h"
@@ -53,6 +65,10 @@
 #include "mapping/scan_integrator.h"
 
 namespace kestrel {
+
+/// The name under which a checkpoint's stream table holds its history of decisions: per mapper
+/// life, in order, (its epoch, how many of its decisions the map holds). Never an LCM channel.
+inline constexpr const char* kDecisionHistoryStream = "#decisions";
 
 class MapperNode {
  public:
@@ -86,8 +102,26 @@ class MapperNode {
   /// True while a snapshot's chunks are still being sent.
   [[nodiscard]] bool snapshot_in_flight() const { return !outgoing_chunks_.empty(); }
   void PublishStatus();
-  /// Saves the checkpoint (if configured). Returns false (logged) on failure.
+  /// Saves the checkpoint (if configured), after publishing the decisions it holds. Returns
+  /// false (logged) on failure.
   bool SaveCheckpoint();
+  /// Publishes the decisions taken since the last call (and appends them to decisions_log). Also
+  /// called by PublishDue (every 0.1 s of the node's clock, or 64 decisions) and SaveCheckpoint;
+  /// call it at exit.
+  void PublishDecisions();
+
+  /// Takes no decision of its own from now on: applies `decisions` (a recorded history, in
+  /// order), each once its scan has arrived: an applied one with its ray stride and pose, a
+  /// skipped one counted under its reason. Scans no decision names are not applied (counted as
+  /// "not_applied_live"). Poses are not used. docs/design.md §3.6.
+  void FollowDecisions(std::vector<map_decision_t> decisions);
+  /// The decisions not followed yet (at the end of the input: their scans never came).
+  [[nodiscard]] const std::deque<map_decision_t>& decisions_to_follow() const { return to_follow_; }
+  /// Decisions this node took (or followed) since it started.
+  [[nodiscard]] int64_t decisions_taken() const { return decision_count_; }
+  /// The mapper lives whose decisions the map held at start (a resumed checkpoint): epoch and
+  /// how many of its decisions, in order (empty: an empty map).
+  [[nodiscard]] const std::vector<EpochSequence>& resumed_lives() const { return lives_; }
 
   /// Hands one recorded message (a log's event, in log order) to the node as if received, then
   /// applies what it can: a log fed this way gives the map of a mapper that received it live and
@@ -180,6 +214,8 @@ class MapperNode {
     std::shared_ptr<const depth_image_t> depth;  // metadata; its pixels decoded in `counts`
     std::shared_ptr<const std::vector<uint16_t>> counts;
     std::shared_ptr<const planar_scan_t> scan;
+    /// The message as received, kept only to be written to decisions_log when applied.
+    std::shared_ptr<const std::vector<uint8_t>> raw;
   };
   using MapPtr =
       std::variant<std::unique_ptr<DenseOccupancyMap>, std::unique_ptr<GrowingOccupancyMap>>;
@@ -198,6 +234,16 @@ class MapperNode {
   void Record(const Pending& p);
   void Skip(const Pending& p, const std::string& reason, const std::string& detail);
   void Apply(const Pending& p, const Pose3& X_WB);
+  // Records a decision (Apply, Skip) for PublishDecisions.
+  void Decide(const Pending& p, int8_t action, const std::string& reason, const Pose3& X_WB);
+  // Follows the recorded decisions as far as their scans have come (FollowDecisions).
+  int FollowPending();
+  // The encoded message, for decisions_log (nullptr when there is none).
+  template <class Message>
+  [[nodiscard]] std::shared_ptr<const std::vector<uint8_t>> RawForLog(const Message& msg) const;
+  // Appends one event to decisions_log (flushed if asked); closes it on a write failure.
+  void WriteDecisionsLog(const std::string& channel, const std::vector<uint8_t>& bytes,
+                         int64_t utime, bool flush);
   void CreateEmptyMap();
   void LoadCheckpoint();
   // Moves a corrupt checkpoint to <path>.corrupt and starts an empty map.
@@ -261,6 +307,18 @@ class MapperNode {
   int64_t newest_applied_utime_{0};
   int ray_stride_{1};
   bool decimated_ever_{false};
+  // Decisions (docs/design.md §3.6).
+  std::vector<EpochSequence> lives_;       // the resumed checkpoint's history of decisions
+  std::vector<map_decision_t> decisions_;  // taken, not yet published
+  int64_t decision_count_{0};              // taken by this life
+  int64_t decisions_seq_{0};
+  int64_t last_decisions_utime_{-1};
+  std::unique_ptr<lcm::LogFile> decisions_log_;
+  bool following_{false};
+  std::deque<map_decision_t> to_follow_;
+  using ScanKey = std::tuple<std::string, int64_t, int64_t>;  // channel, epoch, seq
+  std::map<ScanKey, int> followed_keys_;  // applied decisions still to follow, by scan
+  std::map<ScanKey, Pending> arrived_;    // their scans, once arrived
   uint64_t rays_total_{0};
   uint64_t cells_total_{0};
   uint64_t rays_at_last_status_{0};

@@ -32,6 +32,7 @@ void ReadSensorModelConfig(const ConfigNode& node, SensorModelConfig* c) {
   node.Read("p_miss", &c->p_miss, Range::Open(0.0, 1.0));
   node.Read("cutoff_sigmas", &c->cutoff_sigmas, Range::AtLeast(5.0));
   node.Read("interpolated_gaussian", &c->interpolated_gaussian);
+  node.Read("no_return_informs", &c->no_return_informs);
   ValidateAt(node, {"z_max_m", "z_min_m", "sigma_m", "p_rand", "p_miss", "cutoff_sigmas"},
              [&] { c->Validate(); });
 }

@@ -143,9 +143,14 @@ SensorRay DepthPixelRay(const Pose3& X_WS, const Eigen::Matrix3d& R_WS, const De
   SensorRay ray;
   ray.origin_W = X_WS.p;
   ray.direction_W = R_WS * (ray_S / norm);
-  // Depth is along the optical axis; the range along the pixel's ray is depth * |ray_S|.
-  ray.reading =
-      raw == 0 ? Reading{ReadingKind::kNoReturn, 0.0} : model.Classify(raw * depth_scale_m * norm);
+  // Depth is along the optical axis; the range along the pixel's ray is depth * |ray_S|. A 0 is
+  // "no return" only where the model says such readings inform (docs/algorithms.md §3.4).
+  if (raw != 0) {
+    ray.reading = model.Classify(raw * depth_scale_m * norm);
+  } else {
+    ray.reading = Reading{
+        model.config().no_return_informs ? ReadingKind::kNoReturn : ReadingKind::kInvalid, 0.0};
+  }
   return ray;
 }
 

@@ -47,7 +47,8 @@ struct SensorRay {
   Reading reading;
 };
 
-/// Ray of depth pixel (u, v) with raw count `raw` (0: no return): the pixel's direction
+/// Ray of depth pixel (u, v) with raw count `raw` (0: no return where the model's
+/// no_return_informs, else invalid: docs/algorithms.md §3.4): the pixel's direction
 /// ((u - cx)/fx, (v - cy)/fy, 1) normalised and rotated by R_WS; the depth raw * depth_scale_m is
 /// along the optical axis, so the range along the ray is that times |((u - cx)/fx, ...)|. The one
 /// definition IntegrateDepthImage applies.
@@ -98,7 +99,8 @@ class ScanIntegrator {
                              const Reading& reading, const SensorModel& model);
 
   /// Applies a depth image, row-major. depth[v * width + u] * depth_scale_m is the depth along
-  /// the optical axis (m), converted to the range along the pixel's ray; 0 means "no return".
+  /// the optical axis (m), converted to the range along the pixel's ray; 0 means "no return"
+  /// where the model's no_return_informs, and is dropped as invalid otherwise (DepthPixelRay).
   /// X_WS is the pose of the optical frame S in W.
   /// @throws std::invalid_argument on non-positive sizes (or more than 2^30 pixels), fx/fy/scale
   /// not positive and finite, a non-finite pose or |q| outside (0.5, 1.5).

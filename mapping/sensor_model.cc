@@ -12,6 +12,7 @@ SensorModelConfig SensorModelConfig::Xtion() {
   SensorModelConfig c;
   c.sigma_m = 0.1;
   c.z_min_m = 0.61;
+  c.no_return_informs = false;
   return c;
 }
 

@@ -47,9 +47,15 @@ struct SensorModelConfig {
   double p_miss{0.05};        ///< probability that an in-range first occupied cell gives no return
   double cutoff_sigmas{5.0};  ///< Gaussian window c in sigmas (>= 5, or +inf for none)
   bool interpolated_gaussian{true};  ///< Hermite tables instead of exp/erfc (file comment)
+  /// Whether the sensor's "nothing returned" reading is evidence (docs/algorithms.md §3.4). A
+  /// depth camera's 0 is not: it also means "a surface nearer than the minimum", so with false a
+  /// depth pixel of 0 is invalid (dropped and counted) and the explorer predicts no information
+  /// from the no-return hypothesis. A range at or beyond z_max is a no-return either way.
+  bool no_return_informs{true};
 
   /// Kestrel's Asus Xtion (config/mapper.yaml; docs/algorithms.md §3.4, §3.6): sigma 0.1 m,
-  /// 0.61..4 m along the ray (the device's 0.5 m minimum is axial: 0.61 m along a corner ray).
+  /// 0.61..4 m along the ray (the device's 0.5 m minimum is axial: 0.61 m along a corner ray), a
+  /// pixel of 0 no evidence (no_return_informs false).
   [[nodiscard]] static SensorModelConfig Xtion();
   /// Kestrel's Hokuyo URG-04LX: sigma 0.05 m over 0.5..4 m (the device ranges 0.02..5.6 m).
   [[nodiscard]] static SensorModelConfig Hokuyo();

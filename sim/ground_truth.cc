@@ -251,6 +251,24 @@ void ObservabilityConfig::Validate() const {
   KESTREL_THROW_UNLESS(max_range_m > 0.0 && std::isfinite(max_range_m),
                        "max_range_m = " << max_range_m << "; accepted: (0, inf)");
   KESTREL_THROW_UNLESS(num_threads >= 1, "num_threads = " << num_threads << "; accepted: >= 1");
+  KESTREL_THROW_UNLESS(return_range_m >= 0.0 && std::isfinite(return_range_m),
+                       "return_range_m = " << return_range_m << "; accepted: [0, inf)");
+  KESTREL_THROW_UNLESS(
+      empty_ray_max_elevation_rad >= 0.0,
+      "empty_ray_max_elevation_rad = " << empty_ray_max_elevation_rad << "; accepted: [0, inf]");
+}
+
+ObservabilityConfig SensorSweep(double max_range_m, double vertical_fov_rad,
+                                bool camera_no_return_informs, double horizontal_fov_rad) {
+  ObservabilityConfig oc;
+  oc.max_range_m = max_range_m;
+  oc.return_range_m =
+      max_range_m * std::sqrt(1.0 + std::pow(std::tan(0.5 * horizontal_fov_rad), 2) +
+                              std::pow(std::tan(0.5 * vertical_fov_rad), 2));
+  oc.elevation_min_rad = -0.5 * vertical_fov_rad;
+  oc.elevation_max_rad = 0.5 * vertical_fov_rad;
+  if (!camera_no_return_informs) oc.empty_ray_max_elevation_rad = 0.0;
+  return oc;
 }
 
 ObservableCells ComputeObservableCells(const World& world, const WorldRayCaster& caster,
@@ -312,6 +330,8 @@ ObservableCells ComputeObservableCells(const World& world, const WorldRayCaster&
   }
   // Ray directions: every azimuth and elevation step.
   std::vector<Eigen::Vector3d> dirs;
+  std::vector<uint8_t> empty_observes;  // per direction: a ray without a hit observes its cells
+  const double return_range = std::max(config.max_range_m, config.return_range_m);
   const int n_az = std::max(1, static_cast<int>(std::round(2.0 * M_PI / config.azimuth_step_rad)));
   const int n_el =
       static_cast<int>(std::floor((config.elevation_max_rad - config.elevation_min_rad) /
@@ -323,6 +343,7 @@ ObservableCells ComputeObservableCells(const World& world, const WorldRayCaster&
     for (int a = 0; a < n_az; ++a) {
       const double az = 2.0 * M_PI * a / n_az;
       dirs.emplace_back(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+      empty_observes.push_back(std::abs(el) <= config.empty_ray_max_elevation_rad + 1e-12 ? 1 : 0);
     }
   }
   // Poses split over threads, each with its own set, merged by OR (order-independent).
@@ -335,10 +356,13 @@ ObservableCells ComputeObservableCells(const World& world, const WorldRayCaster&
     for (size_t p = t; p < num_poses; p += threads) {
       const Eigen::Vector3d& o = result.sensor_origins[p];
       int primitive = WorldRayCaster::kNoHit;  // hints the next ray's search
-      for (const Eigen::Vector3d& u : dirs) {
-        const double hit = caster.CastRay(o, u, config.max_range_m, &primitive, primitive);
+      for (size_t d = 0; d < dirs.size(); ++d) {
+        const Eigen::Vector3d& u = dirs[d];
+        const double hit = caster.CastRay(o, u, return_range, &primitive, primitive);
+        if (!std::isfinite(hit) && empty_observes[d] == 0) continue;
         // A hit includes the cell just behind the surface point (the obstacle's cell): 1 um on.
-        const double t_end = std::isfinite(hit) ? hit + 1e-6 : config.max_range_m;
+        const double t_end =
+            std::min(std::isfinite(hit) ? hit + 1e-6 : config.max_range_m, config.max_range_m);
         WalkCells(grid, o, u, t_end, [&](size_t index, double) { seen[index] = 1; });
       }
     }

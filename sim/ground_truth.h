@@ -78,6 +78,15 @@ struct ObservabilityConfig {
   double elevation_max_rad{22.5 * M_PI / 180.0};   ///< highest ray elevation, rad
   double elevation_step_rad{1.5 * M_PI / 180.0};   ///< elevation spacing, rad, > 0
   double max_range_m{4.0};                         ///< sensor range used by the map, m, > 0
+  /// A ray that meets nothing within return_range_m observes its cells only when its elevation is
+  /// at most this (rad): +inf, every such ray (a sensor whose "no return" is evidence); 0, only
+  /// the horizontal rays of the planar LIDAR, when the depth camera's 0 is no evidence
+  /// (docs/algorithms.md §3.4, §12.1). A ray that hits within it always observes.
+  double empty_ray_max_elevation_rad{std::numeric_limits<double>::infinity()};
+  /// The farthest hit that still returns, m (>= max_range_m; 0: max_range_m). A depth camera's
+  /// limit is axial, so its oblique rays return from up to max_range / (axial component); such a
+  /// return tells the map its cells up to max_range_m are free (docs/algorithms.md §3.4).
+  double return_range_m{0.0};
   int num_threads{2};  ///< threads over poses (result independent of it)
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
@@ -85,6 +94,15 @@ struct ObservabilityConfig {
 };
 
 /// The observable set and the poses it came from.
+/// The sweep of the vehicle's sensors as the scorers use it (tools/map_score, kestrel-report):
+/// rays to max_range_m within +-vertical_fov_rad/2; a ray returns from up to the depth camera's
+/// longest along-ray range (max_range_m at the corner of its field of view as an axial depth,
+/// max_range_m |(tan(hfov/2), tan(vfov/2), 1)|); a ray that meets nothing observes only in the
+/// LIDAR's plane unless the depth camera's "no return" is evidence (docs/algorithms.md §12.1).
+[[nodiscard]] ObservabilityConfig SensorSweep(double max_range_m, double vertical_fov_rad,
+                                              bool camera_no_return_informs,
+                                              double horizontal_fov_rad = 58.0 * M_PI / 180.0);
+
 struct ObservableCells {
   std::vector<uint8_t> observable;              ///< 1 per cell some ray reaches (IndexOf)
   std::vector<Eigen::Vector3d> sensor_origins;  ///< sweep positions used, W, m
@@ -95,7 +113,8 @@ struct ObservableCells {
 /// the map limits whose vehicle sphere is clear (and, if required, connected to the start
 /// through clear lattice neighbours), with rays at every azimuth step over all headings and
 /// every elevation step in [elevation_min, elevation_max], each to its first hit (the hit cell
-/// included) or to max_range_m. Sensor origins are the lattice points (extrinsic offsets ignored).
+/// included) or to max_range_m (rays that hit nothing only up to empty_ray_max_elevation_rad).
+/// Sensor origins are the lattice points (extrinsic offsets ignored).
 [[nodiscard]] ObservableCells ComputeObservableCells(const World& world,
                                                      const WorldRayCaster& caster,
                                                      const GridSpec& grid,

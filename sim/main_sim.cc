@@ -10,6 +10,7 @@
 #include "common/config_publisher.h"
 #include "common/node_loop.h"
 #include "common/process.h"
+#include "common/realtime.h"
 #include "sim/sim_node.h"
 
 namespace {
@@ -21,7 +22,9 @@ constexpr const char* kUsage =
     "(mode dynamic) or TRAJECTORY (mode kinematic). speed_factor 1 runs in real time, 0 as fast\n"
     "as possible; run_duration_s > 0 stops after that much simulated time. world_file and\n"
     "vehicle_file are relative to the working directory or, failing that, to the repository root\n"
-    "two levels above the config file.\n";
+    "two levels above the config file. realtime.fifo_priority, realtime.lock_memory,\n"
+    "realtime.cpus: real-time scheduling (docs/design.md §2.6; the hardware-in-the-loop sheet\n"
+    "asks for it), off by default.\n";
 
 bool Exists(const std::string& path) { return std::ifstream(path).good(); }
 
@@ -40,7 +43,11 @@ int main(int argc, char** argv) {
               (slash == std::string::npos ? std::string(".") : args.config_path.substr(0, slash)) +
               "/../..";
         }
+        // Optional real-time scheduling (docs/design.md §2.6, §7.12): in hardware in the loop the
+        // simulator is the world the vehicle's drivers read; a busy host must not stall it.
+        const kestrel::RealtimeConfig realtime = kestrel::ReadRealtimeConfig(config);
         const kestrel::SimConfig sim_config = kestrel::LoadSimConfig(config, base_dir);
+        if (realtime.requested()) kestrel::ApplyRealtimeAndLog(realtime);
         lcm::LCM lcm(args.lcm_url);
         if (!lcm.good()) {
           std::fprintf(stderr, "kestrel-sim: LCM initialisation failed\n");

@@ -86,6 +86,8 @@ class DepthCamera {
   [[nodiscard]] double cx_px() const { return cx_; }
   /// Principal point row, pixels ((h - 1) / 2).
   [[nodiscard]] double cy_px() const { return cy_; }
+  /// The unit direction of pixel i (row-major) in the optical frame S.
+  [[nodiscard]] const Eigen::Vector3d& PixelDirection(size_t i) const { return unit_dir_S_[i]; }
 
  private:
   // Casts rows [row_begin, row_end) into depth_m (if not nullptr) and, with frame_seed, applies

@@ -1,5 +1,6 @@
 #include "sim/simulator.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 
@@ -370,15 +371,38 @@ void Simulator::StepVehicle(Vehicle* v, bool imu_due, bool mocap_due, bool depth
     v->frame.poses.push_back(v->mocap_queue.front());
     v->mocap_queue.pop_front();
   }
+  const double since_start_s = UtimeToSeconds(utime_ - start_utime_);
   if (depth_due) {
     // The true mount and the stamp error (docs/design.md §7.13).
     camera_.Render(caster_, X_WB * v->X_BS_depth, &v->depth_rng, &v->depth_counts);
+    if (reach_ != nullptr) {
+      const Pose3 X_WS = X_WB * v->X_BS_depth;
+      const Eigen::Matrix3d R_WS = X_WS.q.toRotationMatrix();
+      for (size_t i = 0; i < v->depth_counts.size(); ++i) {
+        const Eigen::Vector3d& d_S = camera_.PixelDirection(i);
+        const Eigen::Vector3d u_W = R_WS * d_S;
+        const double range_m = camera_.config().range_max_m / d_S.z();
+        reach_->AddRay(X_WS.p, u_W, std::min(range_m, caster_.CastRay(X_WS.p, u_W, range_m)),
+                       since_start_s);
+      }
+    }
     v->depth_utime = utime_ + StampError(config_.errors.depth_time_offset_s,
                                          config_.errors.depth_time_jitter_s, &v->depth_stamp_rng);
     v->frame.depth = true;
   }
   if (scan_due) {
     lidar_.Scan(caster_, X_WB * v->X_BS_lidar, &v->lidar_rng, &v->scan_ranges);
+    if (reach_ != nullptr) {
+      const Pose3 X_WS = X_WB * v->X_BS_lidar;
+      const PlanarLidarConfig& c = lidar_.config();
+      for (int i = 0; i < c.num_beams; ++i) {
+        const double a = c.angle_min_rad + i * c.angle_step_rad;
+        const Eigen::Vector3d u_W = X_WS.q * Eigen::Vector3d(std::cos(a), std::sin(a), 0.0);
+        reach_->AddRay(X_WS.p, u_W,
+                       std::min(c.range_max_m, caster_.CastRay(X_WS.p, u_W, c.range_max_m)),
+                       since_start_s);
+      }
+    }
     v->scan_utime = utime_ + StampError(config_.errors.lidar_time_offset_s,
                                         config_.errors.lidar_time_jitter_s, &v->lidar_stamp_rng);
     v->frame.scan = true;

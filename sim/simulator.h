@@ -21,6 +21,7 @@
 #include "common/vehicle_config.h"
 #include "sim/bullet_world.h"
 #include "sim/quadrotor.h"
+#include "sim/ray_reach.h"
 #include "sim/sensor_errors.h"
 #include "sim/sensors.h"
 #include "sim/world.h"
@@ -194,6 +195,12 @@ class Simulator {
     return vehicles_.at(k)->scan_utime;
   }
 
+  /// Records into `reach` (not owned; nullptr: none) the cells every depth pixel and LIDAR beam of
+  /// every vehicle reaches from its true pose from now on (sim/ray_reach.h), timed in seconds
+  /// after the simulator's start; the central ray of each beam, to the first hit or the sensor's
+  /// range (the camera's along the pixel's ray for its axial range). Costs one more cast per ray.
+  void SetRayReach(RayReach* reach) { reach_ = reach; }
+
  private:
   /// One vehicle's dynamics, sensor state and latest outputs.
   struct Vehicle {
@@ -243,6 +250,7 @@ class Simulator {
   // first is one period after the start.
   int64_t depth_k_{1}, scan_k_{1}, mocap_k_{1}, imu_k_{1}, truth_k_{1};
   std::vector<bool> pair_in_contact_;  // by pair (i < j), i * N + j
+  RayReach* reach_{nullptr};
   int inter_vehicle_collisions_{0};
 };
 

@@ -1,5 +1,6 @@
 #include "sim/world.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -233,6 +234,23 @@ bool IsInsideObstacle(const World& world, const Eigen::Vector3d& p_W) {
     if (p.normal.dot(p_W) < p.offset_m) return true;
   }
   return false;
+}
+
+double DepthInsideObstacle(const World& world, const Eigen::Vector3d& p_W) {
+  double depth_m = 0.0;
+  for (const WorldBox& b : world.boxes) {
+    const Eigen::Vector3d p_O = b.q_WO.conjugate() * (p_W - b.center_m);
+    depth_m = std::max(depth_m, (b.half_extents_m - p_O.cwiseAbs()).minCoeff());
+  }
+  for (const WorldCylinder& c : world.cylinders) {
+    const double radial = (p_W.head<2>() - c.center_xy_m).norm();
+    depth_m = std::max(depth_m,
+                       std::min({c.radius_m - radial, p_W.z() - c.z_min_m, c.z_max_m - p_W.z()}));
+  }
+  for (const WorldPlane& p : world.planes) {
+    depth_m = std::max(depth_m, p.offset_m - p.normal.dot(p_W));
+  }
+  return depth_m;
 }
 
 WorldMesh ReadObjFile(const std::string& path) {

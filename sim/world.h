@@ -135,6 +135,11 @@ inline constexpr double kGeofenceHeadroomM = 1.0;
 
 /// True when the point lies strictly inside some primitive (boundaries count as free).
 [[nodiscard]] bool IsInsideObstacle(const World& world, const Eigen::Vector3d& p_W);
+/// How deep the point lies inside the solids, m: the largest over the primitives of its distance
+/// to that primitive's surface when it is inside (0 outside every primitive). Meshes are surfaces
+/// and have no inside. A point inside the union of two touching primitives (a wall built of two
+/// boxes) may lie deeper than either says: this is a lower bound there.
+[[nodiscard]] double DepthInsideObstacle(const World& world, const Eigen::Vector3d& p_W);
 
 /// Reads a Wavefront OBJ file: "v x y z" vertices and "f i j k ..." faces (1-based indices,
 /// negative ones counting back from the last vertex, "i/t/n" forms accepted, polygons split

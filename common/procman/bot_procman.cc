@@ -1,5 +1,6 @@
 #include "common/procman/bot_procman.h"
 
+#include <algorithm>
 #include <sstream>
 #include <stdexcept>
 
@@ -27,48 +28,95 @@ bool CommandTarget::Matches(const std::string& command_name, const std::string& 
   return name.empty() || group == name || group.rfind(name + "/", 0) == 0;
 }
 
-bot_procman::orders2_t MakeOrders(const bot_procman::info2_t& info, const std::string& sheriff_name,
-                                  SheriffVerb verb, const CommandTarget& target, int64_t utime) {
+const bot_procman::deputy_cmd2_t* FindReported(const bot_procman::info2_t& info,
+                                               int32_t sheriff_id) {
+  for (const bot_procman::deputy_cmd2_t& d : info.cmds) {
+    if (d.sheriff_id == sheriff_id) return &d;
+  }
+  return nullptr;
+}
+
+void ApplyVerb(SheriffVerb verb, const bot_procman::deputy_cmd2_t* reported,
+               bot_procman::sheriff_cmd2_t* wanted) {
+  const int32_t actual = reported != nullptr ? reported->actual_runid : 0;
+  const bool running = reported != nullptr && reported->pid > 0;
+  switch (verb) {
+    case SheriffVerb::kStart:
+      wanted->force_quit = 0;
+      if (running) {
+        wanted->desired_runid = std::max(wanted->desired_runid, actual);
+      } else if (wanted->desired_runid <= actual) {
+        wanted->desired_runid = actual + 1;
+      }
+      break;
+    case SheriffVerb::kRestart:
+      wanted->force_quit = 0;
+      wanted->desired_runid = std::max(wanted->desired_runid, actual) + 1;
+      break;
+    case SheriffVerb::kStop:
+      wanted->force_quit = 1;
+      wanted->desired_runid = std::max(wanted->desired_runid, actual);
+      break;
+  }
+}
+
+bot_procman::sheriff_cmd2_t AsReported(const bot_procman::deputy_cmd2_t& d) {
+  bot_procman::sheriff_cmd2_t s{};
+  s.cmd = d.cmd;
+  s.cmd.num_options = 0;
+  s.cmd.option_names.clear();
+  s.cmd.option_values.clear();
+  s.sheriff_id = d.sheriff_id;
+  s.desired_runid = d.actual_runid;
+  s.force_quit = 0;
+  return s;
+}
+
+bot_procman::orders2_t BuildOrders(const bot_procman::info2_t& info, const WantedCommands& wanted,
+                                   const std::string& sheriff_name, int64_t utime) {
   bot_procman::orders2_t orders{};
   orders.utime = utime;
   orders.host = info.host;
   orders.sheriff_name = sheriff_name;
   for (const bot_procman::deputy_cmd2_t& d : info.cmds) {
-    bot_procman::sheriff_cmd2_t s{};
-    s.cmd = d.cmd;
-    s.cmd.num_options = 0;
-    s.cmd.option_names.clear();
-    s.cmd.option_values.clear();
-    s.sheriff_id = d.sheriff_id;
-    s.desired_runid = d.actual_runid;
-    s.force_quit = 0;
-    if (target.Matches(d.cmd.command_name, d.cmd.group)) {
-      const bool running = d.pid > 0;
-      if (verb == SheriffVerb::kStop) {
-        s.force_quit = 1;
-      } else if (verb == SheriffVerb::kRestart || !running) {
-        s.desired_runid = d.actual_runid + 1;
-      }
-    }
-    orders.cmds.push_back(s);
+    const auto w = wanted.find(d.sheriff_id);
+    orders.cmds.push_back(w != wanted.end() ? w->second : AsReported(d));
+  }
+  for (const auto& [id, w] : wanted) {
+    if (FindReported(info, id) == nullptr) orders.cmds.push_back(w);
   }
   orders.ncmds = static_cast<int32_t>(orders.cmds.size());
   orders.num_options = 0;
   return orders;
 }
 
-bool OrdersFulfilled(const bot_procman::info2_t& info, const bot_procman::orders2_t& orders) {
-  for (const bot_procman::sheriff_cmd2_t& s : orders.cmds) {
-    const bot_procman::deputy_cmd2_t* reported = nullptr;
-    for (const bot_procman::deputy_cmd2_t& d : info.cmds) {
-      if (d.sheriff_id == s.sheriff_id) reported = &d;
-    }
+bool WantedFulfilled(const bot_procman::info2_t& info, const WantedCommands& wanted) {
+  for (const auto& [id, w] : wanted) {
+    const bot_procman::deputy_cmd2_t* reported = FindReported(info, id);
     if (reported == nullptr) return false;
-    if (s.force_quit != 0 ? reported->pid != 0 : reported->actual_runid != s.desired_runid) {
+    if (w.force_quit != 0 ? reported->pid != 0 : reported->actual_runid != w.desired_runid) {
       return false;
     }
   }
   return true;
+}
+
+bot_procman::orders2_t MakeOrders(const bot_procman::info2_t& info, const std::string& sheriff_name,
+                                  SheriffVerb verb, const CommandTarget& target, int64_t utime) {
+  WantedCommands wanted;
+  for (const bot_procman::deputy_cmd2_t& d : info.cmds) {
+    if (!target.Matches(d.cmd.command_name, d.cmd.group)) continue;
+    bot_procman::sheriff_cmd2_t w = AsReported(d);
+    ApplyVerb(verb, &d, &w);
+    wanted[d.sheriff_id] = w;
+  }
+  return BuildOrders(info, wanted, sheriff_name, utime);
+}
+
+bool OrdersFulfilled(const bot_procman::info2_t& info, const bot_procman::orders2_t& orders) {
+  WantedCommands wanted;
+  for (const bot_procman::sheriff_cmd2_t& s : orders.cmds) wanted[s.sheriff_id] = s;
+  return WantedFulfilled(info, wanted);
 }
 
 CpuTimes ParseProcStatCpu(const std::string& proc_stat) {

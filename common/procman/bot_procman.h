@@ -6,6 +6,7 @@
 /// kestrel-cmd procman is a one-shot sheriff.
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -54,10 +55,41 @@ struct CommandTarget {
   [[nodiscard]] bool Matches(const std::string& command_name, const std::string& group) const;
 };
 
-/// The full desired state a sheriff sends to the deputy that sent `info`: every command as it is
-/// (runid kept, force_quit for those not running), except the targeted ones: start and restart
-/// add 1 to their runid and clear force_quit (start leaves running ones alone), stop sets
-/// force_quit.
+/// What a sheriff wants of some of one deputy's commands, by sheriff_id: each as the
+/// sheriff_cmd2_t it will send (the command's settings, desired_runid, force_quit).
+using WantedCommands = std::map<int32_t, bot_procman::sheriff_cmd2_t>;
+
+/// The command `sheriff_id` in a deputy's report, nullptr if it is not there.
+[[nodiscard]] const bot_procman::deputy_cmd2_t* FindReported(const bot_procman::info2_t& info,
+                                                             int32_t sheriff_id);
+
+/// What a sheriff sends to keep a reported command as it is: its settings, desired_runid = its
+/// actual_runid, no force_quit.
+[[nodiscard]] bot_procman::sheriff_cmd2_t AsReported(const bot_procman::deputy_cmd2_t& reported);
+
+/// A verb applied to what a sheriff wants of one command, given the deputy's report of it
+/// (nullptr: the deputy does not have it yet, its run id counts from 0). Start clears force_quit
+/// and asks for the next run unless it runs (or a new run is already wanted); restart asks for
+/// the run after the one wanted or reported, whichever is later; stop sets force_quit.
+void ApplyVerb(SheriffVerb verb, const bot_procman::deputy_cmd2_t* reported,
+               bot_procman::sheriff_cmd2_t* wanted);
+
+/// The orders a sheriff sends the deputy that sent `info`: every reported command as it is
+/// (desired_runid = its actual_runid, no force_quit) unless `wanted` has it, then every wanted
+/// command (those the deputy does not report yet are created by it), in that order. A command
+/// left out would be stopped and forgotten by the deputy, so none is.
+[[nodiscard]] bot_procman::orders2_t BuildOrders(const bot_procman::info2_t& info,
+                                                 const WantedCommands& wanted,
+                                                 const std::string& sheriff_name, int64_t utime);
+
+/// True once `info` shows every wanted command as wanted: reported with the desired run id, and
+/// stopped (pid 0) where force_quit is set.
+[[nodiscard]] bool WantedFulfilled(const bot_procman::info2_t& info, const WantedCommands& wanted);
+
+/// The full desired state a sheriff sends to the deputy that sent `info` for one verb
+/// (BuildOrders with the verb applied to the targeted commands): every command as it is, except
+/// the targeted ones: start and restart add 1 to their runid and clear force_quit (start leaves
+/// running ones alone), stop sets force_quit.
 [[nodiscard]] bot_procman::orders2_t MakeOrders(const bot_procman::info2_t& info,
                                                 const std::string& sheriff_name, SheriffVerb verb,
                                                 const CommandTarget& target, int64_t utime);

@@ -57,6 +57,7 @@ Deputy::Deputy(lcm::LCM& lcm, Sheet sheet, DeputyConfig config, const Clock& clo
       config_(std::move(config)),
       clock_(clock),
       subscriptions_(lcm),
+      sheriff_(lcm, clock, "kestrel-procman:" + config_.host + ":" + std::to_string(getpid())),
       epoch_(NewPublisherEpoch()),
       nonce_(config_.discovery_nonce != 0 ? config_.discovery_nonce : getpid()),
       started_utime_(clock.NowUtime()) {
@@ -88,17 +89,6 @@ Deputy::Deputy(lcm::LCM& lcm, Sheet sheet, DeputyConfig config, const Clock& clo
   subscriptions_.Add<bot_procman::orders2_t>(
       kOrdersChannel, [this](const std::string&, const bot_procman::orders2_t& o) { OnOrders2(o); },
       drop);
-  subscriptions_.Add<procman_order_t>(
-      config_.orders_channel, [this](const std::string&, const procman_order_t& o) { OnOrder(o); },
-      [](const std::string& ch, const std::string& why) {
-        Log(LogLevel::kWarning, "dropped order on " + ch + ": " + why);
-      });
-  subscriptions_.Add<procman_status_t>(
-      config_.status_channel,
-      [this](const std::string&, const procman_status_t& s) { OnRemoteStatus(s); },
-      [](const std::string& ch, const std::string& why) {
-        Log(LogLevel::kWarning, "dropped status on " + ch + ": " + why);
-      });
 }
 
 Deputy::~Deputy() {
@@ -262,103 +252,44 @@ const CommandState* Deputy::state(const std::string& id) const {
   return it == local_.end() ? nullptr : &it->second;
 }
 
-void Deputy::OnOrder(const procman_order_t& order) {
-  if (!order.host.empty() && order.host != config_.host) return;
-  if (order.source == config_.host) return;  // our own order to others, echoed back
-  for (auto& [id, s] : local_) {
-    const Command& c = s.command;
-    if (!CommandTarget{order.is_group != 0, order.target}.Matches(c.id, c.group)) continue;
-    if (order.action == procman_order_t::ACTION_START) {
-      Start(&s);
-    } else if (order.action == procman_order_t::ACTION_STOP) {
-      s.desired_running = false;
-      SendStop(&s);
-    } else if (order.action == procman_order_t::ACTION_RESTART) {
-      if (s.pid == 0) {
-        Start(&s);
+void Deputy::OrderLocal(SheriffVerb verb, CommandState* s) {
+  switch (verb) {
+    case SheriffVerb::kStart:
+      Start(s);
+      break;
+    case SheriffVerb::kStop:
+      s->desired_running = false;
+      SendStop(s);
+      break;
+    case SheriffVerb::kRestart:
+      if (s->pid == 0) {
+        Start(s);
       } else {
-        SendStop(&s);
-        s.desired_running = true;  // Reap() starts it again once it has stopped
-        s.restarts = 0;
+        SendStop(s);
+        s->desired_running = true;  // Reap() starts it again once it has stopped
+        s->restarts = 0;
       }
-    }
-    info_due_ = true;
+      break;
   }
+  info_due_ = true;
 }
 
-void Deputy::OnRemoteStatus(const procman_status_t& status) {
-  if (status.host == config_.host) return;
-  for (const procman_command_t& c : status.commands) remote_[c.id] = c;
-}
-
-void Deputy::Order(int8_t action, bool is_group, const std::string& target) {
-  // Local commands directly; every other host through the orders channel.
-  procman_order_t order;
-  order.utime = clock_.NowUtime();
-  order.seq = order_seq_++;
-  order.epoch = epoch_;
-  order.source = config_.host;
-  order.host = "";
-  order.action = action;
-  order.is_group = static_cast<int8_t>(is_group);
-  order.target = target;
-  procman_order_t local = order;
-  local.source = "";
-  OnOrder(local);
-  std::vector<std::string> remote;
+void Deputy::Order(SheriffVerb verb, bool is_group, const std::string& target) {
+  const CommandTarget wanted{is_group, target};
+  // This host's commands directly.
+  for (auto& [id, s] : local_) {
+    if (wanted.Matches(s.command.id, s.command.group)) OrderLocal(verb, &s);
+  }
+  // Every other host's through its deputy, as a sheriff (docs/protocols.md §5.4).
+  std::map<std::string, std::vector<const Command*>> remote;  // by host
   for (const Command& c : sheet_.commands) {
-    if (CommandTarget{is_group, target}.Matches(c.id, c.group) && c.host != config_.host) {
-      remote.push_back(c.id);
-    }
+    if (c.host != config_.host && wanted.Matches(c.id, c.group)) remote[c.host].push_back(&c);
   }
-  if (remote.empty()) return;
-  lcm_.publish(config_.orders_channel, &order);
-  // A later order for a command replaces an earlier one still being re-sent.
-  for (RemoteOrder& r : remote_orders_) {
-    r.commands.erase(std::remove_if(r.commands.begin(), r.commands.end(),
-                                    [&](const std::string& id) {
-                                      return std::find(remote.begin(), remote.end(), id) !=
-                                             remote.end();
-                                    }),
-                     r.commands.end());
-  }
-  if (action != procman_order_t::ACTION_RESTART) {
-    remote_orders_.push_back(
-        RemoteOrder{order, remote, order.utime + 1'000'000, order.utime + 30'000'000});
-  }
-}
-
-void Deputy::ResendRemoteOrders() {
-  const int64_t now = clock_.NowUtime();
-  for (auto it = remote_orders_.begin(); it != remote_orders_.end();) {
-    RemoteOrder& r = *it;
-    const bool want_running = r.order.action == procman_order_t::ACTION_START;
-    r.commands.erase(std::remove_if(r.commands.begin(), r.commands.end(),
-                                    [&](const std::string& id) {
-                                      const auto reported = remote_.find(id);
-                                      return reported != remote_.end() &&
-                                             (reported->second.desired_running != 0) ==
-                                                 want_running;
-                                    }),
-                     r.commands.end());
-    if (r.commands.empty()) {
-      it = remote_orders_.erase(it);
-      continue;
-    }
-    if (now >= r.give_up_utime) {
-      Log(LogLevel::kWarning, "no runner reported " + r.commands.front() + " (and " +
-                                  std::to_string(r.commands.size() - 1) +
-                                  " more) as ordered within 30 s; no longer re-sending");
-      it = remote_orders_.erase(it);
-      continue;
-    }
-    if (now >= r.next_send_utime) {
-      r.order.utime = now;
-      r.order.seq = order_seq_++;
-      lcm_.publish(config_.orders_channel, &r.order);
-      r.next_send_utime = now + 1'000'000;
-    }
-    ++it;
+  for (const auto& [host, commands] : remote) {
+    sheriff_.OrderSheetCommands(verb, host, commands, sheet_, true);
+    Log(LogLevel::kInfo, "ordered " + std::to_string(commands.size()) + " command(s) of " + host +
+                             " (" + commands.front()->id + (commands.size() > 1 ? ", ..." : "") +
+                             ") through its deputy");
   }
 }
 
@@ -517,9 +448,13 @@ void Deputy::Reap() {
       s.state = procman_command_t::STATE_STOPPED;
     } else if (s.command.auto_respawn) {
       s.consecutive_quick_exits = ran_s >= config_.stable_run_s ? 0 : s.consecutive_quick_exits + 1;
-      const double delay = std::min(config_.respawn_backoff_max_s,
-                                    config_.respawn_backoff_min_s *
-                                        std::pow(2.0, std::max(0, s.consecutive_quick_exits - 1)));
+      // After a stable run at once (a controller killed in flight must be back before the ESC
+      // hold ends); quick exits back off, doubling.
+      const double delay = s.consecutive_quick_exits == 0
+                               ? 0.0
+                               : std::min(config_.respawn_backoff_max_s,
+                                          config_.respawn_backoff_min_s *
+                                              std::pow(2.0, s.consecutive_quick_exits - 1));
       s.state = procman_command_t::STATE_RESPAWN_WAIT;
       s.respawn_at_utime = now + SecondsToUtime(delay);
       Log(LogLevel::kWarning, id + " exited with " + std::to_string(s.exit_code) + " after " +
@@ -588,18 +523,23 @@ bool Deputy::TargetHasStatus(bool is_group, const std::string& target,
     targets.push_back(c);
   }
   for (const Command* c : targets) {
-    int8_t state = procman_command_t::STATE_STOPPED;
+    bool running = false;
+    bool stopped = false;
     const auto local = local_.find(c->id);
-    if (local != local_.end()) {
-      state = local->second.state;
+    if (c->host == config_.host) {
+      if (local == local_.end()) return false;
+      const int8_t state = local->second.state;
+      running = state == procman_command_t::STATE_RUNNING;
+      stopped =
+          state == procman_command_t::STATE_STOPPED || state == procman_command_t::STATE_EXITED;
     } else {
-      const auto remote = remote_.find(c->id);
-      if (remote == remote_.end()) return false;  // no report yet
-      state = remote->second.state;
+      // Another host's: its deputy's latest report (bot-procman reports only a pid), once it
+      // shows the script's order for it carried out (a restart: the new run).
+      const bot_procman::deputy_cmd2_t* reported = sheriff_.Reported(c->host, c->id);
+      if (reported == nullptr || sheriff_.OrderPending(c->host, c->id)) return false;
+      running = reported->pid > 0;
+      stopped = reported->pid == 0;
     }
-    const bool running = state == procman_command_t::STATE_RUNNING;
-    const bool stopped =
-        state == procman_command_t::STATE_STOPPED || state == procman_command_t::STATE_EXITED;
     if (status == "running" ? !running : !stopped) return false;
   }
   return true;
@@ -609,6 +549,7 @@ void Deputy::RunScript(const std::string& name) {
   const Script* script = sheet_.FindScript(name);
   KESTREL_THROW_UNLESS(script != nullptr, "no script \"" << name << "\" in " << sheet_.file);
   script_stack_.push_back(ScriptFrame{script, 0, 0, nullptr});
+  sheriff_.Discover();  // the other hosts' deputies report at once, for its orders and waits
   Log(LogLevel::kInfo, "running script \"" + name + "\"");
 }
 
@@ -635,13 +576,13 @@ void Deputy::AdvanceScript() {
     const ScriptAction& a = frame.script->actions[frame.next_action++];
     switch (a.kind) {
       case ScriptAction::Kind::kStart:
-        Order(procman_order_t::ACTION_START, a.target_is_group, a.target);
+        Order(SheriffVerb::kStart, a.target_is_group, a.target);
         break;
       case ScriptAction::Kind::kStop:
-        Order(procman_order_t::ACTION_STOP, a.target_is_group, a.target);
+        Order(SheriffVerb::kStop, a.target_is_group, a.target);
         break;
       case ScriptAction::Kind::kRestart:
-        Order(procman_order_t::ACTION_RESTART, a.target_is_group, a.target);
+        Order(SheriffVerb::kRestart, a.target_is_group, a.target);
         break;
       case ScriptAction::Kind::kWaitMs:
         frame.wait_until_utime = now + int64_t{a.wait_ms} * 1000;
@@ -666,7 +607,7 @@ void Deputy::Poll() {
   for (auto& [id, s] : local_) ReadOutput(&s);
   Reap();
   AdvanceScript();
-  ResendRemoteOrders();
+  sheriff_.Resend();
   if (info_due_ && discovery_done_) {
     bot_procman::info2_t info = MakeInfo();
     lcm_.publish(kInfoChannel, &info);

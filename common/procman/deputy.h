@@ -5,13 +5,14 @@
 /// terminal, in its own session and process group; output appended to LOG_DIR/<id>.log and
 /// published as bot-procman printf_t), respawns those marked auto_respawn with exponential
 /// back-off, stops them with their stop_signal and then SIGKILL after stop_time_allowed.
-/// It speaks two protocols (docs/design.md §7.2):
-///  - libbot2 bot-procman's (docs/protocols.md §5): discovery, info2_t on PMD_INFO2 at 1 Hz and
-///    after every change, orders2_t from a sheriff (bot-procman-sheriff, kestrel-cmd procman),
-///    which is then the authority over what runs, printf_t on PMD_PRINTF;
-///  - Kestrel's own: procman_status_t (state names, restarts, uptime, the script) and
-///    procman_order_t (one verb for one target), which the sheet's scripts use to order other
-///    hosts' runners; waits use their status reports.
+/// It speaks libbot2 bot-procman's protocol (docs/protocols.md §5): discovery, info2_t on
+/// PMD_INFO2 at 1 Hz and after every change, orders2_t from a sheriff (bot-procman-sheriff,
+/// kestrel-cmd procman), which is then the authority over what runs, printf_t on PMD_PRINTF.
+/// A sheet's script orders the commands of other hosts as a sheriff does (a Sheriff inside the
+/// runner: orders2_t to the deputy of that host, whichever deputy it is, creating the sheet's
+/// commands on it when it does not have them), and its waits read those deputies' info2_t
+/// (docs/design.md §7.2). Beside that it publishes Kestrel's procman_status_t (state names,
+/// restarts, uptime, the script) for kestrel-cmd status.
 
 #include <cstdint>
 #include <map>
@@ -26,8 +27,9 @@
 #include "bot_procman/orders2_t.hpp"
 #include "common/clock.h"
 #include "common/lcm_decode.h"
+#include "common/procman/bot_procman.h"
 #include "common/procman/sheet.h"
-#include "kestrel/procman_order_t.hpp"
+#include "common/procman/sheriff.h"
 #include "kestrel/procman_status_t.hpp"
 
 namespace kestrel::procman {
@@ -36,10 +38,12 @@ struct DeputyConfig {
   std::string host;                             ///< this runner's host name in the sheet
   std::string log_dir{"/tmp/kestrel-procman"};  ///< per-command output logs
   std::string status_channel{"PROCMAN_STATUS"};
-  std::string orders_channel{"PROCMAN_ORDERS"};
-  double respawn_backoff_min_s{0.5};   ///< first respawn delay
-  double respawn_backoff_max_s{30.0};  ///< delay doubles per quick exit, up to this
-  double stable_run_s{10.0};           ///< a run this long resets the back-off
+  /// Respawn delay after a quick exit (a run shorter than stable_run_s); it doubles per further
+  /// quick exit, up to respawn_backoff_max_s. A command that ran stable_run_s or longer (a
+  /// controller killed in flight) is respawned at once, at the next poll (docs/design.md §2.5).
+  double respawn_backoff_min_s{0.5};
+  double respawn_backoff_max_s{30.0};  ///< the longest respawn delay, s
+  double stable_run_s{10.0};           ///< a run this long resets the back-off, s
   /// bot-procman discovery nonce (the deputy uses its pid); 0 = this process's pid.
   int64_t discovery_nonce{0};
   /// @throws std::invalid_argument naming the field, value and accepted range.
@@ -83,11 +87,13 @@ class Deputy {
   /// Kills every child still running (SIGKILL to its process group).
   ~Deputy();
 
-  /// Orders for a command id or group path ("" group = every command). Commands of other hosts
-  /// are ordered through the orders channel; a start or stop is sent again every second until
-  /// their runners' status shows it (or for 30 s), so a lost datagram does not lose the order
-  /// (a restart is sent once: resending it would restart again).
-  void Order(int8_t action, bool is_group, const std::string& target);
+  /// Orders for a command id or group path ("" group = every command). This host's commands
+  /// directly; every other host's through bot-procman's orders2_t to the deputy of that host
+  /// (Sheriff::OrderSheetCommands: the sheet's commands for that host are created on it if it
+  /// does not have them), re-sent every second until its report shows them carried out (or for
+  /// 30 s), so a lost datagram does not lose the order; a restart is a new run id, so re-sending
+  /// it never restarts twice.
+  void Order(SheriffVerb verb, bool is_group, const std::string& target);
   /// Starts running script `name` (advanced by Poll). @throws std::invalid_argument if unknown.
   void RunScript(const std::string& name);
   /// True while a script is running.
@@ -131,20 +137,17 @@ class Deputy {
   void AdvanceScript();
   [[nodiscard]] bool TargetHasStatus(bool is_group, const std::string& target,
                                      const std::string& status) const;
-  void OnOrder(const procman_order_t& order);
-  void ResendRemoteOrders();
-  void OnRemoteStatus(const procman_status_t& status);
+  void OrderLocal(SheriffVerb verb, CommandState* s);
 
   lcm::LCM& lcm_;
   Sheet sheet_;
   DeputyConfig config_;
   const Clock& clock_;
-  std::map<std::string, CommandState> local_;        // by command id, this host's only
-  std::map<std::string, procman_command_t> remote_;  // other hosts' reports, by command id
+  std::map<std::string, CommandState> local_;  // by command id, this host's only
   GuardedSubscriptions subscriptions_;
-  int64_t epoch_;  // this publisher's epoch (common/identity.h)
+  Sheriff sheriff_;  // orders other hosts' deputies for the scripts; their reports for the waits
+  int64_t epoch_;    // this publisher's epoch (common/identity.h)
   int64_t status_seq_{0};
-  int64_t order_seq_{0};
 
   // bot-procman
   int64_t nonce_;
@@ -164,15 +167,6 @@ class Deputy {
     const ScriptAction* waiting_on;  // for wait status / start ... wait
   };
   std::vector<ScriptFrame> script_stack_;
-
-  /// A start or stop for other hosts' commands, re-sent until their status shows it.
-  struct RemoteOrder {
-    procman_order_t order;
-    std::vector<std::string> commands;  // not yet reported in the ordered state
-    int64_t next_send_utime;
-    int64_t give_up_utime;
-  };
-  std::vector<RemoteOrder> remote_orders_;
 };
 
 }  // namespace kestrel::procman

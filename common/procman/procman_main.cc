@@ -24,14 +24,16 @@ const char* const kUsage =
     "Runs the commands of SHEET (bot-procman format) whose host is NAME as a bot-procman deputy\n"
     "named NAME: executes them as the deputy does (no shell; only $VAR and ${VAR} expanded),\n"
     "reports on PMD_INFO2 and PROCMAN_STATUS, obeys a sheriff's PMD_ORDERS2 (bot-procman-sheriff,\n"
-    "kestrel-cmd procman) and PROCMAN_ORDERS (the sheets' scripts), publishes their output on\n"
-    "PMD_PRINTF and in LOG_DIR/<id>.log, respawns auto_respawn commands, and stops them all on\n"
-    "SIGINT/SIGTERM. Exits with 1 if another deputy named NAME answers at start.\n"
+    "kestrel-cmd procman, another runner's script), publishes their output on PMD_PRINTF and in\n"
+    "LOG_DIR/<id>.log, respawns auto_respawn commands, and stops them all on SIGINT/SIGTERM.\n"
+    "Exits with 1 if another deputy named NAME answers at start.\n"
     "Every command it starts, and every respawn, sees the same $KESTREL_RUN_ID: the runner's own,\n"
     "or a new one it makes. Variables the sheet uses and the environment leaves unset take their\n"
     "defaults from FILE (NAME=value lines; default: kestrel.env beside SHEET, if present).\n"
     "  TARGET: all | cmd:ID | group:PATH       (started at once)\n"
-    "  --script NAME        run the sheet's script NAME (orders other hosts' runners too)\n"
+    "  --script NAME        run the sheet's script NAME; other hosts' commands are ordered on\n"
+    "                       PMD_ORDERS2 as a sheriff does, to whichever deputy runs that host\n"
+    "                       (created on it from the sheet if it does not have them)\n"
     "  --exit-after-script  stop everything and exit when the script is done\n"
     "  --dry-run            print what each of NAME's commands would execute (environment\n"
     "                       settings, words, the program found on PATH) and exit: 1 if a\n"
@@ -135,11 +137,11 @@ int main(int argc, char** argv) {
         Deputy deputy(lcm, sheet, config, clock);
         for (const std::string& t : starts) {
           if (t == "all") {
-            deputy.Order(kestrel::procman_order_t::ACTION_START, true, "");
+            deputy.Order(kestrel::procman::SheriffVerb::kStart, true, "");
           } else if (t.rfind("cmd:", 0) == 0) {
-            deputy.Order(kestrel::procman_order_t::ACTION_START, false, t.substr(4));
+            deputy.Order(kestrel::procman::SheriffVerb::kStart, false, t.substr(4));
           } else if (t.rfind("group:", 0) == 0) {
-            deputy.Order(kestrel::procman_order_t::ACTION_START, true, t.substr(6));
+            deputy.Order(kestrel::procman::SheriffVerb::kStart, true, t.substr(6));
           } else {
             throw std::invalid_argument("--start " + t + ": use all, cmd:ID or group:PATH");
           }

@@ -12,6 +12,7 @@
 #include "common/lcm_decode.h"
 #include "common/node_loop.h"
 #include "common/process.h"
+#include "common/realtime.h"
 #include "drivers/imu/vn100_emulator.h"
 #include "kestrel/imu_t.hpp"
 
@@ -21,7 +22,8 @@ constexpr char kUsage[] =
     "Emulates a VectorNav VN-100 on a pseudo-terminal and prints its path. Keys: link_path\n"
     "(a stable symlink to the tty), source (lcm | synthetic), channel (imu_t in, DEV_IMU: the\n"
     "samples at the device's 800 Hz base rate), clock_offset_s (the device clock's power-on\n"
-    "time before the first sample, s).\n";
+    "time before the first sample, s), realtime.fifo_priority, realtime.lock_memory,\n"
+    "realtime.cpus (docs/design.md §2.6; off by default).\n";
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -34,7 +36,11 @@ int main(int argc, char** argv) {
         config.Read("source", &source, std::vector<std::string>{"lcm", "synthetic"});
         config.Read("channel", &channel);
         config.Read("clock_offset_s", &clock_offset_s, kestrel::Range::NonNegative());
+        // Optional real-time scheduling (docs/design.md §7.12): the emulated device must not stall
+        // on a busy host, as the real one does not.
+        const kestrel::RealtimeConfig realtime = kestrel::ReadRealtimeConfig(config);
         config.CheckNoUnknownKeys();
+        if (realtime.requested()) kestrel::ApplyRealtimeAndLog(realtime);
         kestrel::Vn100Emulator device(link_path);
         std::printf("%s\n", device.device_path().c_str());
         std::fflush(stdout);

@@ -11,6 +11,7 @@
 #include "common/identity.h"
 #include "common/node_loop.h"
 #include "common/process.h"
+#include "common/realtime.h"
 #include "common/vehicle_config.h"
 #include "drivers/motors/esc_emulator.h"
 #include "kestrel/motor_command_t.hpp"
@@ -21,7 +22,9 @@ constexpr char kUsage[] =
     "Emulates BL-Ctrl ESCs on an I2C socket and publishes the rotor thrusts they were given.\n"
     "Keys: bus (unix:PATH, as kestrel-motors' bus), protocol (blctrl_v1 | blctrl_v2),\n"
     "      addresses ([41, 42, 43, 44]: 0x29..), channel (DEV_MOTOR_COMMAND), esc_timeout_s "
-    "(0.5).\n";
+    "(0.5),\n"
+    "      realtime.fifo_priority, realtime.lock_memory, realtime.cpus (docs/design.md §2.6; "
+    "off).\n";
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -41,7 +44,11 @@ int main(int argc, char** argv) {
         config.Read("channel", &channel);
         config.Read("esc_timeout_s", &esc_timeout_s, kestrel::Range::Positive());
         const kestrel::VehicleConfig vehicle = kestrel::LoadVehicleConfigFile(vehicle_path, config);
+        // Optional real-time scheduling (docs/design.md §7.12): the emulated device must not stall
+        // on a busy host, as the real one does not.
+        const kestrel::RealtimeConfig realtime = kestrel::ReadRealtimeConfig(config);
         config.CheckNoUnknownKeys();
+        if (realtime.requested()) kestrel::ApplyRealtimeAndLog(realtime);
         if (bus.rfind("unix:", 0) != 0) throw std::invalid_argument("bus must be unix:PATH");
         std::vector<int> rotor_addresses(addresses.begin(), addresses.end());
         kestrel::EscEmulator escs(*kestrel::ParseBlCtrlVersion(protocol), rotor_addresses,

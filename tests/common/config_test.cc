@@ -169,6 +169,40 @@ TEST(Config, CommandLineOverridesReplaceAndAreChecked) {
   EXPECT_EQ(sigma, 0.05);
 }
 
+// A value that came from --set is named by its override, not by a line of the file: the
+// override's YAML is parsed alone, so its "line 1" would point at the file's first line.
+TEST(Config, ABadOverrideIsNamedAsTheOverrideNotAFileLine) {
+  ConfigNode root = ConfigNode::FromString("a: 1\nb: 2\nxtion:\n  sigma_m: 0.3\n", "mapper.yaml");
+  root.ApplyOverride("xtion.width_px=0");
+  SensorConfig c;
+  try {
+    ReadSensor(root.Child("xtion"), &c);
+    FAIL() << "no ConfigError thrown";
+  } catch (const ConfigError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("xtion.width_px' (from --set xtion.width_px=0) has value '0'"),
+              std::string::npos)
+        << what;
+    EXPECT_EQ(what.find("line"), std::string::npos) << what;
+  }
+  // A section set by an override names that override for the keys below it.
+  root.ApplyOverride("xtion={sigma_m: -1}");
+  ExpectConfigError([&] { ReadSensor(root.Child("xtion"), &c); },
+                    {"xtion.sigma_m' (from --set xtion={sigma_m: -1})"});
+  // The file's own bad value still names its line.
+  ConfigNode file = ConfigNode::FromString("a: 1\nxtion:\n  sigma_m: -0.3\n", "mapper.yaml");
+  ExpectConfigError([&] { ReadSensor(file.Child("xtion"), &c); }, {"xtion.sigma_m' (line 3)"});
+  // An unknown key from an override, and a cross-field check (Fail) on an overridden key.
+  ConfigNode typo = ConfigNode::FromString("a: 1\n", "mapper.yaml");
+  typo.ApplyOverride("sigma_mm=2");
+  double a = 0;
+  typo.Read("a", &a);
+  ExpectConfigError([&] { typo.CheckNoUnknownKeys(); }, {"sigma_mm (from --set sigma_mm=2)"});
+  typo.ApplyOverride("a=5");
+  ExpectConfigError([&] { typo.Fail("a", "must be below b"); },
+                    {"'a' (from --set a=5) = '5': must be below b"});
+}
+
 TEST(Config, OverridesIndexSequences) {
   ConfigNode root = ConfigNode::FromString(
       "sensors:\n  - {name: xtion, model: {sigma_m: 0.25}}\n  - {name: hokuyo, model: {sigma_m: "

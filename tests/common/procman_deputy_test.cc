@@ -3,6 +3,7 @@
 #include "common/procman/deputy.h"
 
 #include <signal.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -69,7 +70,7 @@ class DeputyTest : public ::testing::Test {
 TEST_F(DeputyTest, StartsOnlyItsHostsCommandsAndStopsWithTheirSignal) {
   auto d = Make(R"(cmd "sleeper" { exec = "sleep 30"; host = "here"; }
                    cmd "elsewhere" { exec = "sleep 30"; host = "there"; })");
-  d->Order(procman_order_t::ACTION_START, true, "");
+  d->Order(SheriffVerb::kStart, true, "");
   const CommandState* s = d->state("sleeper");
   ASSERT_NE(s, nullptr);
   EXPECT_EQ(d->state("elsewhere"), nullptr) << "another host's command is not ours";
@@ -88,7 +89,7 @@ TEST_F(DeputyTest, StartsOnlyItsHostsCommandsAndStopsWithTheirSignal) {
 TEST_F(DeputyTest, EscalatesToSigkillAfterStopTimeAllowed) {
   auto d = Make(R"(cmd "stubborn" { exec = "sh -c 'trap : INT; while true; do sleep 0.05; done'";
                                     host = "here"; stop_time_allowed = 1; })");
-  d->Order(procman_order_t::ACTION_START, false, "stubborn");
+  d->Order(SheriffVerb::kStart, false, "stubborn");
   std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the trap install
   const auto t0 = std::chrono::steady_clock::now();
   d->StopAll();
@@ -103,7 +104,7 @@ TEST_F(DeputyTest, EscalatesToSigkillAfterStopTimeAllowed) {
 TEST_F(DeputyTest, RespawnsWithBackoffOnlyWhenAutoRespawn) {
   auto d = Make(R"(cmd "crasher" { exec = "sh -c 'exit 3'"; host = "here"; auto_respawn = "true"; }
                    cmd "once" { exec = "sh -c 'exit 5'"; host = "here"; })");
-  d->Order(procman_order_t::ACTION_START, true, "");
+  d->Order(SheriffVerb::kStart, true, "");
   ASSERT_TRUE(PollUntil(
       *d, [&] { return d->state("crasher")->restarts >= 3; }, 5.0));
   EXPECT_EQ(d->state("crasher")->exit_code, 3);
@@ -121,6 +122,28 @@ TEST_F(DeputyTest, RespawnsWithBackoffOnlyWhenAutoRespawn) {
   EXPECT_EQ(d->state("crasher")->restarts, restarts) << "a stopped command is not respawned";
 }
 
+// A command that ran stably (a controller killed in flight) is respawned at once, not after the
+// back-off that quick exits get (docs/design.md §2.5).
+TEST_F(DeputyTest, RespawnsAtOnceAfterAStableRun) {
+  config_.respawn_backoff_min_s = 2.0;
+  config_.respawn_backoff_max_s = 4.0;
+  config_.stable_run_s = 0.2;
+  auto d = Make(R"(cmd "stable" { exec = "sh -c 'sleep 0.4; exit 3'"; host = "here";
+                                  auto_respawn = "true"; })");
+  d->Order(SheriffVerb::kStart, true, "");
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return d->state("stable")->exit_code == 3; }, 5.0));
+  const auto exited = std::chrono::steady_clock::now();
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return d->state("stable")->restarts >= 1; }, 5.0));
+  const double gap_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - exited).count();
+  EXPECT_LT(gap_s, 1.0) << "not the 2 s back-off";
+  d->StopAll();
+  ASSERT_TRUE(PollUntil(
+      *d, [&] { return d->AllStopped(); }, 5.0));
+}
+
 // Every start and respawn of a command sees the runner's $KESTREL_RUN_ID (kestrel-procman sets
 // it once, EnsureRunIdInEnvironment): a mapper respawned within a run resumes its checkpoint
 // (docs/design.md §3.5).
@@ -129,7 +152,7 @@ TEST_F(DeputyTest, RespawnsSeeTheSameRunId) {
   const std::string run_id = kestrel::EnsureRunIdInEnvironment();
   auto d = Make(R"(cmd "r" { exec = "sh -c 'echo run=$KESTREL_RUN_ID; exit 1'"; host = "here";
                               auto_respawn = "true"; })");
-  d->Order(procman_order_t::ACTION_START, false, "r");
+  d->Order(SheriffVerb::kStart, false, "r");
   const std::string log_path = config_.log_dir + "/r.log";
   auto lines = [&] {
     std::ifstream log(log_path);
@@ -151,7 +174,7 @@ TEST_F(DeputyTest, RespawnsSeeTheSameRunId) {
 TEST_F(DeputyTest, CapturesOutputInPerCommandLogs) {
   auto d = Make(
       R"(cmd "talker" { exec = "sh -c 'echo hello-from-talker; echo oops >&2'"; host = "here"; })");
-  d->Order(procman_order_t::ACTION_START, false, "talker");
+  d->Order(SheriffVerb::kStart, false, "talker");
   ASSERT_TRUE(PollUntil(
       *d, [&] { return d->AllStopped(); }, 5.0));
   std::ifstream log(config_.log_dir + "/talker.log");
@@ -161,25 +184,14 @@ TEST_F(DeputyTest, CapturesOutputInPerCommandLogs) {
   EXPECT_NE(text.str().find("oops"), std::string::npos);
 }
 
-TEST_F(DeputyTest, ObeysOrdersForItsHostAndReportsStatus) {
+TEST_F(DeputyTest, ReportsItsCommandsOnProcmanStatus) {
   auto d = Make(R"(group "g" { cmd "a" { exec = "sleep 30"; host = "here"; } })");
   std::vector<procman_status_t> statuses;
   GuardedSubscriptions subs(lcm_);
   subs.Add<procman_status_t>(
       "PROCMAN_STATUS",
       [&](const std::string&, const procman_status_t& m) { statuses.push_back(m); }, nullptr);
-  procman_order_t order;
-  order.source = "kestrel-cmd";
-  order.host = "there";  // not ours
-  order.action = procman_order_t::ACTION_START;
-  order.is_group = true;
-  order.target = "g";
-  lcm_.publish("PROCMAN_ORDERS", &order);
-  d->Poll();
-  EXPECT_EQ(d->state("a")->pid, 0);
-  order.host = "here";
-  lcm_.publish("PROCMAN_ORDERS", &order);
-  d->Poll();
+  d->Order(SheriffVerb::kStart, true, "g");
   EXPECT_GT(d->state("a")->pid, 0);
   std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the child exec (its RSS)
   d->PublishStatus();
@@ -218,54 +230,64 @@ TEST_F(DeputyTest, RunsScriptsInOrderWithWaits) {
   EXPECT_THROW(d->RunScript("nope"), std::invalid_argument);
 }
 
-// A start for another host's command is re-sent until that host's runner reports it: the first
-// datagram is lost here (no runner for "there" listens yet), the re-sent one is obeyed, and
-// then the re-sending stops.
-TEST_F(DeputyTest, ResendsOtherHostsOrdersUntilTheirRunnerReportsThem) {
-  const std::string sheet = R"(cmd "x" { exec = "sleep 30"; host = "there"; }
-                               cmd "y" { exec = "sleep 30"; host = "here"; })";
+// A script orders another host's commands as a sheriff does (orders2_t to that host's deputy),
+// whatever deputy it is: here "there" knows no command at all (as libbot2's deputy at start), so
+// the orders create the sheet's commands for it, "x" started and "z" stopped. Nothing is sent
+// before "there" reports (its commands would be dropped); the waits read its info2_t; once its
+// reports show the orders carried out, no more are sent.
+TEST_F(DeputyTest, ScriptsOrderOtherHostsThroughTheirDeputies) {
+  const std::string sheet = R"(cmd "x" { exec = "sleep 30"; host = "there"; stop_signal = 15; }
+                               cmd "z" { exec = "sleep 30"; host = "there"; }
+                               cmd "y" { exec = "sleep 30"; host = "here"; }
+                               script "go" {
+                                 start cmd "x" wait "running";
+                                 start cmd "y" wait "running";
+                                 restart cmd "x" wait "running";
+                                 stop cmd "x" wait "stopped";
+                               })";
   int orders_sent = 0;
   GuardedSubscriptions subs(lcm_);
-  subs.Add<procman_order_t>(
-      "PROCMAN_ORDERS", [&](const std::string&, const procman_order_t&) { ++orders_sent; },
+  subs.Add<bot_procman::orders2_t>(
+      kOrdersChannel,
+      [&](const std::string&, const bot_procman::orders2_t& o) {
+        if (o.host == "there") ++orders_sent;
+      },
       nullptr);
   auto here = Make(sheet);
-  here->Order(procman_order_t::ACTION_START, false, "x");
-  Drain();
-  EXPECT_EQ(orders_sent, 1);
+  here->RunScript("go");
+  PollUntil(
+      *here, [] { return false; }, 0.3);
+  EXPECT_EQ(orders_sent, 0) << "no orders before the deputy of \"there\" reports";
   DeputyConfig there_config = config_;
   there_config.host = "there";
-  Deputy there(lcm_, ParseSheet(sheet, "t.procman"), there_config, clock_);
-  EXPECT_EQ(there.state("x")->pid, 0) << "the first order was lost";
-  const auto both = [&] {
-    there.Poll();
-    there.PublishStatus();
-    return there.state("x")->pid > 0;
+  Deputy there(lcm_, ParseSheet(R"(cmd "other" { exec = "true"; host = "elsewhere"; })", "e"),
+               there_config, clock_);
+  EXPECT_EQ(there.state("x"), nullptr);
+  const auto both = [&](const std::function<bool()>& done) {
+    return [&, done] {
+      there.Poll();
+      if (there.discovery_done()) there.PublishStatus();
+      return done();
+    };
   };
-  ASSERT_TRUE(PollUntil(*here, both, 3.0)) << "the order came again";
-  // Once "there" reports x wanted running, "here" stops re-sending.
-  PollUntil(
-      *here,
-      [&] {
-        there.Poll();
-        there.PublishStatus();
-        return false;
-      },
-      0.3);
+  ASSERT_TRUE(PollUntil(*here, both([&] { return !here->script_running(); }), 10.0))
+      << "the script did not finish";
+  ASSERT_NE(there.state("x"), nullptr) << "x created on \"there\"";
+  ASSERT_NE(there.state("z"), nullptr) << "z created on \"there\"";
+  EXPECT_EQ(there.state("x")->pid, 0);
+  EXPECT_EQ(there.state("x")->actual_runid, 2) << "started, then restarted: a new run";
+  EXPECT_TRUE(WIFSIGNALED(there.state("x")->wait_status));
+  EXPECT_EQ(WTERMSIG(there.state("x")->wait_status), 15) << "stopped with its stop signal";
+  EXPECT_EQ(there.state("z")->actual_runid, 0) << "created, never started";
+  EXPECT_EQ(there.state("z")->command.exec, "sleep 30");
+  EXPECT_EQ(there.state("x")->sheriff_id, SheetSheriffId("there", "x"));
+  EXPECT_GT(here->state("y")->pid, 0);
   const int after = orders_sent;
-  PollUntil(
-      *here,
-      [&] {
-        there.Poll();
-        there.PublishStatus();
-        return false;
-      },
-      2.5);
-  EXPECT_EQ(orders_sent, after) << "no more re-sends once reported";
-  EXPECT_LE(after, 4);
-  there.StopAll();
+  PollUntil(*here, both([] { return false; }), 1.5);
+  EXPECT_EQ(orders_sent, after) << "no more orders once carried out";
+  here->StopAll();
   ASSERT_TRUE(PollUntil(
-      there, [&] { return there.AllStopped(); }, 5.0));
+      *here, [&] { return here->AllStopped(); }, 5.0));
 }
 
 // ---- libbot2 bot-procman's protocol (docs/protocols.md §5) ----
@@ -420,7 +442,7 @@ TEST_F(DeputyTest, ASheriffStartsRestartsAndStopsItsCommands) {
 TEST_F(DeputyTest, OrdersAddTheSheriffsCommandsAndRemoveTheOthers) {
   Heard heard(lcm_);
   auto d = Make(R"(cmd "a" { exec = "sleep 30"; host = "here"; })");
-  d->Order(procman_order_t::ACTION_START, false, "a");
+  d->Order(SheriffVerb::kStart, false, "a");
   ASSERT_TRUE(PollUntil(
       *d, [&] { return d->discovery_done(); }, 2.0));
   const int a_pid = d->state("a")->pid;
@@ -505,7 +527,7 @@ TEST_F(DeputyTest, PublishesOutputAndExecFailures) {
   Heard heard(lcm_);
   auto d = Make(R"(cmd "t" { exec = "sh -c 'echo one; echo two'"; host = "here"; }
                    cmd "missing" { exec = "/nonexistent/kestrel-prog --x"; host = "here"; })");
-  d->Order(procman_order_t::ACTION_START, true, "");
+  d->Order(SheriffVerb::kStart, true, "");
   ASSERT_TRUE(PollUntil(
       *d,
       [&] {

@@ -3,8 +3,12 @@
 
 #include <gtest/gtest.h>
 #include <sched.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <random>
 #include <sstream>
@@ -94,6 +98,30 @@ TEST(RealtimeConfig, ReadsTheSectionAndRefusesOutOfRange) {
   RealtimeConfig negative;
   negative.fifo_priority = -1;
   EXPECT_THROW(negative.Validate(), std::invalid_argument);
+}
+
+// nice: read and range-checked; applied in a child (it is per thread and only ever raised
+// without privileges), where getpriority then reads it.
+TEST(RealtimeConfig, NiceIsReadCheckedAndApplied) {
+  EXPECT_EQ(ReadRealtimeConfig(ConfigNode::FromString("realtime: {nice: -10}\n", "n")).nice, -10);
+  EXPECT_THROW(ReadRealtimeConfig(ConfigNode::FromString("realtime: {nice: 20}\n", "n")),
+               std::exception);
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    RealtimeConfig c;
+    c.nice = 7;
+    const RealtimeOutcome outcome = ApplyRealtime(c);
+    errno = 0;
+    const int now = getpriority(PRIO_PROCESS, 0);
+    const bool ok = outcome.niced && now == 7 && outcome.warnings.empty() &&
+                    outcome.Summary(c) == "normal scheduling at nice 7, memory not locked, any CPU";
+    _exit(ok ? 0 : 3);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
 }
 
 // Nothing requested: nothing changes and nothing is reported.

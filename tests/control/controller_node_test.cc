@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <deque>
 #include <fstream>
+#include <vector>
 
 #include "common/clock.h"
 #include "common/config.h"
@@ -218,7 +219,7 @@ TEST(LoadControllerConfig, ReadsKeysAndNamesErrors) {
                              "  k_x_per_s2: 12.0\n  attitude_error: cdc2010\n  max_tilt_rad: 0.8\n"
                              "safety:\n  land_timeout_s: 3.0\n  blind_land_depth_m: 0.7\n"
                              "  geofence_max_m: [5, 5, 3]\n  max_trajectory_start_offset_m: 0.2\n"
-                             "state_path: /tmp/c.state\nrun_id: run-7\ntakeover_window_s: 2\n",
+                             "state_path: /tmp/c.state\nrun_id: run-7\ntakeover_max_gap_s: 2\n",
                              "controller.yaml"),
       vehicle);
   EXPECT_EQ(config.rate_hz, 250.0);
@@ -237,12 +238,12 @@ TEST(LoadControllerConfig, ReadsKeysAndNamesErrors) {
   EXPECT_EQ(config.flight.safety.max_trajectory_start_offset_m, 0.2);
   EXPECT_EQ(config.state_path, "/tmp/c.state");
   EXPECT_EQ(config.run_id, "run-7");
-  EXPECT_EQ(config.takeover_window_s, 2.0);
+  EXPECT_EQ(config.takeover_max_gap_s, 2.0);
   for (const char* bad :
        {"rate_hz: 5\n", "controller:\n  k_R_Nm_per_rad: -1\n",
         "controller:\n  attitude_error: lee\n", "safety:\n  blind_land_depth_m: 0.2\n",
         "safety:\n  pose_timeout_s: 5\n", "typo_key: 1\n", "run_id: 'a b'\n",
-        "takeover_window_s: 0\n", "safety:\n  max_trajectory_start_offset_m: 0\n"}) {
+        "takeover_max_gap_s: 0\n", "safety:\n  max_trajectory_start_offset_m: 0\n"}) {
     try {
       (void)LoadControllerConfig(ConfigNode::FromString(bad, "controller.yaml"), vehicle);
       ADD_FAILURE() << "accepted: " << bad;
@@ -321,6 +322,186 @@ TEST(ControllerStateFile, CorruptRefusedEstopLatchedFileRewritten) {
   }
   std::remove(config.state_path.c_str());
   rmdir(dir);
+}
+
+}  // namespace
+}  // namespace kestrel
+
+namespace kestrel {
+namespace {
+
+// A controller respawned within the run (docs/design.md §2.5): its predecessor's state file says
+// HOLD; IMU samples come at once, the first pose only `pose_late_s` after the respawn. Until that
+// pose the new controller sends no motor command and no status (the ESC hold keeps the
+// predecessor's last command); on the next control step it takes the vehicle over, however late
+// the pose came.
+class ControllerTakeoverTest : public ::testing::Test {
+ protected:
+  ControllerTakeoverTest() : lcm_("memq://"), clock_(50'000'000), outputs_(lcm_) {
+    char dir[] = "/tmp/kestrel-takeover-XXXXXX";
+    EXPECT_NE(mkdtemp(dir), nullptr);
+    dir_ = dir;
+    config_.state_path = dir_ + "/controller.state";
+    config_.run_id = "run-a";
+    outputs_.Add<motor_command_t>(
+        "MOTOR_COMMAND",
+        [this](const std::string&, const motor_command_t& m) { motors_.push_back(m); }, nullptr);
+    outputs_.Add<controller_status_t>(
+        "CONTROLLER_STATUS",
+        [this](const std::string&, const controller_status_t& s) { statuses_.push_back(s); },
+        nullptr);
+  }
+  ~ControllerTakeoverTest() override {
+    std::remove(config_.state_path.c_str());
+    rmdir(dir_.c_str());
+  }
+
+  // The predecessor's file: `mode`, last written at the current time (its last life sign).
+  void WritePredecessorFile(const std::string& mode) {
+    RunStateFile file;
+    file.kind = "controller";
+    file.run_id = "run-a";
+    file.values["mode"] = mode;
+    file.values["ground_z_m"] = "0";
+    file.values["utime"] = std::to_string(clock_.NowUtime());
+    std::string error;
+    ASSERT_TRUE(WriteRunStateFile(config_.state_path, file, &error)) << error;
+  }
+
+  // Steps `node` for duration_s at 400 Hz: an IMU sample every step (hovering), a pose at
+  // `z_m` every 4th step once the clock reaches pose_from_utime.
+  void Run(ControllerNode* node, double duration_s, int64_t pose_from_utime, double z_m) {
+    const int steps = static_cast<int>(std::lround(duration_s * 1e6 / kTickUs));
+    for (int k = 0; k < steps; ++k) {
+      const int64_t now = clock_.NowUtime();
+      imu_t imu{};
+      imu.utime = now;
+      imu.seq = seq_++;
+      imu.epoch = kTestEpoch;
+      imu.specific_force_mps2[2] = 9.81;
+      lcm_.publish("IMU", &imu);
+      if (now >= pose_from_utime && (now / kTickUs) % 4 == 0) {
+        pose_t pose{};
+        pose.utime = now;
+        pose.seq = seq_++;
+        pose.epoch = kTestEpoch;
+        pose.valid = true;
+        pose.position_m[2] = z_m;
+        pose.orientation_wxyz[0] = 1.0;
+        lcm_.publish("POSE_VICON", &pose);
+      }
+      while (lcm_.handleTimeout(0) > 0) {
+      }
+      node->Tick(now);
+      while (lcm_.handleTimeout(0) > 0) {
+      }
+      clock_.AdvanceUtime(kTickUs);
+    }
+  }
+
+  void SendCommand(int8_t command) {
+    command_t msg{};
+    msg.utime = clock_.NowUtime();
+    msg.epoch = kTestEpoch;
+    msg.source = "test";
+    msg.command = command;
+    lcm_.publish("COMMAND", &msg);
+    while (lcm_.handleTimeout(0) > 0) {
+    }
+  }
+
+  lcm::LCM lcm_;
+  SimClock clock_;
+  ControllerConfig config_;
+  GuardedSubscriptions outputs_;
+  std::string dir_;
+  std::vector<motor_command_t> motors_;
+  std::vector<controller_status_t> statuses_;
+  int64_t seq_{0};
+};
+
+TEST_F(ControllerTakeoverTest, FirstPoseLateBySecondsStillTakesTheFlyingVehicleOver) {
+  for (const double late_s : {0.5, 1.0, 2.0, 5.0}) {
+    SCOPED_TRACE(late_s);
+    motors_.clear();
+    statuses_.clear();
+    WritePredecessorFile("TRACK");
+    clock_.AdvanceUtime(SecondsToUtime(0.3));  // the respawn
+    ControllerNode node(lcm_, config_, clock_);
+    const int64_t pose_from = clock_.NowUtime() + SecondsToUtime(late_s);
+    Run(&node, late_s, pose_from, 1.0);
+    EXPECT_TRUE(node.takeover_pending()) << node.takeover_status();
+    EXPECT_TRUE(motors_.empty()) << "no motor command before the pose decides";
+    EXPECT_TRUE(statuses_.empty()) << "no status claims a mode before the pose decides";
+    Run(&node, 0.1, pose_from, 1.0);
+    ASSERT_FALSE(node.takeover_pending()) << node.takeover_status();
+    EXPECT_EQ(node.flight().supervisor().mode(), FlightMode::kHold) << node.takeover_status();
+    ASSERT_GE(node.first_pose_utime(), pose_from);
+    EXPECT_LE(node.takeover_utime() - node.first_pose_utime(), kTickUs)
+        << "decided on the first control step after the first pose";
+    ASSERT_FALSE(motors_.empty());
+    EXPECT_TRUE(motors_.front().armed);
+    ASSERT_FALSE(statuses_.empty());
+    EXPECT_EQ(statuses_.front().mode, controller_status_t::MODE_HOLD);
+    std::printf("first pose %.1f s late: %s\n", late_s, node.takeover_status().c_str());
+  }
+}
+
+// The first pose shows the vehicle on its take-off ground: IDLE, disarmed, and the file says so.
+TEST_F(ControllerTakeoverTest, OnTheGroundStaysIdleAndRewritesTheFile) {
+  WritePredecessorFile("HOLD");
+  ControllerNode node(lcm_, config_, clock_);
+  Run(&node, 0.2, clock_.NowUtime() + SecondsToUtime(0.1), 0.02);
+  EXPECT_FALSE(node.takeover_pending());
+  EXPECT_EQ(node.flight().supervisor().mode(), FlightMode::kIdle);
+  ASSERT_FALSE(motors_.empty());
+  EXPECT_FALSE(motors_.back().armed);
+  EXPECT_NE(node.takeover_status().find("on the ground"), std::string::npos);
+  RunStateFile file;
+  ASSERT_EQ(ReadRunStateFile(config_.state_path, "controller", "run-a", &file, nullptr),
+            RunStateRead::kOk);
+  EXPECT_EQ(*file.Find("mode"), "IDLE");
+}
+
+// While the verdict is pending only an e-stop acts (motors off at once); a land order is kept
+// and the takeover then lands; anything else is refused and counted.
+TEST_F(ControllerTakeoverTest, CommandsWhileTheTakeoverIsPending) {
+  WritePredecessorFile("HOLD");
+  {
+    ControllerNode node(lcm_, config_, clock_);
+    const int64_t pose_from = clock_.NowUtime() + SecondsToUtime(1.0);
+    Run(&node, 0.2, pose_from, 1.0);
+    SendCommand(command_t::COMMAND_TAKEOFF);
+    EXPECT_EQ(node.drops().count("refused command"), 1);
+    SendCommand(command_t::COMMAND_LAND);
+    Run(&node, 1.0, pose_from, 1.0);
+    EXPECT_EQ(node.flight().supervisor().mode(), FlightMode::kLand) << node.takeover_status();
+  }
+  motors_.clear();
+  WritePredecessorFile("HOLD");
+  ControllerNode node(lcm_, config_, clock_);
+  Run(&node, 0.2, clock_.NowUtime() + SecondsToUtime(1.0), 1.0);
+  SendCommand(command_t::COMMAND_ESTOP);
+  Run(&node, 0.01, clock_.NowUtime() + SecondsToUtime(1.0), 1.0);
+  EXPECT_FALSE(node.takeover_pending());
+  EXPECT_EQ(node.flight().supervisor().mode(), FlightMode::kEstop);
+  ASSERT_FALSE(motors_.empty());
+  EXPECT_FALSE(motors_.back().armed);
+}
+
+// In flight the file's stamp is refreshed every half second: a respawn judges its evidence by
+// the predecessor's last life sign, not by when the mode last changed.
+TEST_F(ControllerTakeoverTest, TheFileStampIsALifeSignInFlight) {
+  WritePredecessorFile("HOLD");
+  ControllerNode node(lcm_, config_, clock_);
+  Run(&node, 2.0, clock_.NowUtime(), 1.0);
+  ASSERT_EQ(node.flight().supervisor().mode(), FlightMode::kHold);
+  RunStateFile file;
+  ASSERT_EQ(ReadRunStateFile(config_.state_path, "controller", "run-a", &file, nullptr),
+            RunStateRead::kOk);
+  double utime = 0;
+  ASSERT_TRUE(file.GetDouble("utime", &utime));
+  EXPECT_GE(utime, static_cast<double>(clock_.NowUtime() - SecondsToUtime(0.5) - kTickUs));
 }
 
 }  // namespace

@@ -80,6 +80,8 @@ void WriteLcmSeeds() {
   WriteSamples<param_t>(20);
   WriteSamples<params_t>(21);
   WriteSamples<params_request_t>(22);
+  WriteSamples<map_decisions_t>(23);
+  WriteSamples<map_decision_t>(24);
   // libbot2's bot-procman messages, as a sheriff and a deputy send them.
   bot_procman::info2_t info{};
   info.host = "jetson";
@@ -89,7 +91,7 @@ void WriteLcmSeeds() {
   info.cmds[0].cmd.exec_str = "$KESTREL_BIN/kestrel-hokuyo --config config/drivers/hokuyo.yaml";
   info.cmds[0].cmd.command_name = "hokuyo";
   info.cmds[0].sheriff_id = 7;
-  WriteLcm(23, info, "info2_t-0");
+  WriteLcm(25, info, "info2_t-0");
   bot_procman::orders2_t orders{};
   orders.host = "jetson";
   orders.sheriff_name = "base:1:2";
@@ -99,14 +101,14 @@ void WriteLcmSeeds() {
   orders.cmds[0].cmd.exec_str = "A=1 prog 'a b' \"$X\" ${Y} $Z1 ${";
   orders.cmds[0].desired_runid = 2;
   orders.cmds[0].sheriff_id = 7;
-  WriteLcm(24, orders, "orders2_t-0");
+  WriteLcm(26, orders, "orders2_t-0");
   bot_procman::printf_t text{};
   text.deputy_name = "jetson";
   text.text = "hello\n";
-  WriteLcm(25, text, "printf_t-0");
+  WriteLcm(27, text, "printf_t-0");
   bot_procman::discovery_t discovery{};
   discovery.host = "jetson";
-  WriteLcm(26, discovery, "discovery_t-0");
+  WriteLcm(28, discovery, "discovery_t-0");
 
   // The compressed payloads, and values a consumer accepts (probabilities in [0, 1]).
   depth_image_t depth = MakeSample<depth_image_t>(0);

@@ -33,6 +33,8 @@
 #include "kestrel/imu_t.hpp"
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
+#include "kestrel/map_decision_t.hpp"
+#include "kestrel/map_decisions_t.hpp"
 #include "kestrel/map_status_t.hpp"
 #include "kestrel/motor_command_t.hpp"
 #include "kestrel/named_value_t.hpp"
@@ -47,6 +49,7 @@
 #include "kestrel/sim_truth_t.hpp"
 #include "kestrel/trajectory_t.hpp"
 #include "lcmtypes/message_codecs.h"
+#include "mapping/map_decisions.h"
 #include "mapping/map_replica.h"
 #include "viewer/bridge/viewer_scene.h"
 
@@ -147,6 +150,26 @@ void Consume(const kestrel::map_status_t& msg) {
   (void)scene.TakeUpdateFrames();
 }
 
+// The mapper's decisions as a replay gathers them (docs/design.md §3.6): a message accepted
+// alone, numbered from 0 and resuming nothing, is the whole map of its life, in its order.
+void Consume(const kestrel::map_decisions_t& msg) {
+  kestrel::DecisionHistory history;
+  std::string why;
+  if (!history.Add(msg, &why)) {
+    Require(!why.empty());
+    return;
+  }
+  const std::vector<kestrel::map_decision_t> map = history.MapOf(msg.epoch, &why);
+  if (msg.first_index == 0 && msg.num_lives == 0) {
+    Require(map.size() == msg.decisions.size());
+    for (size_t i = 0; i < map.size(); ++i) {
+      Require(kestrel::SameDecision(map[i], msg.decisions[i]));
+    }
+  } else {
+    Require(!map.empty() || !why.empty());
+  }
+}
+
 // A sheriff's exec strings as the runner reads them. With every variable unset, splitting and
 // expansion only remove characters: every character of a word or setting is in the string.
 void Consume(const bot_procman::orders2_t& msg) {
@@ -215,12 +238,14 @@ constexpr FuzzFn kTypes[] = {
     Fuzz<kestrel::param_t>,
     Fuzz<kestrel::params_t>,
     Fuzz<kestrel::params_request_t>,
+    Fuzz<kestrel::map_decisions_t>,
+    Fuzz<kestrel::map_decision_t>,
     Fuzz<bot_procman::info2_t>,
     Fuzz<bot_procman::orders2_t>,
     Fuzz<bot_procman::printf_t>,
     Fuzz<bot_procman::discovery_t>,
 };
-static_assert(sizeof(kTypes) / sizeof(kTypes[0]) == 27,
+static_assert(sizeof(kTypes) / sizeof(kTypes[0]) == 29,
               "one entry per lcmtypes/*.lcm, and the top-level bot_procman types");
 
 }  // namespace

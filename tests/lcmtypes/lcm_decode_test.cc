@@ -57,8 +57,9 @@ TEST(LcmDecode, EveryTypeRoundTrips) {
 
 // Every schema compiled into the build is a message the tests visit, or a nested type.
 TEST(LcmDecode, EverySchemaIsCovered) {
-  EXPECT_EQ(static_cast<int>(LcmSchemaSources().size()), testing::kNumMessageTypes + 4 + 7)
-      << "+ nested: candidate, named value, procman command, param; + libbot2's seven "
+  EXPECT_EQ(static_cast<int>(LcmSchemaSources().size()), testing::kNumMessageTypes + 5 + 7)
+      << "+ nested: candidate, named value, procman command, param, map decision; + libbot2's "
+         "seven "
          "bot_procman types (tests/common/procman_bot_procman_test.cc)";
 }
 

@@ -19,6 +19,7 @@
 #include "kestrel/imu_t.hpp"
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
+#include "kestrel/map_decisions_t.hpp"
 #include "kestrel/map_status_t.hpp"
 #include "kestrel/motor_command_t.hpp"
 #include "kestrel/named_value_t.hpp"
@@ -306,6 +307,30 @@ inline void Fill(Filler& f, map_status_t* m) {
   m->applied_every_message = false;
 }
 
+inline void Fill(Filler& f, map_decision_t* m) {
+  m->channel = f.Text();
+  m->epoch = f.Int();
+  m->seq = f.Int();
+  m->scan_utime = f.Int();
+  m->action = map_decision_t::ACTION_SKIPPED;
+  m->ray_stride = static_cast<int16_t>(f.Small(1, 16));
+  m->reason = f.Text();
+  f.Reals(m->position_m);
+  f.Reals(m->orientation_wxyz);
+}
+inline void Fill(Filler& f, map_decisions_t* m) {
+  m->utime = f.Int();
+  m->seq = f.Int();
+  m->epoch = f.Int();
+  m->first_index = f.Int();
+  m->num_decisions = 2;
+  m->decisions.resize(2);
+  for (auto& d : m->decisions) Fill(f, &d);
+  m->num_lives = 2;
+  m->life_epochs = {f.Int(), f.Int()};
+  m->life_decisions = {f.Int(), f.Int()};
+}
+
 inline void Fill(Filler& f, param_t* m) {
   m->file = f.Text();
   m->key = f.Text();
@@ -406,6 +431,7 @@ void ForEachMessageType(Visitor&& v) {
   v.template Visit<sim_truth_t>();
   v.template Visit<heartbeat_t>();
   v.template Visit<map_status_t>();
+  v.template Visit<map_decisions_t>();
   v.template Visit<procman_status_t>();
   v.template Visit<procman_order_t>();
   v.template Visit<params_t>();
@@ -413,6 +439,6 @@ void ForEachMessageType(Visitor&& v) {
 }
 
 /// Number of top-level types ForEachMessageType visits.
-inline constexpr int kNumMessageTypes = 19;
+inline constexpr int kNumMessageTypes = 20;
 
 }  // namespace kestrel::testing

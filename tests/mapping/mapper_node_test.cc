@@ -22,7 +22,9 @@
 #include "kestrel/heartbeat_t.hpp"
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
+#include "kestrel/map_decisions_t.hpp"
 #include "kestrel/map_status_t.hpp"
+#include "mapping/map_decisions.h"
 #include "mapping/map_replica.h"
 #include "tests/mapping/synthetic_stream.h"
 
@@ -881,6 +883,273 @@ TEST_F(MapperNodeTest, StatusReportsSkipsAndEntropy) {
   EXPECT_DOUBLE_EQ(statuses[0].map_entropy_nats, node.entropy_nats());
   EXPECT_TRUE(statuses[0].applied_every_message);
   EXPECT_EQ(statuses[0].ray_decimation, 1.0);
+}
+
+// ---- Decisions (docs/design.md §3.6) ----
+
+/// Gathers what a node publishes on MAP_DECISIONS.
+struct DecisionsHeard {
+  explicit DecisionsHeard(lcm::LCM& lcm) : subs(lcm) {
+    subs.Add<map_decisions_t>(
+        "MAP_DECISIONS",
+        [this](const std::string&, const map_decisions_t& m) {
+          std::string why;
+          EXPECT_TRUE(history.Add(m, &why)) << why;
+          messages.push_back(m);
+        },
+        nullptr);
+  }
+  GuardedSubscriptions subs;
+  DecisionHistory history;
+  std::vector<map_decisions_t> messages;
+};
+
+/// A loaded host: the node takes one scan off its queue after every `every`-th message only, so
+/// its backlog grows (rays thinned, the queue limit drops scans), and the scans whose index is in
+/// `lost` never reach it (a full socket buffer), though the log has them.
+void FeedOverloaded(lcm::LCM& lcm, MapperNode& node, SimClock& clock,
+                    const std::vector<StreamEvent>& events, int every,
+                    const std::set<size_t>& lost) {
+  for (size_t i = 0; i < events.size(); ++i) {
+    const StreamEvent& e = events[i];
+    if (e.utime > clock.NowUtime()) clock.SetUtime(e.utime);
+    if (lost.count(i) == 0) {
+      if (e.kind == StreamEvent::Kind::kPose) lcm.publish("POSE_VICON", &e.pose);
+      if (e.kind == StreamEvent::Kind::kDepth) lcm.publish("DEPTH_XTION", &e.depth);
+      if (e.kind == StreamEvent::Kind::kScan) lcm.publish("SCAN_HOKUYO", &e.scan);
+    }
+    while (lcm.handleTimeout(0) > 0) {
+    }
+    if (i % every == 0) node.ProcessPending(1);
+    node.PublishDue();
+    while (lcm.handleTimeout(0) > 0) {
+    }
+  }
+  node.ApplyRemaining();
+  node.PublishDecisions();
+  while (lcm.handleTimeout(0) > 0) {
+  }
+}
+
+/// A replay of every event into a fresh node that follows `decisions` (none: its own).
+uint64_t ReplayHash(const MapperConfig& config, const std::vector<StreamEvent>& events,
+                    std::vector<map_decision_t> decisions, size_t* left = nullptr) {
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  MapperNode node(lcm, config, clock);
+  if (!decisions.empty()) node.FollowDecisions(std::move(decisions));
+  Feed(lcm, node, clock, events);
+  if (left != nullptr) *left = node.decisions_to_follow().size();
+  return node.map_hash();
+}
+
+// A mapper that falls behind thins rays, drops scans at its queue limit and misses datagrams:
+// its map is not that of a mapper that kept up. Its decisions (published on MAP_DECISIONS) let a
+// replay of the whole stream rebuild its map bit for bit; without them the replay differs; a
+// decision whose scan the log lacks is left unfollowed.
+TEST_F(MapperNodeTest, AReplayFollowingTheDecisionsHoldsTheMapOfAMapperThatFellBehind) {
+  MapperConfig loaded = config_;
+  loaded.max_backlog_s = 0.35;
+  loaded.order_wait_s = 0.1;
+  loaded.max_queue = 8;
+  std::set<size_t> lost;
+  for (size_t i = 0; i < events_.size(); ++i) {
+    if (events_[i].kind != StreamEvent::Kind::kPose && i % 7 == 3) lost.insert(i);
+    if (events_[i].kind == StreamEvent::Kind::kPose && i % 11 == 5) lost.insert(i);
+  }
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  MapperNode live(lcm, loaded, clock);
+  DecisionsHeard heard(lcm);
+  FeedOverloaded(lcm, live, clock, events_, 10, lost);
+  EXPECT_FALSE(live.applied_every_message());
+  EXPECT_GT(live.skipped().count("overload"), 0) << "the queue limit dropped scans";
+  std::string why;
+  const std::vector<map_decision_t> decisions = heard.history.MapOf(live.epoch(), &why);
+  ASSERT_EQ(static_cast<int64_t>(decisions.size()), live.decisions_taken()) << why;
+  int thinned = 0, dropped = 0;
+  for (const map_decision_t& d : decisions) {
+    thinned += d.action == map_decision_t::ACTION_APPLIED && d.ray_stride > 1 ? 1 : 0;
+    dropped += d.action == map_decision_t::ACTION_SKIPPED && d.reason == "overload" ? 1 : 0;
+  }
+  EXPECT_GT(thinned, 0) << "rays were thinned";
+  EXPECT_EQ(dropped, live.skipped().count("overload"));
+  EXPECT_GT(heard.messages.size(), 1u) << "published as taken, not only at the end";
+
+  size_t left = 0;
+  EXPECT_EQ(ReplayHash(loaded, events_, decisions, &left), live.map_hash());
+  EXPECT_EQ(left, 0u);
+  EXPECT_NE(ReplayHash(loaded, events_, {}), live.map_hash()) << "the decisions mattered";
+  // The log without one scan the live mapper applied: that decision cannot be followed.
+  std::vector<StreamEvent> short_log;
+  bool dropped_one = false;
+  for (size_t i = 0; i < events_.size(); ++i) {
+    const StreamEvent& e = events_[i];
+    if (!dropped_one && e.kind == StreamEvent::Kind::kScan && lost.count(i) == 0) {
+      dropped_one = true;
+      continue;
+    }
+    short_log.push_back(e);
+  }
+  ReplayHash(loaded, short_log, decisions, &left);
+  EXPECT_GT(left, 0u) << "the missing scan's decision (and those after it) are left";
+}
+
+// decisions_log holds the decisions and every scan applied, as received: the map can be rebuilt
+// from it alone, even where the run's log missed a scan the mapper had.
+TEST_F(MapperNodeTest, TheDecisionsLogAloneRebuildsTheMap) {
+  MapperConfig loaded = config_;
+  loaded.max_backlog_s = 0.35;
+  loaded.order_wait_s = 0.1;
+  loaded.max_queue = 8;
+  loaded.decisions_log = TempPath("decisions.lcmlog");
+  uint64_t live_hash = 0;
+  int64_t live_epoch = 0;
+  {
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode live(lcm, loaded, clock);
+    FeedOverloaded(lcm, live, clock, events_, 10, {});
+    live_hash = live.map_hash();
+    live_epoch = live.epoch();
+  }
+  DecisionHistory history;
+  std::vector<std::pair<std::string, std::vector<uint8_t>>> scans;
+  {
+    LogTail log(loaded.decisions_log);
+    while (const std::optional<LoggedEvent> e = log.Next()) {
+      if (e->channel == "MAP_DECISIONS") {
+        map_decisions_t m;
+        std::string why;
+        ASSERT_TRUE(GuardedDecode(e->data.data(), e->data.size(), &m, &why)) << why;
+        ASSERT_TRUE(history.Add(m, &why)) << why;
+      } else {
+        scans.emplace_back(e->channel, e->data);
+      }
+    }
+  }
+  std::string why;
+  std::vector<map_decision_t> decisions = history.MapOf(live_epoch, &why);
+  ASSERT_FALSE(decisions.empty()) << why;
+  size_t applied = 0;
+  for (const map_decision_t& d : decisions) {
+    applied += d.action == map_decision_t::ACTION_APPLIED ? 1 : 0;
+  }
+  EXPECT_EQ(scans.size(), applied) << "exactly the scans applied, nothing else";
+  lcm::LCM lcm("memq://");
+  SimClock clock;
+  MapperConfig replay = config_;
+  MapperNode node(lcm, replay, clock);
+  node.FollowDecisions(std::move(decisions));
+  for (const auto& [channel, bytes] : scans)
+    node.HandleRecorded(channel, bytes.data(), bytes.size());
+  node.ApplyRemaining();
+  EXPECT_TRUE(node.decisions_to_follow().empty());
+  EXPECT_EQ(node.map_hash(), live_hash);
+  std::remove(loaded.decisions_log.c_str());
+}
+
+// A respawned mapper resumes its checkpoint: its decisions name the history the checkpoint holds
+// (the first N decisions of the life before), so the map of the last life is that history and
+// its own decisions, whatever the first life did after its checkpoint.
+TEST_F(MapperNodeTest, DecisionsContinueAcrossACheckpointResume) {
+  const std::string path = TempPath("decisions.kmap");
+  MapperConfig config = config_;
+  config.checkpoint_path = path;
+  config.run_id = "decisions-run";
+  config.max_backlog_s = 0.35;
+  config.order_wait_s = 0.1;
+  config.max_queue = 8;
+  lcm::LCM lcm("memq://");
+  DecisionsHeard heard(lcm);
+  SimClock clock;
+  int64_t first_epoch = 0, checkpointed = 0;
+  {
+    MapperNode first(lcm, config, clock);
+    first_epoch = first.epoch();
+    const std::vector<StreamEvent> half(events_.begin(), events_.begin() + events_.size() / 2);
+    FeedOverloaded(lcm, first, clock, half, 10, {});
+    ASSERT_TRUE(first.SaveCheckpoint());
+    checkpointed = first.decisions_taken();
+    // Work after the checkpoint, lost with the process (killed with -9).
+    Feed(lcm, first, clock,
+         std::vector<StreamEvent>(events_.begin() + events_.size() / 2,
+                                  events_.begin() + events_.size() / 2 + 60));
+    first.PublishDecisions();
+    while (lcm.handleTimeout(0) > 0) {
+    }
+    EXPECT_GT(first.decisions_taken(), checkpointed);
+  }
+  MapperNode second(lcm, config, clock);
+  ASSERT_TRUE(second.resumed());
+  ASSERT_EQ(second.resumed_lives().size(), 1u);
+  EXPECT_EQ(second.resumed_lives()[0].epoch, first_epoch);
+  EXPECT_EQ(second.resumed_lives()[0].last_seq, checkpointed);
+  FeedOverloaded(lcm, second, clock, events_, 10, {});  // the whole stream: the first half skipped
+  std::string why;
+  const std::vector<map_decision_t> decisions = heard.history.MapOf(second.epoch(), &why);
+  ASSERT_EQ(static_cast<int64_t>(decisions.size()), checkpointed + second.decisions_taken()) << why;
+  EXPECT_EQ(heard.history.lives(), (std::vector<int64_t>{first_epoch, second.epoch()}));
+  EXPECT_EQ(ReplayHash(config_, events_, decisions), second.map_hash());
+  // The first life's decisions after its checkpoint are not in the second's map.
+  EXPECT_NE(ReplayHash(config_, events_, heard.history.MapOf(first_epoch, &why)),
+            second.map_hash());
+  std::remove(path.c_str());
+}
+
+TEST(DecisionHistory, GathersMessagesInAnyOrderAndNamesWhatIsMissing) {
+  const auto decision = [](int64_t seq) {
+    map_decision_t d{};
+    d.channel = "SCAN_HOKUYO";
+    d.epoch = 7;
+    d.seq = seq;
+    d.ray_stride = 1;
+    d.orientation_wxyz[0] = 1;
+    return d;
+  };
+  const auto message = [&](int64_t epoch, int64_t first, int count,
+                           std::vector<std::pair<int64_t, int64_t>> lives) {
+    map_decisions_t m{};
+    m.epoch = epoch;
+    m.first_index = first;
+    for (int i = 0; i < count; ++i) m.decisions.push_back(decision(100 * epoch + first + i));
+    m.num_decisions = count;
+    for (const auto& [e, n] : lives) {
+      m.life_epochs.push_back(e);
+      m.life_decisions.push_back(n);
+    }
+    m.num_lives = static_cast<int32_t>(lives.size());
+    return m;
+  };
+  DecisionHistory h;
+  std::string why;
+  ASSERT_TRUE(h.Add(message(1, 3, 3, {}), &why)) << why;  // out of order
+  ASSERT_TRUE(h.Add(message(1, 0, 3, {}), &why)) << why;
+  ASSERT_TRUE(h.Add(message(1, 0, 3, {}), &why)) << "a message heard twice is harmless";
+  ASSERT_TRUE(h.Add(message(2, 0, 2, {{1, 4}}), &why)) << why;
+  std::vector<map_decision_t> map = h.MapOf(2, &why);
+  ASSERT_EQ(map.size(), 6u) << why;
+  EXPECT_EQ(map[0].seq, 100);
+  EXPECT_EQ(map[3].seq, 103) << "the first life's first 4 decisions";
+  EXPECT_EQ(map[4].seq, 200);
+  EXPECT_EQ(h.lives(), (std::vector<int64_t>{1, 2}));
+  // Contradictions are refused and change nothing.
+  map_decisions_t other = message(1, 2, 1, {});
+  other.decisions[0].ray_stride = 4;
+  EXPECT_FALSE(h.Add(other, &why));
+  EXPECT_NE(why.find("decision 2 heard twice, unlike"), std::string::npos) << why;
+  EXPECT_FALSE(h.Add(message(2, 2, 1, {{1, 5}}), &why));
+  EXPECT_NE(why.find("different resumed lives"), std::string::npos) << why;
+  map_decisions_t bad = message(3, 0, 1, {});
+  bad.num_decisions = 5;
+  EXPECT_FALSE(h.Add(bad, &why));
+  // A gap in the last life, or a resumed life never heard, is named.
+  ASSERT_TRUE(h.Add(message(2, 4, 1, {{1, 4}}), &why));
+  EXPECT_TRUE(h.MapOf(2, &why).empty());
+  EXPECT_NE(why.find("decision 2 of mapper epoch 2 is missing"), std::string::npos) << why;
+  ASSERT_TRUE(h.Add(message(4, 0, 1, {{9, 2}}), &why));
+  EXPECT_TRUE(h.MapOf(4, &why).empty());
+  EXPECT_NE(why.find("no decision of resumed mapper epoch 9"), std::string::npos) << why;
 }
 
 // A chunk whose block index times its edge overflows int (2^28 x 8) is refused, not applied:

@@ -49,7 +49,7 @@ def main():
     parser.add_argument("--burst")
     args = parser.parse_args()
     table = decoders()
-    truth, status, beats, explorer = [], [], {}, []
+    truth, status, beats, explorer, motors = [], [], {}, [], []
     undecodable = 0
     for utime, channel, data in events(args.log):
         t = table.get(data[:8])
@@ -68,6 +68,8 @@ def main():
             beats.setdefault(channel, []).append((utime, m))
         elif channel == "EXPLORATION_STATUS" and t is kestrel.exploration_status_t:
             explorer.append((utime, m))
+        elif channel == "MOTOR_COMMAND" and t is kestrel.motor_command_t:
+            motors.append((utime, m.epoch))
     failures = []
     print(f"log: {len(truth)} truths, {len(status)} controller statuses, "
           f"{sum(len(b) for b in beats.values())} heartbeats, {undecodable} malformed messages")
@@ -118,9 +120,16 @@ def main():
         if process == "HEARTBEAT_CONTROLLER":
             new_modes = [MODES.get(m.mode) for u, m in status if u > at][:1]
             print(f"  the respawned controller's first mode: {new_modes}")
+            # The rotors' own view of the gap: the old controller's last motor command to the new
+            # one's first (docs/design.md §2.5: the ESC hold must outlast it).
+            old_epochs = {e for u, e in motors if u <= at}
+            last_old = max((u for u, e in motors if e in old_epochs), default=None)
+            first_new = min((u for u, e in motors if u > at and e not in old_epochs), default=None)
+            if last_old is not None and first_new is not None:
+                print(f"  motor commands: none for {(first_new - last_old) * 1e-6:.2f} s")
             if new_modes != ["HOLD"]:
                 failures.append(f"the respawned controller started in {new_modes}, not HOLD")
-            if height_lost > 0.5:
+            if height_lost > 0.2:
                 failures.append(f"{height_lost:.2f} m lost while the controller was down")
 
     # Drops by reason, from each process's last heartbeat (its current life).

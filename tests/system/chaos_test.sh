@@ -11,7 +11,12 @@
 # was down and the respawned controller took over in HOLD (chaos_check.py), every process counted
 # in its heartbeat exactly the malformed messages sent on the channels it reads, each stand-in
 # lost about 10% of its frames, and the
-# mapper's final map equals the run's log replayed into a fresh mapper bit for bit.
+# mapper's final map equals the run's log replayed into a fresh mapper that follows the live
+# mapper's recorded decisions (which scans, which rays, which poses: docs/design.md §3.6) bit for
+# bit, whatever the load.
+# Environment: KESTREL_BUSY_LOOPS=N runs N busy loops beside the flight (a loaded host: the
+# label "loaded" test, -DKESTREL_LOADED_TESTS=ON); KESTREL_CHAOS_IGNORE_DECISIONS=1 replays
+# without the decisions (to show the check fails then when the live mapper fell behind).
 # Usage: chaos_test.sh BUILD_DIR ROOT IN_NETNS SECONDS WORLD MIN_KNOWN
 set -euo pipefail
 build=$1; root=$2; in_netns=$3; seconds=$4; world=$5; min_known=$6
@@ -26,6 +31,9 @@ exec "$in_netns" bash -c '
   [[ -n ${KESTREL_CHAOS_RUN:-} ]] || trap "kill -TERM \$(jobs -p) 2>/dev/null || true; sleep 2; kill -9 \$(jobs -p) 2>/dev/null || true; rm -rf \$KESTREL_RUN" EXIT
   # The world map limits, height and geofence (as scripts/demo).
   eval "$(scripts/world-env "$world")"
+  # A loaded host: busy loops beside the flight for its whole duration.
+  for i in $(seq "${KESTREL_BUSY_LOOPS:-0}"); do bash -c "while :; do :; done" & done
+  [[ ${KESTREL_BUSY_LOOPS:-0} -eq 0 ]] || echo "load: ${KESTREL_BUSY_LOOPS} busy loops beside the flight"
   "$build/common/procman/kestrel-procman" scripts/sheets/chaos_sim.procman --host sim --script fly \
     --log-dir "$KESTREL_RUN/logs" 2>"$KESTREL_RUN/runner.log" &
   runner=$!
@@ -65,11 +73,23 @@ exec "$in_netns" bash -c '
   sleep 2
   kill -TERM $runner
   wait $runner || true
+  for b in $(jobs -p); do [[ $b == "$runner" || $b == "$faults" ]] || kill "$b" 2>/dev/null || true; done
   live=$(sed -nE "s/.*stopped: .* map hash ([0-9a-f]+).*/\1/p" "$KESTREL_RUN/logs/mapper.log" | tail -1)
   grep -h "caught up\|resumed from" "$KESTREL_RUN/logs/mapper.log" | sed -E "s/^\[[0-9.]*\] //" | cut -c1-220
-  replay=$("$build/bin/kestrel-mapper" --config config/mapper.yaml --set map.min_m=$KESTREL_MAP_MIN \
-             --set map.max_m=$KESTREL_MAP_MAX --set traversal_thread=false \
-             --replay "$KESTREL_RUN/run.lcmlog")
+  # How often the live mapper changed its ray stride under the load (its log).
+  echo "overload: $(grep -c "overload: ray stride" "$KESTREL_RUN/logs/mapper.log" || true) ray-stride changes in the mapper log"
+  decisions=$(ls "$KESTREL_RUN"/mapper-decisions-*.lcmlog 2>/dev/null | head -1)
+  replay() {
+    "$build/bin/kestrel-mapper" --config config/mapper.yaml --set map.min_m=$KESTREL_MAP_MIN \
+      --set map.max_m=$KESTREL_MAP_MAX --set traversal_thread=false \
+      --replay "$KESTREL_RUN/run.lcmlog" "$@"
+  }
+  if [[ -n ${KESTREL_CHAOS_IGNORE_DECISIONS:-} ]]; then
+    replay=$(replay --ignore-decisions) || true
+  else
+    [[ -n $decisions ]] || { echo "FAIL: the mapper wrote no decisions_log"; status=1; }
+    replay=$(replay --decisions "$decisions") || true
+  fi
   echo "$replay"
   if [[ -n $live && $replay == *"map hash $live"* ]]; then
     echo "the final map equals the log replayed into a fresh mapper: hash $live"

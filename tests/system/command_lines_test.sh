@@ -76,6 +76,11 @@ expect 2 "unexpected argument .stray." "$build/sim/kestrel-sim" --set a=1 stray
 expect 2 "unexpected argument .stray." "$build/tools/world_env/kestrel-world-env" w.yaml stray
 # kestrel-cmd goto: a coordinate that is not a number is named.
 expect 2 "not a coordinate" "$build/tools/cmd/kestrel-cmd" goto 1 x 0
+# kestrel-report (a shell wrapper): --help and -h print the usage and exit 0 wherever they stand;
+# an option without its value is named.
+expect 0 "usage: kestrel-report" "$build/viewer/report/kestrel-report" --help
+expect 0 "usage: kestrel-report" "$build/viewer/report/kestrel-report" --log a.lcmlog -h
+expect 2 "--out needs a value" "$build/viewer/report/kestrel-report" --log a.lcmlog --out
 # A choice outside its set is named.
 expect 2 "--compression" "$build/viewer/foxglove/kestrel-mcap-export" --log a --out b --compression lz4
 

@@ -11,6 +11,8 @@
 # recorded in docs/STATUS.md, "Hardware in the loop"); the controller flew on
 # kestrel-imu's samples and the simulator on what the ESCs received; the drivers counted no
 # dropped frame and no bus error.
+# Environment: KESTREL_BUSY_LOOPS=N runs N busy loops beside the flight (a loaded host: the label
+# "loaded" test, -DKESTREL_LOADED_TESTS=ON); KESTREL_HIL_RUN=DIR keeps the run's files there.
 # Usage: hil_test.sh BUILD_DIR ROOT IN_NETNS WORLD
 set -euo pipefail
 build=$1; root=$2; in_netns=$3; world=$4
@@ -21,8 +23,10 @@ exec "$in_netns" bash -c '
   export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304"
   export KESTREL_BIN="$build/bin" KESTREL_WORLD="$world" PYTHONPATH="$build/lcmtypes/python"
   eval "$(scripts/world-env "$world")"
-  base=$(mktemp -d)
-  trap "kill -TERM \$(jobs -p) 2>/dev/null || true; sleep 1; kill -9 \$(jobs -p) 2>/dev/null || true; rm -rf \$base" EXIT
+  base=${KESTREL_HIL_RUN:-$(mktemp -d)}
+  mkdir -p "$base"
+  keep=${KESTREL_HIL_RUN:+yes}
+  trap "kill -TERM \$(jobs -p) 2>/dev/null || true; sleep 1; kill -9 \$(jobs -p) 2>/dev/null || true; [[ -n \"$keep\" ]] || rm -rf \$base" EXIT
   fail() { echo "FAIL: $*"; for f in "$base"/*/*.log "$base"/*/logs/*.log; do [[ -f $f ]] && { echo "== $f"; tail -n 6 "$f"; }; done; exit 1; }
   # The flight, the same in both runs: take-off, hover 6 s, 1 m along x in 3 s, landing.
   flight() {
@@ -37,6 +41,9 @@ exec "$in_netns" bash -c '
   export KESTREL_RUN=$base/hil KESTREL_RUN_ID=hil-test
   export KESTREL_IMU_PORT=$KESTREL_RUN/imu.tty KESTREL_ESC_BUS=unix:$KESTREL_RUN/esc.sock
   mkdir -p "$KESTREL_RUN"
+  # A loaded host: busy loops beside the flight for its whole duration.
+  for i in $(seq "${KESTREL_BUSY_LOOPS:-0}"); do bash -c "while :; do :; done" & done
+  [[ ${KESTREL_BUSY_LOOPS:-0} -eq 0 ]] || echo "load: ${KESTREL_BUSY_LOOPS} busy loops beside the flight"
   "$build/common/procman/kestrel-procman" scripts/sheets/hil_sim.procman --host sim \
     --start cmd:logger --start cmd:sim --start cmd:imu-emulator --start cmd:esc-emulator \
     --log-dir "$KESTREL_RUN/logs" 2>"$KESTREL_RUN/sim-runner.log" &

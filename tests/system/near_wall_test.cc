@@ -5,8 +5,10 @@
 // is 0.5 m then reads those zeros as "no return although the first occupied cell is in range"
 // (likelihood p_miss) and erases the wall in front of a vehicle that flies up to it, exactly
 // where the clearance matters. The shipped Xtion model's z_min covers the longest corner ray
-// (docs/algorithms.md §3.2). This test flies the simulator's camera up to a wall and asserts the
-// wall stays mapped with the shipped model, and is erased with z_min = 0.5 m (so it can fail).
+// (docs/algorithms.md §3.4). This test flies the simulator's camera up to a wall and asserts the
+// wall stays mapped with the shipped model, and is erased with z_min = 0.5 m and the zeros read
+// as no-returns (so it can fail). The shipped model reads a 0 as no evidence at all: zeros from a
+// door jamb in the blind zone then free nothing behind the wall.
 #include <cmath>
 #include <vector>
 
@@ -104,10 +106,69 @@ TEST(NearWall, ShippedXtionModelKeepsTheWallTheCameraIsTooCloseToSee) {
   EXPECT_GT(FaceOccupiedAfterCloseApproach(shipped), 0.95);
 }
 
+// With a 0 read as "no return" (no_return_informs), a range limit of the axial minimum erases
+// the wall the camera is too close to see; with the shipped rule a 0 is no evidence at all.
 TEST(NearWall, RangeLimitOfTheAxialMinimumErasesTheWall) {
   SensorModelConfig axial = ShippedXtionModel();
   axial.z_min_m = 0.5;
+  axial.no_return_informs = true;
   EXPECT_LT(FaceOccupiedAfterCloseApproach(axial), 0.5);
+}
+
+// The end of a thin wall (a door jamb) 0.3 m in front of the camera, nearer than its minimum:
+// every pixel that meets it reads 0. The room behind the wall is out of every ray's reach. Read as
+// "no return", the zeros free it within a few frames (each 0 multiplies the odds of every far cell
+// by about q p_miss + 1 - q, q the belief that the blind zone is empty: docs/algorithms.md §3.4);
+// with the shipped model (a 0 is no evidence) not one cell behind the wall becomes known free.
+int CellsBehindTheJambKnownFree(const SensorModelConfig& xtion, int frames) {
+  World world;
+  world.map_min_m = Eigen::Vector3d(-1.0, -2.0, 0.0);
+  world.map_max_m = Eigen::Vector3d(4.0, 3.0, 2.0);
+  WorldBox jamb;  // the wall: x 0.3..0.4, from y = -0.2 north
+  jamb.center_m = Eigen::Vector3d(0.35, 1.4, 1.0);
+  jamb.half_extents_m = Eigen::Vector3d(0.05, 1.6, 1.0);
+  world.boxes.push_back(jamb);
+  WorldBox back;  // a far wall, so that the pixels past the jamb's end return
+  back.center_m = Eigen::Vector3d(3.1, 0.5, 1.0);
+  back.half_extents_m = Eigen::Vector3d(0.1, 2.5, 1.0);
+  world.boxes.push_back(back);
+  const WorldRayCaster caster(world);
+  const DepthCamera camera(DepthCameraConfig::WithResolution(80, 60));
+  const DepthCameraConfig& cc = camera.config();
+  const DepthIntrinsics in{camera.fx_px(), camera.fy_px(), camera.cx_px(), camera.cy_px()};
+  MapLimits limits;
+  limits.min_m = world.map_min_m;
+  limits.max_m = world.map_max_m;
+  auto map = MakeExactDenseMap(limits, OccupancyLimits{}, xtion.z_max_m);
+  ScanIntegrator integrator(map.get());
+  const SensorModel model(xtion);
+  SimRandom rng(11);
+  std::vector<uint16_t> counts;
+  const Pose3 X_WS = CameraAt(0.0);
+  for (int i = 0; i < frames; ++i) {
+    camera.Render(caster, X_WS, &rng, &counts);
+    integrator.IntegrateDepthImage(X_WS, in, counts.data(), cc.width_px, cc.height_px,
+                                   cc.depth_scale_m, model);
+  }
+  const GridGeometry& g = map->grid().geometry();
+  int known_free = 0;
+  for (double x = 0.5; x <= 2.9; x += g.resolution_m()) {
+    for (double y = 0.1; y <= 2.5; y += g.resolution_m()) {
+      for (double z = 0.5; z <= 1.5; z += g.resolution_m()) {
+        const auto cell = g.CellOf(Eigen::Vector3d(x, y, z));
+        if (cell && map->ProbabilityAt(*cell) < 0.05) ++known_free;  // P < P_init / 2
+      }
+    }
+  }
+  return known_free;
+}
+
+TEST(NearWall, ZerosFromAJambInTheBlindZoneFreeNothingBehindTheWall) {
+  SensorModelConfig zero_is_no_return = ShippedXtionModel();
+  zero_is_no_return.no_return_informs = true;
+  EXPECT_GT(CellsBehindTheJambKnownFree(zero_is_no_return, 15), 1000)
+      << "read as no return, the zeros free the room no ray reached";
+  EXPECT_EQ(CellsBehindTheJambKnownFree(ShippedXtionModel(), 15), 0);
 }
 
 }  // namespace

@@ -86,6 +86,14 @@ class FoxgloveServerTest : public ::testing::Test {
     received_.erase(0, end + 4);
     return response;
   }
+  // A handshake asking for the subprotocol from a page of `origin` is refused with 403.
+  void ExpectForbidden(const std::string& origin) {
+    const std::string response =
+        Handshake("Sec-WebSocket-Protocol: foxglove.websocket.v1\r\nOrigin: " + origin + "\r\n");
+    EXPECT_EQ(response.rfind("HTTP/1.1 403", 0), 0u) << origin << ": " << response;
+    close(fd_);
+    received_.clear();
+  }
   // The next complete frame, waiting for it.
   std::optional<Frame> NextFrame() {
     std::optional<Frame> frame;
@@ -251,12 +259,36 @@ TEST_F(FoxgloveServerTest, RefusesAHandshakeWithoutTheSubprotocolOrFromAForeignP
   EXPECT_EQ(plain.rfind("HTTP/1.1 400", 0), 0u) << plain;
   close(fd_);
   received_.clear();
-  const std::string foreign = Handshake(
-      "Sec-WebSocket-Protocol: foxglove.websocket.v1\r\n"
-      "Origin: http://evil.example\r\n");
-  EXPECT_EQ(foreign.rfind("HTTP/1.1 400", 0), 0u) << foreign;
-  EXPECT_EQ(server_->counters().refused, 2);
+  // A foreign page, Foxglove's web app among them while allowed_origins does not list it.
+  for (const char* origin : {"http://evil.example", "https://app.foxglove.dev"}) {
+    ExpectForbidden(origin);
+  }
+  EXPECT_EQ(server_->counters().refused, 3);
   EXPECT_EQ(server_->clients(), 0);
+}
+
+// allowed_origins = [https://app.foxglove.dev]: Foxglove's web app connects (101, the
+// subprotocol, Server Info), written in any case; another page is still refused.
+TEST_F(FoxgloveServerTest, AnAllowedOriginConnects) {
+  FoxgloveServer::Options options;
+  options.port = 0;
+  options.allowed_origins = {"https://app.foxglove.dev"};
+  server_ = std::make_unique<FoxgloveServer>(options);
+  port_ = server_->port();
+  const std::string app = Handshake(
+      "Sec-WebSocket-Protocol: foxglove.websocket.v1\r\nOrigin: https://App.Foxglove.dev\r\n");
+  EXPECT_EQ(app.rfind("HTTP/1.1 101", 0), 0u) << app;
+  EXPECT_NE(app.find("Sec-WebSocket-Protocol: foxglove.websocket.v1"), std::string::npos) << app;
+  const json info = NextJson();
+  EXPECT_EQ(info["op"], "serverInfo");
+  close(fd_);
+  received_.clear();
+  for (const char* origin : {"http://evil.example", "https://app.foxglove.dev.evil.example",
+                             "http://app.foxglove.dev"}) {
+    ExpectForbidden(origin);
+  }
+  EXPECT_EQ(server_->counters().connections, 1);
+  EXPECT_EQ(server_->counters().refused, 3);
 }
 
 // The node: LCM messages (memq://) reach a subscribed client as Foxglove messages, the map's

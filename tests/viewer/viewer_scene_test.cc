@@ -359,6 +359,28 @@ std::string RefusalOf(const std::string& yaml) {
   return "";
 }
 
+// The allowed origins: empty by default; a list is read for the page and for Foxglove, each
+// entry checked (a path or "*" refused, naming the key); the shipped file's lists are empty.
+TEST(ViewerConfig, AllowedOriginsAreReadAndChecked) {
+  ConfigNode none = ConfigNode::FromString("port: 0\n", "v.yaml");
+  const ViewerConfig defaults = LoadViewerConfig(none);
+  EXPECT_TRUE(defaults.allowed_origins.empty());
+  EXPECT_TRUE(defaults.foxglove_allowed_origins.empty());
+  ConfigNode app = ConfigNode::FromString(
+      "allowed_origins: [http://10.0.0.5:8080]\n"
+      "foxglove: {allowed_origins: [https://app.foxglove.dev]}\n",
+      "v.yaml");
+  const ViewerConfig c = LoadViewerConfig(app);
+  EXPECT_EQ(c.allowed_origins, std::vector<std::string>{"http://10.0.0.5:8080"});
+  EXPECT_EQ(c.foxglove_allowed_origins, std::vector<std::string>{"https://app.foxglove.dev"});
+  EXPECT_NE(RefusalOf("foxglove: {allowed_origins: [https://app.foxglove.dev/]}\n")
+                .find("foxglove.allowed_origins: 'https://app.foxglove.dev/'"),
+            std::string::npos);
+  EXPECT_NE(RefusalOf("allowed_origins: ['*']\n").find("allowed_origins: '*'"), std::string::npos);
+  EXPECT_NE(RefusalOf("allowed_origins: https://app.foxglove.dev\n").find("a list of strings"),
+            std::string::npos);
+}
+
 // The vehicles: one without a prefix by default; a list is read in order and reaches the scene;
 // a duplicate, a bad character, an empty list or more than 16 are refused, naming the entry.
 TEST(ViewerConfig, VehiclesAreReadAndChecked) {

@@ -161,6 +161,66 @@ TEST(WebSocketOrigin, OnlyThisServersPages) {
   EXPECT_FALSE(WebSocketOriginAllowed("http://rebound.example:8740", 8740));  // DNS rebinding
 }
 
+// allowed_origins adds whole origins, compared without regard to case; a prefix, another scheme
+// or another port of a listed origin is not it.
+TEST(WebSocketOrigin, AllowedOriginsAreMatchedWhole) {
+  const std::vector<std::string> allowed{"https://app.foxglove.dev", "http://10.0.0.5:8080"};
+  EXPECT_TRUE(WebSocketOriginAllowed("https://app.foxglove.dev", 8765, allowed));
+  EXPECT_TRUE(WebSocketOriginAllowed("HTTPS://APP.FOXGLOVE.DEV", 8765, allowed));
+  EXPECT_TRUE(WebSocketOriginAllowed("http://10.0.0.5:8080", 8765, allowed));
+  EXPECT_TRUE(WebSocketOriginAllowed("http://127.0.0.1:8765", 8765, allowed));  // its own
+  EXPECT_FALSE(WebSocketOriginAllowed("https://app.foxglove.dev", 8765));       // not listed
+  EXPECT_FALSE(WebSocketOriginAllowed("http://app.foxglove.dev", 8765, allowed));
+  EXPECT_FALSE(WebSocketOriginAllowed("https://app.foxglove.dev.evil.example", 8765, allowed));
+  EXPECT_FALSE(WebSocketOriginAllowed("https://app.foxglove.dev:444", 8765, allowed));
+  EXPECT_FALSE(WebSocketOriginAllowed("http://10.0.0.5", 8765, allowed));
+  EXPECT_FALSE(WebSocketOriginAllowed("null", 8765, allowed));
+}
+
+TEST(WebSocketOrigin, AnAllowedOriginMustBeOneOrigin) {
+  for (const char* ok : {"https://app.foxglove.dev", "http://localhost:3000", "http://[::1]:80",
+                         "http://10.0.0.5:65535", "HTTPS://Example.COM"}) {
+    EXPECT_EQ(CheckAllowedOrigin(ok), "") << ok;
+  }
+  const std::vector<std::pair<std::string, std::string>> refused = {
+      {"*", "every"},
+      {"null", "every local file"},
+      {"app.foxglove.dev", "http:// or https://"},
+      {"ws://app.foxglove.dev", "http:// or https://"},
+      {"https://app.foxglove.dev/", "'/'"},
+      {"https://app.foxglove.dev/path", "'/'"},
+      {"https://", "no host"},
+      {"https://host:", "without a port"},
+      {"https://host:0", "outside [1, 65535]"},
+      {"https://host:70000", "outside [1, 65535]"},
+      {"https://host:80/", "not a number"},
+      {"https://ho st", "' ' in the host"},
+      {"http://[::1", "without its ']'"}};
+  for (const auto& [origin, why] : refused) {
+    const std::string said = CheckAllowedOrigin(origin);
+    EXPECT_NE(said.find(why), std::string::npos) << origin << ": " << said;
+  }
+}
+
+// A page of an origin in allowed_origins may open the page's WebSocket; others still may not.
+TEST_F(ViewerServerTest, AcceptsWebSocketsFromAllowedOrigins) {
+  ViewerServer::Options options;
+  options.port = 0;
+  options.web_root = web_root_;
+  options.allowed_origins = {"http://10.0.0.5:8080"};
+  server_ = std::make_unique<ViewerServer>(options);
+  int fd = Connect();
+  std::string response = Handshake(fd, "Origin: http://10.0.0.5:8080\r\n");
+  EXPECT_EQ(response.rfind("HTTP/1.1 101", 0), 0u) << response;
+  close(fd);
+  fd = Connect();
+  response = Handshake(fd, "Origin: http://10.0.0.6:8080\r\n");
+  EXPECT_EQ(response.rfind("HTTP/1.1 403", 0), 0u) << response;
+  close(fd);
+  EXPECT_EQ(server_->counters().connections, 1);
+  EXPECT_EQ(server_->counters().refused_origin, 1);
+}
+
 // A page that goes away (reset) while a large update is being written costs an error count, not
 // the bridge: the next page still gets its snapshot.
 TEST_F(ViewerServerTest, APageThatDisconnectsMidSendIsForgotten) {

@@ -11,6 +11,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/command_line.h"
+#include "common/node_loop.h"
 #include "common/process.h"
 #include "tools/fault/malformed.h"
 
@@ -68,8 +69,16 @@ int main(int argc, char** argv) {
         lcm::Subscription* sub = lcm.subscribe(".*", &Sampler::Handle, &sampler);
         const auto end = std::chrono::steady_clock::now() +
                          std::chrono::milliseconds(static_cast<int64_t>(seconds_listen * 1000));
-        while (std::chrono::steady_clock::now() < end) lcm.handleTimeout(20);
+        while (std::chrono::steady_clock::now() < end && !kestrel::NodeLoop::signal_received()) {
+          lcm.handleTimeout(20);
+        }
         lcm.unsubscribe(sub);
+        if (const int signum = kestrel::NodeLoop::received_signal()) {
+          std::fprintf(stderr,
+                       "kestrel-fault: interrupted by signal %d while listening; nothing sent\n",
+                       signum);
+          return kestrel::NodeLoop::ExitCodeForSignal(signum);
+        }
         std::vector<std::string> channels = named;
         if (channels.empty()) {
           for (const auto& entry : sampler.first) channels.push_back(entry.first);

@@ -23,6 +23,8 @@
 #include "kestrel/imu_t.hpp"
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
+#include "kestrel/map_decision_t.hpp"
+#include "kestrel/map_decisions_t.hpp"
 #include "kestrel/map_status_t.hpp"
 #include "kestrel/motor_command_t.hpp"
 #include "kestrel/named_value_t.hpp"
@@ -48,12 +50,13 @@ std::vector<std::pair<std::string, int64_t>> TypeTable() {
 const std::vector<std::pair<std::string, int64_t>>& Types() {
   static const auto table =
       TypeTable<candidate_t, command_t, controller_status_t, depth_image_t, exploration_status_t,
-                grid_map_t, heartbeat_t, imu_t, map3d_chunk_t, map3d_delta_t, map_status_t,
-                motor_command_t, named_value_t, param_t, params_request_t, params_t, planar_scan_t,
-                pose_t, procman_command_t, procman_order_t, procman_status_t, sim_truth_t,
-                trajectory_t, bot_procman::command2_t, bot_procman::deputy_cmd2_t,
-                bot_procman::discovery_t, bot_procman::info2_t, bot_procman::orders2_t,
-                bot_procman::printf_t, bot_procman::sheriff_cmd2_t>();
+                grid_map_t, heartbeat_t, imu_t, map3d_chunk_t, map3d_delta_t, map_decision_t,
+                map_decisions_t, map_status_t, motor_command_t, named_value_t, param_t,
+                params_request_t, params_t, planar_scan_t, pose_t, procman_command_t,
+                procman_order_t, procman_status_t, sim_truth_t, trajectory_t,
+                bot_procman::command2_t, bot_procman::deputy_cmd2_t, bot_procman::discovery_t,
+                bot_procman::info2_t, bot_procman::orders2_t, bot_procman::printf_t,
+                bot_procman::sheriff_cmd2_t>();
   return table;
 }
 

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "common/command_line.h"
+#include "common/node_loop.h"
 #include "common/process.h"
 #include "tools/fidelity/calibrate.h"
 
@@ -34,6 +35,8 @@ int main(int argc, char** argv) {
         app.add_option("--out", out_path);
       },
       [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
+        // A batch tool: Ctrl-C or SIGTERM ends it at once (nothing half-done is worth saving).
+        kestrel::NodeLoop::RestoreDefaultSignalActions();
         if (!args.config_path.empty()) cc.mapper_file = args.config_path;
         cc.overrides = args.overrides;
         const auto results = kestrel::CalibrateFromLog(cc);

@@ -3,8 +3,11 @@
 #include <cmath>
 #include <functional>
 #include <memory>
+#include <optional>
+#include <stdexcept>
 
 #include "common/config.h"
+#include "sim/ray_reach.h"
 #include "tools/fidelity/log_replay.h"
 #include "tools/fidelity/octomap_peer.h"
 #include "tools/map_score/map_scorer.h"
@@ -42,7 +45,8 @@ FidelityResult RunFidelity(const FidelityConfig& config) {
   const GridGeometry& geometry = replay.mapper(0).geometry();
   const GridSpec grid = GridSpecOf(geometry);
   const WorldRayCaster caster(world);
-  const MapScorer scorer(world, caster, grid, config.scoring_range_m, config.scoring_vfov_rad);
+  const MapScorer scorer(world, caster, grid, config.scoring_range_m, config.scoring_vfov_rad,
+                         mapper_configs.front().sensors.front().model.no_return_informs);
 
   std::unique_ptr<OctoMapPeer> octomap;
   if (config.octomap) {
@@ -77,6 +81,26 @@ FidelityResult RunFidelity(const FidelityConfig& config) {
     entropy_start[i] =
         EntropyBits(std::vector<double>(grid.size(), priors[i]), scorer.observable());
   }
+  // Claims without grounds (docs/algorithms.md §12.5): one tracker per map, sampled every
+  // claims_period_s of log time; the reach record's times are the simulator's, as the log's.
+  std::optional<RayReach> reach;
+  if (!config.reach_path.empty()) {
+    reach.emplace(ReadRayReachFile(PathUnderRoot(config.root, config.reach_path)));
+    if (reach->grid().dims != grid.dims ||
+        (reach->grid().min_m - grid.min_m).cwiseAbs().maxCoeff() > 1e-9) {
+      throw std::runtime_error("RunFidelity: the reach record " + config.reach_path +
+                               " is not on the mappers' lattice");
+    }
+  }
+  std::vector<ClaimTracker> claims(n, ClaimTracker(world, grid, scorer.truth()));
+  const int64_t claims_period = static_cast<int64_t>(config.claims_period_s * 1e6);
+  int64_t next_claims = -1;
+  const auto sample_claims = [&](int64_t utime) {
+    for (size_t i = 0; i < n; ++i) {
+      claims[i].Sample(1e-6 * static_cast<double>(utime),
+                       KnownFreeBelow(probabilities(i), priors[i]));
+    }
+  };
   int64_t first_utime = -1, next_sample = -1, last_utime = 0;
   const auto sample = [&](int64_t utime) {
     for (size_t i = 0; i < n; ++i) {
@@ -91,8 +115,12 @@ FidelityResult RunFidelity(const FidelityConfig& config) {
   };
   const int64_t period = static_cast<int64_t>(config.sample_period_s * 1e6);
   replay.Run(PathUnderRoot(config.root, config.log_path), [&](int64_t utime) {
-    if (first_utime < 0) first_utime = utime, next_sample = utime + period;
+    if (first_utime < 0) first_utime = utime, next_sample = utime + period, next_claims = utime;
     last_utime = utime;
+    if (reach && claims_period > 0 && utime >= next_claims) {
+      sample_claims(utime);
+      next_claims += claims_period;
+    }
     if (period > 0 && utime >= next_sample) {
       sample(utime);
       next_sample += period;
@@ -102,6 +130,7 @@ FidelityResult RunFidelity(const FidelityConfig& config) {
     throw std::runtime_error("RunFidelity: the log " + config.log_path + " is empty");
   result.log_duration_s = 1e-6 * static_cast<double>(last_utime - first_utime);
   sample(last_utime);
+  if (reach) sample_claims(last_utime);
 
   // Final figures, and the cells known in every map.
   std::vector<std::vector<double>> finals;
@@ -151,6 +180,8 @@ FidelityResult RunFidelity(const FidelityConfig& config) {
         }
       }
     }
+    s.claims = claims[i].Claims(KnownFreeBelow(finals[i], priors[i]),
+                                reach ? &reach->first_reach_s() : nullptr);
     s.entropy_start_bits = entropy_start[i];
     s.entropy_end_bits = EntropyBits(finals[i], scorer.observable());
     s.scans = i < replay.size() ? replay.mapper(i).scans_applied() : octomap->scans();

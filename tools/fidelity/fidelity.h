@@ -11,6 +11,7 @@
 
 #include "mapping/map_quality.h"
 #include "sim/world.h"
+#include "tools/map_score/map_claims.h"
 
 namespace kestrel {
 
@@ -31,6 +32,11 @@ struct FidelityConfig {
   double sample_period_s{10.0};                  ///< curve samples every this much log time, s
   double scoring_range_m{4.0};                   ///< observable cells: sensor range, m
   double scoring_vfov_rad{45.0 * M_PI / 180.0};  ///< and vertical field of view
+  /// The flight's ray reach record (kestrel-mission --reach; sim/ray_reach.h): with it, every
+  /// map's claims include the cells no ray reached and the cells freed before a ray reached them
+  /// ("": without those two figures).
+  std::string reach_path;
+  double claims_period_s{1.0};  ///< known-free samples for the freed-early figure, log s
 };
 
 /// One map's figures. The four of docs/algorithms.md §12.2 use each map's own rule and prior (an
@@ -55,6 +61,8 @@ struct FidelityScore {
   size_t false_occupied_at_surface{0};
   /// (entropy_start - entropy_end) / scans: the mean information a scan added, bits.
   double entropy_drop_per_scan_bits{0.0};
+  /// Cells known free without grounds (docs/algorithms.md §12.5), by the map's own rule.
+  MapClaims claims;
 };
 
 /// A sample of the curves.

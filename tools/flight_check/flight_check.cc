@@ -19,6 +19,7 @@
 
 #include "common/command_line.h"
 #include "common/lcm_decode.h"
+#include "common/node_loop.h"
 #include "common/process.h"
 #include "kestrel/controller_status_t.hpp"
 #include "kestrel/exploration_status_t.hpp"
@@ -32,7 +33,9 @@ const char* const kUsage =
     "usage: kestrel-flight-check URL SECONDS [--until-landed] [--csv FILE] [--hover HEIGHT_M]\n"
     "                            [--no-map-loss]\n"
     "Listens on URL for SECONDS (wall time) and checks that the system flies and maps; exits 0\n"
-    "when every check passes. --csv writes MAP_STATUS over time, one flushed line per status.\n";
+    "when every check passes. --csv writes MAP_STATUS over time, one flushed line per status.\n"
+    "SIGINT or SIGTERM ends the listening early: what was heard is reported and checked, and the\n"
+    "exit code is 128 + the signal.\n";
 
 /// Listens for `seconds` and prints what it saw and the checks; returns the exit code.
 int CheckFlight(const std::string& url, double seconds, bool until_landed, bool no_map_loss,
@@ -119,7 +122,8 @@ int CheckFlight(const std::string& url, double seconds, bool until_landed, bool 
   const auto end = std::chrono::steady_clock::now() +
                    std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000));
   const auto t_start = std::chrono::steady_clock::now();
-  while (std::chrono::steady_clock::now() < end) {
+  // SIGINT or SIGTERM ends the listening early: what was heard is still reported and checked.
+  while (std::chrono::steady_clock::now() < end && !kestrel::NodeLoop::signal_received()) {
     lcm.handleTimeout(50);
     if (until_landed && explorer_done && controller_mode == kestrel::controller_status_t::MODE_IDLE)
       break;
@@ -198,6 +202,13 @@ int CheckFlight(const std::string& url, double seconds, bool until_landed, bool 
           "fewer than two whole map snapshots or no delta received");
   }
   std::printf("%s\n", failures == 0 ? "PASS" : "FAIL");
+  if (const int signum = kestrel::NodeLoop::received_signal()) {
+    std::printf(
+        "interrupted by signal %d after %.1f s of listening: the checks are of what was "
+        "heard\n",
+        signum, listened_s);
+    return kestrel::NodeLoop::ExitCodeForSignal(signum);
+  }
   return failures == 0 ? 0 : 1;
 }
 }  // namespace

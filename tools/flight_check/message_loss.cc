@@ -13,6 +13,7 @@
 #include "kestrel/imu_t.hpp"
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
+#include "kestrel/map_decisions_t.hpp"
 #include "kestrel/map_status_t.hpp"
 #include "kestrel/motor_command_t.hpp"
 #include "kestrel/planar_scan_t.hpp"
@@ -36,13 +37,14 @@ int64_t BigEndian64(const uint8_t* p) {
 // publisher's epoch (after the fingerprint and utime). grid_map_t is not one: its seq is the
 // explorer's plan number, and the 2D maps go out only every map2d_period_s.
 bool NumberedOneByOne(int64_t hash) {
-  static const int64_t kHashes[] = {command_t::getHash(),       controller_status_t::getHash(),
-                                    depth_image_t::getHash(),   exploration_status_t::getHash(),
-                                    heartbeat_t::getHash(),     imu_t::getHash(),
-                                    map_status_t::getHash(),    motor_command_t::getHash(),
-                                    planar_scan_t::getHash(),   pose_t::getHash(),
-                                    procman_order_t::getHash(), procman_status_t::getHash(),
-                                    sim_truth_t::getHash(),     trajectory_t::getHash()};
+  static const int64_t kHashes[] = {command_t::getHash(),        controller_status_t::getHash(),
+                                    depth_image_t::getHash(),    exploration_status_t::getHash(),
+                                    heartbeat_t::getHash(),      imu_t::getHash(),
+                                    map_status_t::getHash(),     map_decisions_t::getHash(),
+                                    motor_command_t::getHash(),  planar_scan_t::getHash(),
+                                    pose_t::getHash(),           procman_order_t::getHash(),
+                                    procman_status_t::getHash(), sim_truth_t::getHash(),
+                                    trajectory_t::getHash()};
   for (const int64_t h : kHashes) {
     if (h == hash) return true;
   }

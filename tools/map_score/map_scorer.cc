@@ -6,13 +6,12 @@
 namespace kestrel {
 
 MapScorer::MapScorer(const World& world, const WorldRayCaster& caster, const GridSpec& grid,
-                     double max_range_m, double vertical_fov_rad)
+                     double max_range_m, double vertical_fov_rad, bool camera_no_return_informs)
     : grid_(grid), truth_(VoxelizeWorld(world, grid)) {
-  ObservabilityConfig oc;
-  oc.max_range_m = max_range_m;
-  oc.elevation_min_rad = -0.5 * vertical_fov_rad;
-  oc.elevation_max_rad = 0.5 * vertical_fov_rad;
-  observable_ = ComputeObservableCells(world, caster, grid, oc).observable;
+  observable_ =
+      ComputeObservableCells(world, caster, grid,
+                             SensorSweep(max_range_m, vertical_fov_rad, camera_no_return_informs))
+          .observable;
 }
 
 std::vector<double> MapScorer::Probabilities(

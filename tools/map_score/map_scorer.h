@@ -23,9 +23,11 @@ namespace kestrel {
 
 class MapScorer {
  public:
-  /// Ground truth of `world` on `grid`; rays of the sweep reach max_range_m within +-vfov/2.
+  /// Ground truth of `world` on `grid`; rays of the sweep reach max_range_m within +-vfov/2. A
+  /// ray that meets nothing observes only in the LIDAR's plane unless `camera_no_return_informs`
+  /// (the depth camera model's no_return_informs: docs/algorithms.md §3.4, §12.1).
   MapScorer(const World& world, const WorldRayCaster& caster, const GridSpec& grid,
-            double max_range_m, double vertical_fov_rad);
+            double max_range_m, double vertical_fov_rad, bool camera_no_return_informs = false);
 
   /// P of every cell of the grid, in its linear order (as truth() and observable()).
   [[nodiscard]] std::vector<double> Probabilities(

@@ -27,6 +27,7 @@
 #include "kestrel/grid_map_t.hpp"
 #include "mapping/mapper_node.h"
 #include "sim/ground_truth.h"
+#include "sim/ray_reach.h"
 #include "sim/sim_node.h"
 #include "tools/map_score/map_scorer.h"
 
@@ -400,14 +401,20 @@ class Mission {
     }
   }
 
-  // Ground truth for map quality (docs/algorithms.md §12.2) on the mapper's lattice, and the
-  // fault injection's relays: a seeded fraction of depth images and scans dropped, and every
-  // pose during the motion-capture outage.
+  // Ground truth for map quality (docs/algorithms.md §12.2) on the mapper's lattice, where the
+  // simulator's rays reached and the map's claims against it (§12.5), and the fault injection's
+  // relays: a seeded fraction of depth images and scans dropped, and every pose during the
+  // motion-capture outage.
   void StartQualityAndFaults() {
     if (mc_.compute_quality) {
-      scorer_.emplace(sim_config_.world, sim_->simulator().caster(),
-                      GridSpecOf(mapper_->geometry()), mapper_config_.sensors[0].model.z_max_m,
-                      sim_config_.depth.vfov_deg * M_PI / 180.0);
+      const GridSpec grid = GridSpecOf(mapper_->geometry());
+      scorer_.emplace(sim_config_.world, sim_->simulator().caster(), grid,
+                      mapper_config_.sensors[0].model.z_max_m,
+                      sim_config_.depth.vfov_deg * M_PI / 180.0,
+                      mapper_config_.sensors[0].model.no_return_informs);
+      reach_.emplace(grid);
+      sim_->mutable_simulator().SetRayReach(&*reach_);
+      claims_.emplace(sim_config_.world, grid, scorer_->truth());
     }
     const int64_t start_utime = clock_.NowUtime();
     outage_begin_ =
@@ -429,6 +436,13 @@ class Mission {
   [[nodiscard]] MapQuality Quality() const {
     return scorer_->Score([&](const CellIndex& c) { return mapper_->ProbabilityAt(c); },
                           mapper_config_.occupancy.p_init);
+  }
+
+  // The cells the map holds known free now (tools/map_score/map_claims.h).
+  [[nodiscard]] std::vector<uint8_t> KnownFree() const {
+    return KnownFreeBelow(
+        scorer_->Probabilities([&](const CellIndex& c) { return mapper_->ProbabilityAt(c); }),
+        mapper_config_.occupancy.p_init);
   }
 
   // --- The lockstep loop.
@@ -666,6 +680,7 @@ class Mission {
     s.position_m = position_;
     s.explorer_state = explorers_.front() ? static_cast<int>(explorer().state()) : -1;
     if (mc_.compute_quality) {
+      claims_->Sample(t, KnownFree());
       const MapQuality q = Quality();
       s.known_fraction = q.known_fraction;
       s.accuracy = q.accuracy;
@@ -695,8 +710,8 @@ class Mission {
     }
   }
 
-  // The end: every vehicle landed after the land command, the known fraction reached, or the
-  // time limit.
+  // The end: every vehicle landed after the land command, the known fraction reached, the time
+  // limit, or a stop requested (kestrel-mission: SIGINT or SIGTERM).
   bool Finished(double t, int64_t) {
     if (land_utime_ >= 0 &&
         std::all_of(controllers_.begin(), controllers_.end(), [](const auto& c) {
@@ -715,6 +730,11 @@ class Mission {
     }
     if (t >= mc_.max_time_s) {
       r_.end_reason = "time limit " + std::to_string(mc_.max_time_s) + " s";
+      return true;
+    }
+    if (mc_.stop_requested && mc_.stop_requested()) {
+      r_.interrupted = true;
+      r_.end_reason = "interrupted after " + Fixed3(t) + " s simulated";
       return true;
     }
     return false;
@@ -766,7 +786,11 @@ class Mission {
     r_.mapper_applied_every_message = mapper_->applied_every_message();
     r_.map_hash = mapper_->map_hash();
     r_.final_entropy_nats = mapper_->entropy_nats();
-    if (mc_.compute_quality) r_.quality = Quality();
+    if (mc_.compute_quality) {
+      r_.quality = Quality();
+      sim_->mutable_simulator().SetRayReach(nullptr);
+      r_.claims = claims_->Claims(KnownFree(), &reach_->first_reach_s());
+    }
   }
 
   // The first explorer's replans: wall and CPU times, stage medians, the volumetric gain's work.
@@ -804,8 +828,13 @@ class Mission {
         rays > 0 ? static_cast<double>(hits) / static_cast<double>(rays) : 0;
   }
 
-  // The files asked for: the map and its exports, the time series, one row per replan.
+  // The files asked for: where the rays reached, the map and its exports, the time series, one
+  // row per replan.
   void WriteFiles() {
+    if (reach_ && !mc_.reach_path.empty()) {
+      std::string error;
+      if (!WriteRayReachFile(mc_.reach_path, *reach_, &error)) throw std::runtime_error(error);
+    }
     if (!mc_.map_path.empty()) mapper_->SaveMapFile(mc_.map_path);
     if (!mc_.octomap_path.empty()) mapper_->ExportOctoMapFile(mc_.octomap_path);
     if (!mc_.ply_path.empty()) mapper_->ExportPlyFile(mc_.ply_path);
@@ -859,6 +888,8 @@ class Mission {
   GuardedSubscriptions watch_{lcm_};
   bool first_plan_seen_{false};
   std::optional<MapScorer> scorer_;
+  std::optional<RayReach> reach_;
+  std::optional<ClaimTracker> claims_;
   std::mt19937_64 fault_rng_{static_cast<uint64_t>(mc_.seed) * 7 + 3};
   std::vector<Relay> relays_;
   int64_t outage_begin_{-1};
@@ -933,6 +964,11 @@ std::string MissionSummary(const MissionResult& r) {
     << "known fraction: " << r.quality.known_fraction << " of " << r.quality.observable_cells
     << " observable cells; accuracy " << r.quality.accuracy << "; Brier " << r.quality.brier
     << "; ROC AUC " << r.quality.roc_auc << "\n"
+    << "claims without grounds: " << r.claims.known_free << " cells known free, of which "
+    << r.claims.free_in_solid << " half a cell or more inside a solid, " << r.claims.free_outside
+    << " outside the building (not connected to the start), " << r.claims.free_unreached
+    << " never reached by a ray; " << r.claims.freed_early << " freed before a ray reached them"
+    << " (up to " << r.claims.max_lead_s << " s early)\n"
     << "first exploration plan: " << r.first_plan_time_s << " s\n"
     << "time to 95% known: " << r.time_to_95_s << " s\n"
     << "faults: " << r.sensor_messages_dropped << " sensor messages and " << r.poses_dropped

@@ -6,6 +6,7 @@
 /// regression (tests/system/mission_test.cc), scripts/regress and scripts/demo's summary.
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "exploration/planner.h"
 #include "mapping/map_quality.h"
 #include "sim/world.h"
+#include "tools/map_score/map_claims.h"
 
 namespace kestrel {
 
@@ -38,9 +40,12 @@ struct MissionConfig {
   std::string csv_path;        ///< time series (t, entropy, known fraction, ...) if set
   std::string plans_csv_path;  ///< one row per plan (stage times, positions) if set
   std::string map_path;        ///< final map file (Kestrel map) if set
-  std::string octomap_path;    ///< final map exported for OctoMap tools (.bt or .ot) if set
-  std::string ply_path;        ///< occupied cells as a PLY point cloud if set
-  bool verbose{false};         ///< every plan, collision and sample on stderr (debugging)
+  /// The cells the simulator's rays reached and when (sim/ray_reach.h), written here if set
+  /// (kestrel-fidelity and kestrel-map-score read it); needs compute_quality.
+  std::string reach_path;
+  std::string octomap_path;  ///< final map exported for OctoMap tools (.bt or .ot) if set
+  std::string ply_path;      ///< occupied cells as a PLY point cloud if set
+  bool verbose{false};       ///< every plan, collision and sample on stderr (debugging)
   /// > 0: one progress line on stderr at most this often (simulated s, at the quality samples):
   /// time, explorer state, known fraction, map entropy, path, collisions.
   double progress_period_s{0.0};
@@ -73,6 +78,9 @@ struct MissionConfig {
   double vehicle_spacing_m{1.5};
   /// > 0: stop the run once the known fraction reaches this (time and path to 95% need no more).
   double stop_at_known{0.0};
+  /// Asked after every simulated step: true ends the run there (kestrel-mission: SIGINT or
+  /// SIGTERM arrived); the figures and files are then those of the flight so far. Empty: never.
+  std::function<bool()> stop_requested;
 };
 
 /// Start offsets (x, y, 0) from the world's start for `vehicles` vehicles of `diameter_m`: the
@@ -124,10 +132,14 @@ struct MissionResult {
   bool mapper_applied_every_message{false};
   uint64_t map_hash{0};
   double final_entropy_nats{0};
-  MapQuality quality;       ///< at the end (section 10), if computed
+  MapQuality quality;  ///< at the end (section 10), if computed
+  /// Cells the final map claims free without grounds (tools/map_score/map_claims.h), with the
+  /// freed-early figures from the quality samples, if quality is computed.
+  MapClaims claims;
   double time_to_95_s{-1};  ///< first sample with known fraction >= 0.95 (-1: never)
   std::vector<MissionSample> samples;
   std::string end_reason;
+  bool interrupted{false};      ///< config.stop_requested ended the run before its end
   std::string end_rule;         ///< what ended exploration (Explorer::end_rule)
   std::string landing;          ///< "returned home (...)" or "landed elsewhere: ..."
   double plan_median_s{0};      ///< median wall time of an exploration replan

@@ -1,10 +1,12 @@
 // kestrel-mission: the whole system in one process, deterministic (tools/mission/mission.h).
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <optional>
 #include <string>
 
 #include "common/command_line.h"
+#include "common/node_loop.h"
 #include "common/process.h"
 #include "common/process_usage.h"
 #include "tools/mission/mission.h"
@@ -14,6 +16,7 @@ const char* const kUsage =
     "usage: kestrel-mission [--root DIR] [--world FILE] [--seed N] [--max-time S] [--csv FILE]\n"
     "                       [--plans-csv FILE]\n"
     "                       [--map FILE] [--octomap FILE.bt] [--ply FILE] [--sim FILE]\n"
+    "                       [--reach FILE]\n"
     "                       [--log FILE.lcmlog] [--drop-sensors FRACTION]\n"
     "                       [--mocap-outage-at S --mocap-outage DURATION_S]\n"
     "                       [--sim-set k=v]... [--mapper-set k=v]...\n"
@@ -29,7 +32,12 @@ const char* const kUsage =
     "fraction, entropy, path, collisions); default 10, 0 for none, and none when CI=true.\n"
     "--vehicles N (1 to 4) flies N vehicles (V1_, V2_, ...), each with its controller and\n"
     "explorer, into one mapper; they start --vehicle-spacing M (default 1.5) apart.\n"
-    "--stop-at-known F ends the run once the map is F known (time and path to it).\n";
+    "--stop-at-known F ends the run once the map is F known (time and path to it).\n"
+    "--reach FILE writes which cells the simulator's rays reached and when (for\n"
+    "kestrel-fidelity --reach and kestrel-map-score --reach; docs/algorithms.md section 12.5).\n"
+    "SIGINT (Ctrl-C) or SIGTERM ends the run after the current simulated step: the summary of\n"
+    "the flight so far (\"end: interrupted by SIGINT ...\") and every file asked for are written,\n"
+    "and the exit code is 130 (SIGINT) or 143 (SIGTERM).\n";
 
 // One soak line: the flight, its outcome and what the process holds after it.
 void PrintSoakLine(int flight, const kestrel::MissionConfig& mc, const kestrel::MissionResult& r,
@@ -62,6 +70,7 @@ int main(int argc, char** argv) {
         app.add_option("--csv", mc.csv_path);
         app.add_option("--plans-csv", mc.plans_csv_path);
         app.add_option("--map", mc.map_path);
+        app.add_option("--reach", mc.reach_path);
         app.add_option("--drop-sensors", mc.sensor_drop_fraction)
             ->check(kestrel::cli::Within(0.0, 1.0));
         app.add_option("--mocap-outage-at", mc.mocap_outage_at_s)
@@ -84,19 +93,25 @@ int main(int argc, char** argv) {
       },
       [&](const kestrel::ProcessArgs& args, kestrel::ConfigNode&) {
         mc.command_line = args.command_line;
+        // Ctrl-C and SIGTERM (timeout, a runner's stop) end the flight at the next step.
+        mc.stop_requested = [] { return kestrel::NodeLoop::signal_received(); };
         if (!(soak_s >= 0.0)) throw kestrel::ConfigError("--soak needs S >= 0 simulated seconds");
-        if (soak_s == 0.0) {
-          std::printf("%s", kestrel::MissionSummary(kestrel::RunMission(mc)).c_str());
-          return 0;
-        }
         double total_s = 0.0;
         kestrel::MissionResult r;
-        for (int flight = 1; total_s < soak_s; ++flight, ++mc.seed) {
+        for (int flight = 1; flight == 1 || (total_s < soak_s && !r.interrupted);
+             ++flight, ++mc.seed) {
           r = kestrel::RunMission(mc);
           total_s += r.sim_time_s;
-          PrintSoakLine(flight, mc, r, total_s);
+          if (soak_s > 0.0) PrintSoakLine(flight, mc, r, total_s);
+        }
+        const int signum = kestrel::NodeLoop::received_signal();
+        if (r.interrupted) {
+          r.end_reason = std::string("interrupted by ") +
+                         (signum == SIGTERM ? "SIGTERM" : "SIGINT") + " (" + r.end_reason +
+                         "): the figures are those of the flight so far";
         }
         std::printf("%s", kestrel::MissionSummary(r).c_str());
-        return 0;
+        std::fflush(stdout);
+        return r.interrupted ? kestrel::NodeLoop::ExitCodeForSignal(signum) : 0;
       });
 }

@@ -4,6 +4,7 @@
 
 #include "common/check.h"
 #include "common/vehicle_prefixes.h"
+#include "viewer/bridge/viewer_server.h"
 
 namespace kestrel {
 
@@ -29,6 +30,14 @@ void ViewerConfig::Validate() const {
                        "max_candidates = " << scene.max_candidates << " below 0");
   // The same rules as the mapper's and the simulator's vehicles (docs/design.md §7.10).
   ValidateVehiclePrefixes(vehicle_prefixes);
+  for (const auto* list : {&allowed_origins, &foxglove_allowed_origins}) {
+    for (const std::string& origin : *list) {
+      const std::string why = CheckAllowedOrigin(origin);
+      KESTREL_THROW_UNLESS(
+          why.empty(), (list == &allowed_origins ? "allowed_origins" : "foxglove.allowed_origins")
+                           << ": " << why);
+    }
+  }
 }
 
 ViewerConfig LoadViewerConfig(const ConfigNode& node) {
@@ -39,10 +48,12 @@ ViewerConfig LoadViewerConfig(const ConfigNode& node) {
   node.Read("update_rate_hz", &c.update_rate_hz, Range{0.0, 100.0, false, true});
   node.Read("max_client_buffer_bytes", &c.max_client_buffer_bytes, Range::AtLeast(65536));
   node.Read("max_clients", &c.max_clients, Range::AtLeast(1));
+  node.Read("allowed_origins", &c.allowed_origins);
   if (node.Has("foxglove")) {
     const ConfigNode f = node.Child("foxglove");
     f.Read("port", &c.foxglove_port, Range::Closed(-1, 65535));
     f.Read("map_rate_hz", &c.foxglove_map_rate_hz, Range{0.0, 100.0, false, true});
+    f.Read("allowed_origins", &c.foxglove_allowed_origins);
   }
   if (node.Has("channels")) {
     const ConfigNode ch = node.Child("channels");

@@ -21,10 +21,17 @@ struct ViewerConfig {
   /// gets one fresh snapshot (its queue never grows without bound).
   int64_t max_client_buffer_bytes{8 << 20};
   int max_clients{16};  ///< pages served at once; more connections are refused
+  /// Origins (scheme://host[:port]) whose pages may open the page's WebSocket besides the pages
+  /// served here (viewer/bridge/viewer_server.h WebSocketOriginAllowed). Empty by default.
+  std::vector<std::string> allowed_origins;
   /// The Foxglove WebSocket endpoint (viewer/foxglove/foxglove_server.h) on `host`: its port
   /// (-1: off, 0: any free port) and how often the map's changed blocks are sent.
   int foxglove_port{8765};
   double foxglove_map_rate_hz{1.0};
+  /// Origins whose pages may connect to the Foxglove endpoint besides its own loopback origin:
+  /// ["https://app.foxglove.dev"] lets Foxglove's web app in a browser connect. Empty by default
+  /// (Foxglove's desktop app sends no Origin and always may).
+  std::vector<std::string> foxglove_allowed_origins;
 
   std::string map_channel{"MAP3D"};                       ///< map3d_chunk_t snapshots
   std::string delta_channel{"MAP3D_DELTA"};               ///< map3d_delta_t

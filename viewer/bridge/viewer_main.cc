@@ -23,6 +23,9 @@ const char* const kUsage =
     "candidates and the entropy history; a page opened late starts from the current state.\n"
     "Foxglove connects to ws://127.0.0.1:8765 (foxglove.port; -1: off): the map as cubes, the\n"
     "2D maps as grids, the pose as a transform, trajectory and candidates as lines and arrows.\n"
+    "Foxglove's desktop app always may; its web app in a browser (https://app.foxglove.dev) only\n"
+    "with --set 'foxglove.allowed_origins=[https://app.foxglove.dev]' (every page of that origin\n"
+    "may then read the vehicle's state).\n"
     "Several vehicles (vehicles: [{prefix: V1_}, {prefix: V2_}]): the page shows each one's\n"
     "pose, path, plan, goal and explorer state from its prefixed channels; Foxglove shows the\n"
     "first vehicle's.\n";
@@ -81,6 +84,7 @@ int main(int argc, char** argv) {
           kestrel::foxglove::FoxgloveNodeConfig f;
           f.server.host = config.host;
           f.server.port = config.foxglove_port;
+          f.server.allowed_origins = config.foxglove_allowed_origins;
           f.map_rate_hz = config.foxglove_map_rate_hz;
           f.bridge.occupied_threshold = config.scene.occupied_threshold;
           f.bridge.map_channel = config.map_channel;

@@ -11,6 +11,7 @@ ViewerServer::Options ServerOptions(const ViewerConfig& config, const std::strin
   o.web_root = web_root;
   o.max_client_buffer_bytes = config.max_client_buffer_bytes;
   o.max_clients = config.max_clients;
+  o.allowed_origins = config.allowed_origins;
   return o;
 }
 // The scene's configuration with the vehicles of the node's (one list, whoever filled it).

@@ -48,13 +48,82 @@ std::string ResolveWebPath(const std::string& web_root, const std::string& targe
   return web_root + path;
 }
 
-bool WebSocketOriginAllowed(const std::string& origin, int port) {
+namespace {
+std::string Lowercase(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return text;
+}
+}  // namespace
+
+bool WebSocketOriginAllowed(const std::string& origin, int port,
+                            const std::vector<std::string>& allowed_origins) {
   if (origin.empty()) return true;  // not a browser: the Origin rule guards pages, not programs
-  std::string o = origin;
-  for (char& c : o) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const std::string o = Lowercase(origin);
   const std::string suffix = ":" + std::to_string(port);
-  return port > 0 && (o == "http://127.0.0.1" + suffix || o == "http://localhost" + suffix ||
-                      o == "http://[::1]" + suffix);
+  if (port > 0 && (o == "http://127.0.0.1" + suffix || o == "http://localhost" + suffix ||
+                   o == "http://[::1]" + suffix)) {
+    return true;
+  }
+  for (const std::string& allowed : allowed_origins) {
+    if (o == Lowercase(allowed)) return true;
+  }
+  return false;
+}
+
+std::string CheckAllowedOrigin(const std::string& origin) {
+  const std::string o = Lowercase(origin);
+  if (o == "null" || o == "*") {
+    return "'" + origin + "' would admit every local file or every page; name one origin";
+  }
+  const size_t scheme_end = o.find("://");
+  const std::string scheme = scheme_end == std::string::npos ? "" : o.substr(0, scheme_end);
+  if (scheme != "http" && scheme != "https") {
+    return "'" + origin + "' is not an origin: it must start with http:// or https://";
+  }
+  std::string rest = o.substr(scheme_end + 3);
+  std::string host = rest;
+  std::string port;
+  if (!rest.empty() && rest[0] == '[') {  // an IPv6 address
+    const size_t close = rest.find(']');
+    if (close == std::string::npos) return "'" + origin + "': an IPv6 host without its ']'";
+    host = rest.substr(0, close + 1);
+    const std::string after = rest.substr(close + 1);
+    if (!after.empty() && after[0] != ':') {
+      return "'" + origin + "': only ':PORT' may follow the host (no path, no '/')";
+    }
+    port = after.empty() ? "" : after.substr(1);
+    if (!after.empty() && port.empty()) return "'" + origin + "': ':' without a port";
+    for (const char c : host.substr(1, host.size() - 2)) {
+      if (!std::isxdigit(static_cast<unsigned char>(c)) && c != ':' && c != '.') {
+        return "'" + origin + "': '" + std::string(1, c) + "' in an IPv6 address";
+      }
+    }
+  } else {
+    const size_t colon = rest.find(':');
+    host = rest.substr(0, colon);
+    if (colon != std::string::npos) {
+      port = rest.substr(colon + 1);
+      if (port.empty()) return "'" + origin + "': ':' without a port";
+    }
+    for (const char c : host) {
+      if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') {
+        return "'" + origin + "': '" + std::string(1, c) +
+               "' in the host (an origin is scheme://host[:port], no path, no '/' at the end)";
+      }
+    }
+  }
+  if (host.empty() || host == "[]") return "'" + origin + "': no host";
+  if (!port.empty()) {
+    for (const char c : port) {
+      if (!std::isdigit(static_cast<unsigned char>(c))) {
+        return "'" + origin + "': port '" + port + "' is not a number (no path, no '/' after it)";
+      }
+    }
+    if (port.size() > 5 || std::stoi(port) < 1 || std::stoi(port) > 65535) {
+      return "'" + origin + "': port " + port + " outside [1, 65535]";
+    }
+  }
+  return "";
 }
 
 namespace {
@@ -109,10 +178,11 @@ struct ViewerServer::Impl {
     const std::string origin = con->get_request_header("Origin");
     const asio::ip::tcp::endpoint local = server.get_local_endpoint(ec);
     const int port = ec ? -1 : local.port();
-    if (!WebSocketOriginAllowed(origin, port)) {
+    if (!WebSocketOriginAllowed(origin, port, options.allowed_origins)) {
       ++counters.refused_origin;
       Log(LogLevel::kWarning, "viewer server: refused a WebSocket from origin '" + origin +
-                                  "' (only pages served here may connect)");
+                                  "' (only pages served here, or of an origin listed in "
+                                  "allowed_origins, may connect)");
       con->set_status(websocketpp::http::status_code::forbidden);
       return false;
     }

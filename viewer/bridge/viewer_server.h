@@ -29,13 +29,23 @@ enum class ClientAction { kSendUpdate, kSendSnapshot, kSkip };
 [[nodiscard]] ClientAction DecideClientAction(bool needs_snapshot, int64_t unsent_bytes,
                                               int64_t max_unsent_bytes);
 
-/// Whether a WebSocket handshake may open, from its Origin header (pure): a page may connect only
-/// if this server served it. The server listens on loopback only (config/viewer.yaml), so its
-/// pages' origin is http://127.0.0.1:PORT, http://localhost:PORT or http://[::1]:PORT (compared
-/// without regard to case). No Origin (a program, not a browser) is allowed. Any other page in the
-/// user's browser is refused, a file ("null") and a name that DNS rebinds to 127.0.0.1 included,
-/// since the browser would otherwise let it read the vehicle's state.
-[[nodiscard]] bool WebSocketOriginAllowed(const std::string& origin, int port);
+/// Whether a WebSocket handshake may open, from its Origin header (pure): by default a page may
+/// connect only if this server served it. The server listens on loopback only
+/// (config/viewer.yaml), so its pages' origin is http://127.0.0.1:PORT, http://localhost:PORT or
+/// http://[::1]:PORT (compared without regard to case). No Origin (a program, not a browser) is
+/// allowed. Any other page in the user's browser is refused, a file ("null") and a name that DNS
+/// rebinds to 127.0.0.1 included, since the browser would otherwise let it read the vehicle's
+/// state; except the origins in `allowed_origins` (config `allowed_origins`,
+/// `foxglove.allowed_origins`; e.g. https://app.foxglove.dev, Foxglove's web app), each compared
+/// whole without regard to case: the user trusts every page of such an origin with the state.
+[[nodiscard]] bool WebSocketOriginAllowed(const std::string& origin, int port,
+                                          const std::vector<std::string>& allowed_origins = {});
+
+/// Why `origin` cannot be an entry of an allowed_origins list ("" if it can): an origin as a
+/// browser sends it, scheme "http" or "https", "://", a host of letters, digits, '.', '-' (or an
+/// IPv6 address in brackets) and an optional ":PORT" (1 to 65535), nothing after (no path, no
+/// '/' at the end); "null" and "*" are refused: they would admit any file or any page.
+[[nodiscard]] std::string CheckAllowedOrigin(const std::string& origin);
 
 /// The content type of a served file, from its extension ("application/octet-stream" if unknown).
 [[nodiscard]] std::string ContentTypeOf(const std::string& path);
@@ -51,6 +61,9 @@ class ViewerServer {
     std::string web_root;           ///< folder served over HTTP
     int64_t max_client_buffer_bytes{8 << 20};
     int max_clients{16};
+    /// Origins whose pages may open the WebSocket besides this server's own
+    /// (WebSocketOriginAllowed).
+    std::vector<std::string> allowed_origins;
   };
   /// Counters since start.
   struct Counters {

@@ -85,17 +85,22 @@ struct FoxgloveServer::Impl {
     const asio::ip::tcp::endpoint local = server.get_local_endpoint(ec);
     const std::string origin = con->get_request_header("Origin");
     std::string why;
+    auto status = websocketpp::http::status_code::bad_request;
     if (std::find(asked.begin(), asked.end(), kSubprotocol) == asked.end()) {
       why = std::string("the client did not ask for the ") + kSubprotocol + " subprotocol";
-    } else if (!WebSocketOriginAllowed(origin, ec ? -1 : local.port())) {
-      why = "a page from origin '" + origin + "' may not connect";
+    } else if (!WebSocketOriginAllowed(origin, ec ? -1 : local.port(), options.allowed_origins)) {
+      why = "a page from origin '" + origin +
+            "' may not connect (foxglove.allowed_origins lists the origins allowed besides the "
+            "endpoint's own; https://app.foxglove.dev is Foxglove's web app)";
+      status = websocketpp::http::status_code::forbidden;
     } else if (static_cast<int>(clients.size()) >= options.max_clients) {
       why = "too many clients (" + std::to_string(options.max_clients) + ")";
+      status = websocketpp::http::status_code::service_unavailable;
     }
     if (!why.empty()) {
       ++counters.refused;
       Log(LogLevel::kWarning, "foxglove server: refused a connection: " + why);
-      con->set_status(websocketpp::http::status_code::bad_request);
+      con->set_status(status);
       return false;
     }
     con->select_subprotocol(kSubprotocol, ec);

@@ -14,9 +14,11 @@
 /// unsent bytes exceed max_client_buffer_bytes skips messages (counted) until it drains; a map
 /// update it skipped is made good by the whole map at its next message on /map.
 ///
-/// Like the page's server it accepts handshakes only without an Origin or from its own origin
-/// (WebSocketOriginAllowed): Foxglove's desktop app sends none; a page in the user's browser on
-/// another origin cannot read the vehicle's state. A handshake without the subprotocol is refused.
+/// Like the page's server it accepts handshakes only without an Origin, from its own origin or
+/// from an origin in allowed_origins (WebSocketOriginAllowed): Foxglove's desktop app sends none;
+/// Foxglove's web app sends https://app.foxglove.dev, which is refused (403) unless listed; any
+/// other page in the user's browser cannot read the vehicle's state. A handshake without the
+/// subprotocol is refused (400).
 
 #include <cstdint>
 #include <functional>
@@ -37,6 +39,9 @@ class FoxgloveServer {
     std::string name{"kestrel-viewer"};
     int64_t max_client_buffer_bytes{16 << 20};
     int max_clients{8};
+    /// Origins whose pages may connect besides the endpoint's own loopback origin
+    /// (WebSocketOriginAllowed), e.g. https://app.foxglove.dev.
+    std::vector<std::string> allowed_origins;
   };
   struct Counters {
     int64_t connections{0};

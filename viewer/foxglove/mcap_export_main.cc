@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "common/command_line.h"
+#include "common/node_loop.h"
 #include "common/process.h"
 #include "viewer/foxglove/mcap_export.h"
 
@@ -30,6 +31,8 @@ int main(int argc, char** argv) {
             ->check(kestrel::cli::Within(0.0, 0.999));
       },
       [&](const kestrel::ProcessArgs&, kestrel::ConfigNode&) {
+        // A batch tool: Ctrl-C or SIGTERM ends it at once (nothing half-done is worth saving).
+        kestrel::NodeLoop::RestoreDefaultSignalActions();
         config.compression = compression == "none" ? "" : compression;
         const auto start = std::chrono::steady_clock::now();
         const kestrel::foxglove::McapExportSummary s = kestrel::foxglove::ExportMcap(config);

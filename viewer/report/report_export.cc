@@ -368,11 +368,11 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
           t.grid = GridSpec{origin, chunk.resolution_m, dims};
           t.occupied = VoxelizeWorld(*world, t.grid);
           const WorldRayCaster caster(*world);
-          ObservabilityConfig oc;  // as tools/map_score/map_scorer.cc
-          oc.max_range_m = config.sensor_range_m;
-          oc.elevation_min_rad = -0.5 * config.vertical_fov_rad;
-          oc.elevation_max_rad = 0.5 * config.vertical_fov_rad;
-          t.observable = ComputeObservableCells(*world, caster, t.grid, oc).observable;
+          // As tools/map_score/map_scorer.cc, with the shipped depth camera's rule.
+          t.observable = ComputeObservableCells(
+                             *world, caster, t.grid,
+                             SensorSweep(config.sensor_range_m, config.vertical_fov_rad, false))
+                             .observable;
           truth = std::move(t);
         }
       }

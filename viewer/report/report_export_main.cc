@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "common/command_line.h"
+#include "common/node_loop.h"
 #include "common/process.h"
 #include "viewer/report/report_export.h"
 
@@ -36,6 +37,8 @@ int main(int argc, char** argv) {
         app.add_option("--vfov-deg", vfov_deg);
       },
       [&](const kestrel::ProcessArgs&, kestrel::ConfigNode&) {
+        // A batch tool: Ctrl-C or SIGTERM ends it at once (nothing half-done is worth saving).
+        kestrel::NodeLoop::RestoreDefaultSignalActions();
         rc.vertical_fov_rad = vfov_deg * M_PI / 180.0;
         try {
           rc.Validate();
