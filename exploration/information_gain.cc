@@ -229,8 +229,8 @@ RayEntropy ExpectedEntropy::Direct(const SensorModel& model, const double* entry
     double q = pi_empty * model.empty_no_return_probability();  // q_(n+1) = P(no return)
     for (int i = 0; i < n; ++i) q += pi[i] * model.NoReturnProbability(distance_m[i]);
     double inv_eta = q;
-    // A sensor whose "no return" is no evidence leaves the map as it was (docs/algorithms.md
-    // §3.4): the hypothesis keeps the prior entropy.
+    // A sensor whose "no return" is no evidence leaves the map as it was
+    // (docs/algorithms.md §3.4): the hypothesis keeps the prior entropy.
     double h = 0.0;
     if (c.no_return_informs) {
       h = posterior_entropy(Reading{ReadingKind::kNoReturn, 0.0}, &inv_eta);

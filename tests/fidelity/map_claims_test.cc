@@ -1,5 +1,6 @@
-// The claims a map makes without grounds (tools/map_score/map_claims.h, docs/algorithms.md
-// §12.5), each counted on a hand-built map against a room whose answer is known cell by cell.
+// The claims a map makes without grounds (tools/map_score/map_claims.h,
+// docs/algorithms.md §12.5), each counted on a hand-built map against a room whose answer is known
+// cell by cell.
 #include "tools/map_score/map_claims.h"
 
 #include <gtest/gtest.h>

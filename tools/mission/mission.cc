@@ -402,9 +402,9 @@ class Mission {
   }
 
   // Ground truth for map quality (docs/algorithms.md §12.2) on the mapper's lattice, where the
-  // simulator's rays reached and the map's claims against it (§12.5), and the fault injection's
-  // relays: a seeded fraction of depth images and scans dropped, and every pose during the
-  // motion-capture outage.
+  // simulator's rays reached and the map's claims against it (docs/algorithms.md §12.5), and the
+  // fault injection's relays: a seeded fraction of depth images and scans dropped, and every pose
+  // during the motion-capture outage.
   void StartQualityAndFaults() {
     if (mc_.compute_quality) {
       const GridSpec grid = GridSpecOf(mapper_->geometry());
