@@ -37,7 +37,7 @@ void DropCounter::Count(const std::string& kind, const std::string& reason) {
   if (first || now - p.last_log_utime >= SecondsToUtime(period_s_)) {
     const std::string suffix =
         first ? "" : " (" + std::to_string(p.unlogged + 1) + " of this kind since the last report)";
-    Log(LogLevel::kWarning, "dropped " + kind + ": " + reason + suffix);
+    Log(level_, label_ + " " + kind + ": " + reason + suffix);
     p.last_log_utime = now;
     p.unlogged = 0;
   } else {

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <utility>
 
 #include "common/clock.h"
 
@@ -21,9 +22,13 @@ void SetLogProcessName(const std::string& name);
 
 /// Counts events by kind (e.g. "malformed depth_image_t", "nan_pose") and logs the first of each
 /// kind at once, then at most one summary line per kind every `period_s`, with the count since.
+/// The lines read "<label> <kind>: <reason>" at `level`: "dropped ..." warnings by default; a
+/// node also counts events that are not drops with its own counter (e.g. label "event", info).
 class DropCounter {
  public:
-  DropCounter(const Clock& clock, double period_s = 5.0) : clock_(clock), period_s_(period_s) {}
+  DropCounter(const Clock& clock, double period_s = 5.0, std::string label = "dropped",
+              LogLevel level = LogLevel::kWarning)
+      : clock_(clock), period_s_(period_s), label_(std::move(label)), level_(level) {}
   /// Counts one event of `kind` with its reason; logs per the rate limit.
   void Count(const std::string& kind, const std::string& reason);
   /// Total events of `kind` (0 if never seen).
@@ -42,6 +47,8 @@ class DropCounter {
   };
   const Clock& clock_;
   double period_s_;
+  std::string label_;
+  LogLevel level_;
   std::map<std::string, int64_t> counts_;
   std::map<std::string, Pending> pending_;
   std::string last_reason_;

@@ -31,7 +31,7 @@ struct CandidateConfig {
   /// The end test on E (two-map mode; and combined mode's check, below): exploration ends when
   /// the best gain beyond E's P_min_E floor is below this, nats (>= 0). In a cluttered world it
   /// may never pass: 3D cells no sensor can see (inside walls and furniture) stay at P_init and
-  /// keep some gain in their columns (lasr: 10 to 30 nats, as much as a half-seen corner), so
+  /// keep some gain in their columns (as much as a half-seen corner; docs/STATUS.md), so
   /// the explorer's progress-stall test ends such flights (ExplorerConfig::end_stall_window_s).
   double end_entropy_gain_nats{1.0};
   /// Combined mode's end test (Kestrel's addition): B's min rule (eq. 16) calls a collision cell

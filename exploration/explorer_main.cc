@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
   return kestrel::RunProcess(
       "kestrel-explorer", argc, argv, kUsage,
       [](const kestrel::ProcessArgs& args, kestrel::ConfigNode& node) {
-        kestrel::ExplorerConfig config = kestrel::LoadExplorerConfig(node);
+        kestrel::ExplorerNodeConfig config = kestrel::LoadExplorerNodeConfig(node);
         node.CheckNoUnknownKeys();
         // No run_id set: the run's, from the runner that started it; a respawn within the run
         // resumes from its state file (docs/design.md §2.5).

@@ -42,8 +42,8 @@
 ///
 /// The posterior of hypothesis k is taken at the single point z_k while its weight is the
 /// probability of the whole chord: with cells much longer than sigma (map B) this snapping
-/// differs from the unsnapped expectation (measured 0.09 nats of 1.0 on a 5-cell B ray, test
-/// ExpectedEntropyMatchesMonteCarlo) and can make I_ray slightly negative on well-known rays.
+/// differs from the unsnapped expectation (test ExpectedEntropyMatchesMonteCarlo; the figure in
+/// docs/STATUS.md) and can make I_ray slightly negative on well-known rays.
 
 #include <Eigen/Core>
 #include <vector>

@@ -130,31 +130,12 @@ PlannerConfig LoadPlannerConfig(const ConfigNode& node) {
   }
   if (!radius_set) c.trajectory.vehicle_radius_m = 0.5 * c.projection.vehicle_diameter_m;
   if (node.Has("frontier")) {
-    const ConfigNode f = node.Child("frontier");
-    f.Read("min_distance_m", &c.frontier.min_distance_m, Range::NonNegative());
-    f.Read("fine_traversability", &c.frontier.fine_traversability);
-    f.Read("view_min_range_m", &c.frontier.view_min_range_m, Range::NonNegative());
-    f.Read("view_max_range_m", &c.frontier.view_max_range_m, Range::Positive());
-    f.Read("goal_max_range_m", &c.frontier.goal_max_range_m, Range::Positive());
-    f.Read("horizontal_fov_deg", &c.frontier.horizontal_fov_deg, Range::Positive());
-    f.Read("min_frontier_cells", &c.frontier.min_frontier_cells);
+    ReadParams(node.Child("frontier"), FrontierParams(), &c.frontier);
   }
   if (node.Has("volumetric")) {
     const ConfigNode v = node.Child("volumetric");
-    VolumetricConfig& q = c.volumetric;
-    v.Read("band_below_m", &q.band_below_m, Range::Positive());
-    v.Read("band_above_m", &q.band_above_m, Range::Positive());
-    v.Read("margin_m", &q.margin_m, Range::NonNegative());
-    v.Read("passage_margin_m", &q.passage_margin_m, Range::NonNegative());
-    v.Read("preferred_clearance_m", &q.preferred_clearance_m, Range::NonNegative());
-    v.Read("clearance_weight", &q.clearance_weight, Range::NonNegative());
-    v.Read("candidate_spacing_m", &q.candidate_spacing_m, Range::Positive());
-    v.Read("end_gain_nats", &q.end_gain_nats, Range::Positive());
-    v.Read("local_horizon_m", &q.local_horizon_m, Range::NonNegative());
-    v.Read("skip_viewed_poses", &q.skip_viewed_poses);
-    v.Read("skip_flown_poses", &q.skip_flown_poses);
-    v.Read("peer_view_radius_m", &q.peer_view_radius_m, Range::Positive());
-    v.Read("azimuth_bins", &q.gain.azimuth_bins, Range::Closed(4, 36000));
+    ReadParams(v, VolumetricParams(), &c.volumetric);
+    v.Read("azimuth_bins", &c.volumetric.gain.azimuth_bins, Range::Closed(4, 36000));
   }
   node.CheckNoUnknownKeys();
   try {

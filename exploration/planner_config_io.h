@@ -20,7 +20,7 @@ class ConfigNode;
 
 /// LoadPlannerConfig(ConfigNode::LoadFile(path)). @throws ConfigError.
 /// (A file of planner keys only: config/exploration/explorer.yaml also has the explorer node's
-/// sections, so it loads with LoadExplorerConfig, exploration/explorer_node.h.)
+/// sections, so it loads with LoadExplorerNodeConfig, exploration/explorer_config.h.)
 [[nodiscard]] PlannerConfig LoadPlannerConfigFile(const std::string& path);
 
 }  // namespace kestrel

@@ -211,6 +211,14 @@ World LoadWorld(const std::string& path, const ConfigNode& including) {
   return NamedAfterFile(ParseWorld(including.Include(path)), path);
 }
 
+Geofence WorldGeofence(const World& world) {
+  Geofence fence;
+  fence.min_m = world.map_min_m - Eigen::Vector3d::Constant(kGeofenceMarginM);
+  fence.max_m =
+      world.map_max_m + Eigen::Vector3d(kGeofenceMarginM, kGeofenceMarginM, kGeofenceHeadroomM);
+  return fence;
+}
+
 bool IsInsideObstacle(const World& world, const Eigen::Vector3d& p_W) {
   for (const WorldBox& b : world.boxes) {
     const Eigen::Vector3d p_O = b.q_WO.conjugate() * (p_W - b.center_m);

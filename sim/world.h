@@ -116,6 +116,23 @@ using ObjReader = std::function<WorldMesh(const std::string& path)>;
 /// including.Include(path), so that its values are part of the process's effective configuration.
 [[nodiscard]] World LoadWorld(const std::string& path, const ConfigNode& including);
 
+/// A controller's geofence (control/safety.h), W, m.
+struct Geofence {
+  Eigen::Vector3d min_m{Eigen::Vector3d::Zero()};  ///< lower corner
+  Eigen::Vector3d max_m{Eigen::Vector3d::Zero()};  ///< upper corner
+};
+
+/// The geofence beside and below a world's map limits, m.
+inline constexpr double kGeofenceMarginM = 0.2;
+/// The geofence above a world's map limits, m: room over the map's top before a landing.
+inline constexpr double kGeofenceHeadroomM = 1.0;
+
+/// The geofence of a flight in `world`: the map limits widened by kGeofenceMarginM below and on
+/// every side and by kGeofenceHeadroomM above. The one derivation (docs/design.md §7.2) that
+/// kestrel-mission, the process sheets (scripts/world-env, through kestrel-world-env) and the
+/// system tests use.
+[[nodiscard]] Geofence WorldGeofence(const World& world);
+
 /// True when the point lies strictly inside some primitive (boundaries count as free).
 [[nodiscard]] bool IsInsideObstacle(const World& world, const Eigen::Vector3d& p_W);
 /// How deep the point lies inside the solids, m: the largest over the primitives of its distance

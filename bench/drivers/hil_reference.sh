@@ -11,7 +11,7 @@ exec tests/tools/in_netns.sh bash -c '
   set -euo pipefail
   build=$1 world=$2
   export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304"
-  export PYTHONPATH="$build/lcmtypes/python"
+  export PYTHONPATH="$build/lcmtypes/python" KESTREL_BIN="$build/bin"
   eval "$(scripts/world-env "$world")"
   run=$(mktemp -d)
   trap "kill -TERM \$(jobs -p) 2>/dev/null || true; sleep 1; rm -rf \$run" EXIT

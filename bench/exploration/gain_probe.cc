@@ -17,12 +17,13 @@
 #include <vector>
 
 #include "common/config.h"
-#include "exploration/explorer_node.h"
+#include "exploration/explorer_config.h"
 #include "exploration/frontiers.h"
 #include "exploration/information_gain.h"
 #include "exploration/planner.h"
 #include "exploration/projected_maps.h"
 #include "exploration/volumetric_gain.h"
+#include "exploration/volumetric_planner.h"
 #include "mapping/map_file.h"
 #include "mapping/occupancy_map.h"
 #include "mapping/ray_caster.h"
@@ -71,7 +72,8 @@ int FrontierOnce(char** argv) {
   const LoadedMap<DenseOccupancyMap> loaded = LoadDenseMap(argv[2]);
   // The shipped explorer configuration (run from the repository root), in frontier mode.
   PlannerConfig config =
-      LoadExplorerConfig(ConfigNode::LoadFile("config/exploration/explorer.yaml")).planner;
+      LoadExplorerNodeConfig(ConfigNode::LoadFile("config/exploration/explorer.yaml"))
+          .explorer.planner;
   config.mode = ExplorationMode::kFrontier;
   config.projection.height_m = std::atof(argv[5]);
   const std::unique_ptr<ExplorationPlanner> planner = MakePlanner(config);

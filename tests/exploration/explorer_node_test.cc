@@ -25,9 +25,9 @@ namespace {
 class ExplorerNodeTest : public ::testing::Test {
  protected:
   ExplorerNodeTest() {
-    config_.map.min_m = Eigen::Vector3d(-2.0, -2.0, -0.15);
-    config_.map.max_m = Eigen::Vector3d(2.0, 2.0, 1.5);
-    config_.map.resolution_m = 0.1;
+    config_.explorer.map.min_m = Eigen::Vector3d(-2.0, -2.0, -0.15);
+    config_.explorer.map.max_m = Eigen::Vector3d(2.0, 2.0, 1.5);
+    config_.explorer.map.resolution_m = 0.1;
     subs_.Add<trajectory_t>(
         config_.trajectory_channel,
         [this](const std::string&, const trajectory_t& m) { trajectories_.push_back(m); }, nullptr);
@@ -38,17 +38,19 @@ class ExplorerNodeTest : public ::testing::Test {
     }
   }
 
-  // An empty map snapshot, a pose at the exploration height and the controller in `mode`
-  // tracking trajectory (seq, epoch).
-  void SendWorld(int8_t mode, int64_t trajectory_seq, int64_t trajectory_epoch) {
+  // An empty map snapshot (prior p_init, the explorer's by default), a pose at the exploration
+  // height and the controller in `mode` tracking trajectory (seq, epoch).
+  void SendWorld(int8_t mode, int64_t trajectory_seq, int64_t trajectory_epoch,
+                 double p_init = -1.0) {
     map3d_chunk_t chunk{};
     chunk.utime = clock_.NowUtime();
     chunk.snapshot_id = 1;
     chunk.epoch = 11;
     chunk.num_chunks = 1;
-    for (int a = 0; a < 3; ++a) chunk.origin_m[a] = config_.map.min_m[a];
-    chunk.resolution_m = config_.map.resolution_m;
-    chunk.p_init = config_.p_init;
+    for (int a = 0; a < 3; ++a) chunk.origin_m[a] = config_.explorer.map.min_m[a];
+    chunk.resolution_m = config_.explorer.map.resolution_m;
+    // As the mapper sends it: the prior its float cells hold.
+    chunk.p_init = p_init > 0 ? p_init : static_cast<float>(config_.explorer.p_init);
     chunk.block_edge = 8;
     EncodeMapChunkCells({}, map3d_chunk_t::ENCODING_FLOAT32, 0, &chunk);
     lcm_.publish(config_.map_channel, &chunk);
@@ -58,7 +60,7 @@ class ExplorerNodeTest : public ::testing::Test {
     pose.frame_id = "world";
     pose.child_frame_id = "kestrel";
     pose.valid = true;
-    pose.position_m[2] = config_.planner.projection.height_m;
+    pose.position_m[2] = config_.explorer.planner.projection.height_m;
     pose.orientation_wxyz[0] = 1.0;
     lcm_.publish(config_.pose_channel, &pose);
     controller_status_t status{};
@@ -71,7 +73,7 @@ class ExplorerNodeTest : public ::testing::Test {
     Dispatch();
   }
 
-  ExplorerConfig config_;
+  ExplorerNodeConfig config_;
   lcm::LCM lcm_{"memq://"};
   SimClock clock_{1'000'000'000};
   GuardedSubscriptions subs_{lcm_};
@@ -91,7 +93,7 @@ TEST_F(ExplorerNodeTest, TellsItsTrajectoryFromAPredecessorsWithTheSameSeq) {
     SendWorld(controller_status_t::MODE_HOLD, -1, 0);
     node.Step();
     Dispatch();
-    ASSERT_EQ(node.state(), exploration_status_t::STATE_STARTUP) << node.drops().last_reason();
+    ASSERT_EQ(node.state(), ExplorerState::kStartup) << node.drops().last_reason();
     ASSERT_EQ(trajectories_.size(), 1u);
     EXPECT_EQ(trajectories_[0].seq, 1);
     EXPECT_EQ(trajectories_[0].epoch, node.epoch());
@@ -101,9 +103,9 @@ TEST_F(ExplorerNodeTest, TellsItsTrajectoryFromAPredecessorsWithTheSameSeq) {
       SendWorld(controller_status_t::MODE_TRACK, 1, flown_epoch);
       node.Step();
     }
-    EXPECT_EQ(node.drops().count("startup_not_flown"), predecessor ? 1 : 0);
-    EXPECT_EQ(node.state(), predecessor ? exploration_status_t::STATE_WAITING
-                                        : exploration_status_t::STATE_STARTUP);
+    EXPECT_EQ(node.explorer().count(ExplorerEvent::kStartupNotFlown), predecessor ? 1 : 0);
+    EXPECT_EQ(node.drops().total(), 0) << "an event, not a drop";
+    EXPECT_EQ(node.state(), predecessor ? ExplorerState::kWaiting : ExplorerState::kStartup);
   }
 }
 
@@ -119,17 +121,17 @@ TEST_F(ExplorerNodeTest, ResumesFromItsStateFileOnlyInTheSameRun) {
     ExplorerNode first(lcm_, config_, clock_);
     SendWorld(controller_status_t::MODE_HOLD, -1, 0);
     first.Step();
-    ASSERT_EQ(first.state(), exploration_status_t::STATE_STARTUP);
+    ASSERT_EQ(first.state(), ExplorerState::kStartup);
   }
   {
     ExplorerNode same_run(lcm_, config_, clock_);
-    EXPECT_NE(same_run.resume_status().find("(was STARTUP)"), std::string::npos)
+    EXPECT_NE(same_run.resume_status().find("(was startup)"), std::string::npos)
         << same_run.resume_status();
     clock_.AdvanceUtime(100000);
     SendWorld(controller_status_t::MODE_HOLD, -1, 0);
     same_run.Step();
-    EXPECT_EQ(same_run.state(), exploration_status_t::STATE_EXPLORING) << same_run.resume_status();
-    EXPECT_EQ(same_run.resume_status().rfind("resumed STARTUP from the flown state", 0), 0u)
+    EXPECT_EQ(same_run.state(), ExplorerState::kExploring) << same_run.resume_status();
+    EXPECT_EQ(same_run.resume_status().rfind("resumed startup from the flown state", 0), 0u)
         << same_run.resume_status();
   }
   config_.run_id = "run-b";
@@ -137,7 +139,7 @@ TEST_F(ExplorerNodeTest, ResumesFromItsStateFileOnlyInTheSameRun) {
     ExplorerNode other_run(lcm_, config_, clock_);
     SendWorld(controller_status_t::MODE_HOLD, -1, 0);
     other_run.Step();
-    EXPECT_EQ(other_run.state(), exploration_status_t::STATE_STARTUP) << other_run.resume_status();
+    EXPECT_EQ(other_run.state(), ExplorerState::kStartup) << other_run.resume_status();
   }
   std::ofstream(config_.state_path) << "kestrel-state explorer 1\nrun_id run-b\nstate EXPLORING\n";
   {
@@ -146,10 +148,25 @@ TEST_F(ExplorerNodeTest, ResumesFromItsStateFileOnlyInTheSameRun) {
         << corrupt.resume_status();
     SendWorld(controller_status_t::MODE_HOLD, -1, 0);
     corrupt.Step();
-    EXPECT_EQ(corrupt.state(), exploration_status_t::STATE_STARTUP);
+    EXPECT_EQ(corrupt.state(), ExplorerState::kStartup);
   }
   std::remove(config_.state_path.c_str());
   rmdir(dir);
+}
+
+// A snapshot from a mapper with another prior is refused, said why, and counted; the explorer
+// waits for a map it can use.
+TEST_F(ExplorerNodeTest, RefusesAMapWithAnotherPrior) {
+  ExplorerNode node(lcm_, config_, clock_);
+  SendWorld(controller_status_t::MODE_HOLD, -1, 0, 0.2);
+  node.Step();
+  EXPECT_EQ(node.drops().count("map_prior"), 1);
+  EXPECT_NE(node.drops().last_reason().find("map.p_init"), std::string::npos);
+  EXPECT_FALSE(node.replica().current());
+  EXPECT_EQ(node.state(), ExplorerState::kWaiting);
+  SendWorld(controller_status_t::MODE_HOLD, -1, 0);
+  node.Step();
+  EXPECT_EQ(node.state(), ExplorerState::kStartup);
 }
 
 // Two explorers in one process are two publishers.
@@ -159,40 +176,6 @@ TEST_F(ExplorerNodeTest, TwoNodesHaveDifferentEpochs) {
   EXPECT_NE(a.epoch(), 0);
   EXPECT_NE(b.epoch(), 0);
   EXPECT_NE(a.epoch(), b.epoch());
-}
-
-// The progress-stall rule ends the paper's modes and the baseline; the volumetric mode only when
-// asked (its own end rule terminates); a zero window disables it everywhere.
-TEST(ExplorerConfig, StallRuleAppliesToModesThatNeedIt) {
-  ExplorerConfig c;
-  EXPECT_TRUE(StallRuleApplies(ExplorationMode::kCombined, c));
-  EXPECT_TRUE(StallRuleApplies(ExplorationMode::kTwoMap, c));
-  EXPECT_TRUE(StallRuleApplies(ExplorationMode::kFrontier, c));
-  EXPECT_FALSE(StallRuleApplies(ExplorationMode::kVolumetric, c));
-  c.end_stall_in_volumetric = true;
-  EXPECT_TRUE(StallRuleApplies(ExplorationMode::kVolumetric, c));
-  c.end_stall_window_s = 0.0;
-  for (const ExplorationMode m : {ExplorationMode::kCombined, ExplorationMode::kTwoMap,
-                                  ExplorationMode::kFrontier, ExplorationMode::kVolumetric}) {
-    EXPECT_FALSE(StallRuleApplies(m, c));
-  }
-}
-
-// What a replan that has a trajectory becomes (docs/exploration.md, "Non-stop flight"): flown
-// when it starts from the flown state or nothing is flown; otherwise the flown trajectory is kept
-// when this is the periodic replan and its path is clear, and the vehicle stops when not.
-TEST(ExplorerReplan, NeverStepsTheSetPointInFlight) {
-  for (const bool periodic : {false, true}) {
-    for (const bool clear : {false, true}) {
-      EXPECT_EQ(ChooseReplanUse(true, true, periodic, clear), ReplanUse::kPublish);
-      EXPECT_EQ(ChooseReplanUse(true, false, periodic, clear), ReplanUse::kPublish);
-      EXPECT_EQ(ChooseReplanUse(false, false, periodic, clear), ReplanUse::kPublish);
-    }
-  }
-  EXPECT_EQ(ChooseReplanUse(false, true, true, true), ReplanUse::kKeep);
-  EXPECT_EQ(ChooseReplanUse(false, true, true, false), ReplanUse::kStop);
-  EXPECT_EQ(ChooseReplanUse(false, true, false, true), ReplanUse::kStop);
-  EXPECT_EQ(ChooseReplanUse(false, true, false, false), ReplanUse::kStop);
 }
 
 }  // namespace
@@ -216,13 +199,13 @@ PiecewisePolynomialTrajectory Straight(const Eigen::Vector3d& a, const Eigen::Ve
 // space and time; where the two are already nearer, only a trajectory that comes nearer still.
 TEST_F(ExplorerNodeTest, RefusesTrajectoriesThatComeTooNearAnotherVehicle) {
   config_.vehicle_prefix = "V1_";
-  config_.peer_prefixes = {"V2_"};
-  config_.min_separation_m = 1.2;
+  config_.explorer.peers = {"V2_"};
+  config_.explorer.min_separation_m = 1.2;
   ExplorerNode node(lcm_, config_, clock_);
   const double t0 = UtimeToSeconds(clock_.NowUtime());
   const PiecewisePolynomialTrajectory through = Straight({-1, 0, 1}, {2, 0, 1}, t0, 3.0);
   const PiecewisePolynomialTrajectory beside = Straight({-1, -1.5, 1}, {2, -1.5, 1}, t0, 3.0);
-  EXPECT_EQ(node.SeparationRefusal(through), "") << "nothing known of V2_ yet";
+  EXPECT_EQ(node.explorer().SeparationRefusal(through), "") << "nothing known of V2_ yet";
   pose_t pose{};
   pose.utime = clock_.NowUtime();
   pose.valid = true;
@@ -232,45 +215,45 @@ TEST_F(ExplorerNodeTest, RefusesTrajectoriesThatComeTooNearAnotherVehicle) {
   lcm_.publish("V2_POSE_VICON", &pose);
   lcm_.publish("POSE_VICON", &pose);  // no vehicle's: V1_'s is V1_POSE_VICON
   Dispatch();
-  const std::string refusal = node.SeparationRefusal(through);
+  const std::string refusal = node.explorer().SeparationRefusal(through);
   EXPECT_NE(refusal.find("V2_"), std::string::npos) << refusal;
   EXPECT_NE(refusal.find("0.00 m"), std::string::npos) << refusal;
-  EXPECT_EQ(node.SeparationRefusal(beside), "");
+  EXPECT_EQ(node.explorer().SeparationRefusal(beside), "");
   // V2_ leaves along y before V1_ gets there: the same line keeps 2 m (at the start).
   const trajectory_t away = ToMessage(Straight({1, 0, 1}, {1, 3, 1}, t0, 1.0), 0, 1, 5);
   lcm_.publish("V2_TRAJECTORY", &away);
   Dispatch();
-  EXPECT_EQ(node.SeparationRefusal(through), "");
+  EXPECT_EQ(node.explorer().SeparationRefusal(through), "");
   // ...but not from where V2_ holds at its end.
-  EXPECT_NE(node.SeparationRefusal(Straight({-1, 3, 1}, {2, 3, 1}, t0 + 5.0, 3.0)), "");
+  EXPECT_NE(node.explorer().SeparationRefusal(Straight({-1, 3, 1}, {2, 3, 1}, t0 + 5.0, 3.0)), "");
   // Already 0.5 m apart: moving away is allowed, nearer is not.
   const trajectory_t hold = ToMessage(Straight({1, 0, 1}, {1, 0, 1}, t0, 1.0), 0, 2, 5);
   lcm_.publish("V2_TRAJECTORY", &hold);
   Dispatch();
-  EXPECT_EQ(node.SeparationRefusal(Straight({1, 0.5, 1}, {1, 3, 1}, t0, 3.0)), "");
-  EXPECT_NE(node.SeparationRefusal(Straight({1, 0.5, 1}, {1, 0.2, 1}, t0, 3.0)), "");
+  EXPECT_EQ(node.explorer().SeparationRefusal(Straight({1, 0.5, 1}, {1, 3, 1}, t0, 3.0)), "");
+  EXPECT_NE(node.explorer().SeparationRefusal(Straight({1, 0.5, 1}, {1, 0.2, 1}, t0, 3.0)), "");
   // A malformed trajectory from V2_ is counted and changes nothing.
   trajectory_t bad = hold;
   bad.durations_s[0] = -1.0;
   lcm_.publish("V2_TRAJECTORY", &bad);
   Dispatch();
   EXPECT_EQ(node.drops().count("malformed"), 1);
-  EXPECT_NE(node.SeparationRefusal(Straight({1, 0.5, 1}, {1, 0.2, 1}, t0, 3.0)), "");
+  EXPECT_NE(node.explorer().SeparationRefusal(Straight({1, 0.5, 1}, {1, 0.2, 1}, t0, 3.0)), "");
 }
 
 TEST(ExplorerConfig, ReadsTheVehiclesAndRefusesBadOnes) {
-  const ExplorerConfig c = LoadExplorerConfig(ConfigNode::FromString(
+  const ExplorerNodeConfig c = LoadExplorerNodeConfig(ConfigNode::FromString(
       "explorer: {vehicle_prefix: V2_, peers: [{prefix: V1_}, {prefix: V3_}], "
       "min_separation_m: 1.5, max_yield_s: 30}",
       "test"));
   EXPECT_EQ(c.vehicle_prefix, "V2_");
-  EXPECT_EQ(c.peer_prefixes, (std::vector<std::string>{"V1_", "V3_"}));
-  EXPECT_EQ(c.min_separation_m, 1.5);
-  EXPECT_EQ(c.max_yield_s, 30.0);
+  EXPECT_EQ(c.explorer.peers, (std::vector<std::string>{"V1_", "V3_"}));
+  EXPECT_EQ(c.explorer.min_separation_m, 1.5);
+  EXPECT_EQ(c.explorer.max_yield_s, 30.0);
   for (const char* bad :
        {"explorer: {vehicle_prefix: V1_, peers: [{prefix: V1_}]}",
         "explorer: {peers: [{prefix: V2_}, {prefix: V2_}]}", "explorer: {min_separation_m: 0}"}) {
-    EXPECT_THROW(LoadExplorerConfig(ConfigNode::FromString(bad, "test")), ConfigError) << bad;
+    EXPECT_THROW(LoadExplorerNodeConfig(ConfigNode::FromString(bad, "test")), ConfigError) << bad;
   }
 }
 

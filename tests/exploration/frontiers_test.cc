@@ -1,6 +1,6 @@
 // Frontiers on the fine traversability (exploration/frontiers.h): frontier cells against their
 // definition by brute force, enclosed unknown space, sight, covered cells and the best heading;
-// and the frontier baseline's choice on a 3D map (exploration/planner.h, FineFrontierPlanner).
+// and the frontier baseline's choice on a 3D map (exploration/fine_frontier_planner.h).
 #include "exploration/frontiers.h"
 
 #include <gtest/gtest.h>
@@ -9,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "exploration/fine_frontier_planner.h"
 #include "exploration/planner.h"
 #include "tests/exploration/test_input.h"
 

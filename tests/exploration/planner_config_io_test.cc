@@ -6,29 +6,19 @@
 #include <string>
 
 #include "common/config.h"
-#include "exploration/explorer_node.h"
+#include "exploration/explorer_config.h"
+#include "tests/exploration/param_table_checks.h"
 
 namespace kestrel {
 namespace {
 
-// The reference file loads and equals the built-in defaults (it documents them).
+// The reference file loads and equals the built-in defaults (it documents them). The explorer's
+// own keys: tests/exploration/explorer_config_test.cc.
 TEST(PlannerConfigIo, ReferenceFileEqualsDefaults) {
   // The file also holds the explorer node's section, so it loads as the explorer loads it.
-  const ExplorerConfig e =
-      LoadExplorerConfig(ConfigNode::LoadFile(KESTREL_CONFIG_DIR "/exploration/explorer.yaml"));
-  const ExplorerConfig ed;
-  EXPECT_EQ(e.replan_period_s, ed.replan_period_s);
-  EXPECT_EQ(e.replan_min_remaining_s, ed.replan_min_remaining_s);
-  EXPECT_EQ(e.safety_check_period_s, ed.safety_check_period_s);
-  EXPECT_EQ(e.startup_yaw_rate_radps, ed.startup_yaw_rate_radps);
-  EXPECT_EQ(e.startup_while_climbing, ed.startup_while_climbing);
-  EXPECT_EQ(e.startup_min_rise_m, ed.startup_min_rise_m);
-  EXPECT_EQ(e.startup_yaw_profile, ed.startup_yaw_profile);
-  EXPECT_EQ(e.max_failed_plans, ed.max_failed_plans);
-  EXPECT_EQ(e.max_end_deferrals, ed.max_end_deferrals);
-  EXPECT_EQ(e.map_channel, ed.map_channel);
-  EXPECT_EQ(e.pose_channel, ed.pose_channel);
-  const PlannerConfig& c = e.planner;
+  const PlannerConfig c =
+      LoadExplorerNodeConfig(ConfigNode::LoadFile(KESTREL_CONFIG_DIR "/exploration/explorer.yaml"))
+          .explorer.planner;
   const PlannerConfig d;
   EXPECT_EQ(c.mode, d.mode);
   EXPECT_EQ(c.projection.height_m, d.projection.height_m);
@@ -68,9 +58,6 @@ TEST(PlannerConfigIo, ReferenceFileEqualsDefaults) {
     EXPECT_NEAR(a.horizontal_fov_rad, b.horizontal_fov_rad, 1e-12) << b.name;
     EXPECT_EQ(a.model.sigma_m, b.model.sigma_m) << b.name;
   }
-  EXPECT_EQ(e.nonstop, ed.nonstop);
-  EXPECT_EQ(e.replan_lookahead_s, ed.replan_lookahead_s);
-  EXPECT_EQ(e.max_home_attempts, ed.max_home_attempts);
 }
 
 // Bad values and unknown keys name the file and key.
@@ -95,6 +82,34 @@ TEST(PlannerConfigIo, ErrorsNameKey) {
   EXPECT_EQ(c.mode, ExplorationMode::kTwoMap);
   EXPECT_EQ(c.trajectory.derivative_order, 3);
   EXPECT_EQ(c.trajectory.vehicle_radius_m, 0.25);
+}
+
+// The frontier and volumetric sections: every key of their tables at its default in the
+// reference file, and one range per key for the loader and the validation.
+TEST(PlannerConfigIo, FrontierAndVolumetricKeysFromOneTable) {
+  const PlannerConfig c =
+      LoadExplorerNodeConfig(ConfigNode::LoadFile(KESTREL_CONFIG_DIR "/exploration/explorer.yaml"))
+          .explorer.planner;
+  const PlannerConfig d;
+  for (const Param<FrontierConfig>& p : FrontierParams()) {
+    EXPECT_EQ(test::ParamValue(c.frontier, p), test::ParamValue(d.frontier, p)) << p.key;
+  }
+  for (const Param<VolumetricConfig>& p : VolumetricParams()) {
+    EXPECT_EQ(test::ParamValue(c.volumetric, p), test::ParamValue(d.volumetric, p)) << p.key;
+  }
+  const auto load = [](const std::string& yaml) {
+    return LoadPlannerConfig(ConfigNode::FromString(yaml, "test.yaml"));
+  };
+  test::ExpectRangesEnforced("volumetric", VolumetricParams(), VolumetricConfig{}, load,
+                             [](const VolumetricConfig& v) { v.Validate(); });
+  test::ExpectRangesEnforced("frontier", FrontierParams(), FrontierConfig{}, load,
+                             [](const FrontierConfig& f) {
+                               PlannerConfig with = PlannerConfig{};
+                               with.frontier = f;
+                               with.Validate();
+                             });
+  // Finite: an infinite band is refused by both.
+  EXPECT_THROW(load("volumetric: {band_below_m: .inf}"), ConfigError);
 }
 
 TEST(PlannerConfigIo, TheMapsClampIsOneValueForEAndTheVolumetricGain) {

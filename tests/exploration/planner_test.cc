@@ -7,6 +7,10 @@
 #include <limits>
 #include <vector>
 
+#include "exploration/entropy_planner.h"
+#include "exploration/frontier_planner.h"
+#include "exploration/planning_pipeline.h"
+#include "exploration/volumetric_planner.h"
 #include "tests/exploration/test_input.h"
 
 namespace kestrel {
@@ -807,6 +811,39 @@ TEST(Planner, VolumetricTrajectoryCheckTriesTheNextCandidates) {
   EXPECT_LE(asked, 10);
   EXPECT_NE(none.reason.find("separation check"), std::string::npos) << none.reason;
   EXPECT_NE(none.reason.find("another vehicle"), std::string::npos) << none.reason;
+}
+
+}  // namespace
+}  // namespace kestrel
+
+namespace kestrel {
+namespace {
+
+// One rule for the start state (SearchSpace::StartOf): the full state on the fine traversability,
+// the paper's start (acceleration and yaw rate left out) on the collision map C.
+TEST(PlanningPipeline, StartStateOfEachSpace) {
+  PlannerConfig config;
+  PlannerInput in;
+  in.position_m = Eigen::Vector3d(1.0, 2.0, 0.75);
+  in.velocity_mps = Eigen::Vector3d(0.5, 0.0, 0.0);
+  in.acceleration_mps2 = Eigen::Vector3d(0.1, -0.2, 0.0);
+  in.yaw_rad = 0.3;
+  in.yaw_rate_radps = 0.4;
+  in.time_s = 12.0;
+  const TrajectoryStart fine = SearchSpace::Fine(config).StartOf(in);
+  EXPECT_EQ(fine.acceleration_mps2, in.acceleration_mps2);
+  EXPECT_EQ(fine.yaw_rate_radps, 0.4);
+  const TrajectoryStart coarse = SearchSpace::Collision(config, false).StartOf(in);
+  EXPECT_EQ(coarse.position_m, in.position_m);
+  EXPECT_EQ(coarse.velocity_mps, in.velocity_mps);
+  EXPECT_EQ(coarse.yaw_rad, 0.3);
+  EXPECT_EQ(coarse.time_s, 12.0);
+  EXPECT_EQ(coarse.acceleration_mps2, Eigen::Vector3d::Zero());
+  EXPECT_EQ(coarse.yaw_rate_radps, 0.0);
+  config.mode = ExplorationMode::kCombined;
+  EXPECT_FALSE(SearchSpace::For(config).fine());
+  config.mode = ExplorationMode::kVolumetric;
+  EXPECT_TRUE(SearchSpace::For(config).fine());
 }
 
 }  // namespace

@@ -8,11 +8,11 @@
 namespace kestrel {
 namespace {
 
-// A status encodes and says what the replan decided.
+// A status encodes and says what the replan decided: the candidates best first, the chosen
+// one's index among them, the reasons joined, the goal at the exploration height.
 TEST(StatusMessage, EncodesTheDecision) {
   PlanResult r;
   r.reason = "test";
-  r.end_test_gain_nats = 7.5;
   r.best_unweighted_gain_nats = 9.0;
   for (int i = 0; i < 3; ++i) {
     Candidate c;
@@ -23,28 +23,62 @@ TEST(StatusMessage, EncodesTheDecision) {
     c.bump = 0.5;
     r.candidates.push_back(c);
   }
-  r.chosen = 2;
+  r.chosen = 1;
   r.timings.total_s = 0.01;
-  const exploration_status_t msg = ToStatusMessage(
-      r, ExplorationMode::kTwoMap, exploration_status_t::STATE_EXPLORING, 123.0, 0.75, 5, 6, 77);
+  StatusContext context;
+  context.utime = 5;
+  context.seq = 6;
+  context.epoch = 77;
+  context.mode = ExplorationMode::kTwoMap;
+  context.state = ExplorerState::kExploring;
+  context.reason = "replan period";
+  context.map_entropy_nats = 123.0;
+  context.height_m = 0.75;
+  const exploration_status_t msg = ToStatusMessage(r, context);
   // Consistent sizes: the message encodes completely.
   std::vector<uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
   ASSERT_EQ(msg.encode(bytes.data(), 0, static_cast<int>(bytes.size())),
             static_cast<int>(bytes.size()));
-  const exploration_status_t& back = msg;
-  EXPECT_EQ(back.mode, "two_map");
-  EXPECT_EQ(back.seq, 6);
-  EXPECT_EQ(back.epoch, 77);
-  EXPECT_EQ(back.num_candidates, 3);
-  EXPECT_EQ(back.chosen_index, 2);
-  EXPECT_EQ(back.best_unweighted_gain_nats, 7.5);  // the end-test gain in two-map mode
-  EXPECT_EQ(back.goal_position_m[0], 2.0);
-  EXPECT_EQ(back.goal_position_m[2], 0.75);
-  EXPECT_EQ(back.candidates[1].objective, 1.5);
-  EXPECT_EQ(back.total_time_s, 0.01);
+  EXPECT_EQ(msg.mode, "two_map");
+  EXPECT_EQ(msg.state, exploration_status_t::STATE_EXPLORING);
+  EXPECT_EQ(msg.reason, "replan period: test");
+  EXPECT_EQ(msg.seq, 6);
+  EXPECT_EQ(msg.epoch, 77);
+  EXPECT_EQ(msg.map_entropy_nats, 123.0);
+  EXPECT_EQ(msg.best_unweighted_gain_nats, 9.0);
+  ASSERT_EQ(msg.num_candidates, 3);
+  // Objectives 1.0, 1.5, 2.0: listed 2.0, 1.5, 1.0; the chosen one (1.5) is second.
+  EXPECT_EQ(msg.candidates[0].objective, 2.0);
+  EXPECT_EQ(msg.candidates[2].objective, 1.0);
+  EXPECT_EQ(msg.chosen_index, 1);
+  EXPECT_EQ(msg.goal_position_m[0], 1.0);
+  EXPECT_EQ(msg.goal_position_m[1], -1.0);
+  EXPECT_EQ(msg.goal_position_m[2], 0.75);
+  EXPECT_EQ(msg.goal_yaw_rad, 0.5);
+  EXPECT_EQ(msg.total_time_s, 0.01);
+  // At most max_candidates, best first; the chosen one not among them: index -1.
+  context.max_candidates = 1;
+  const exploration_status_t capped = ToStatusMessage(r, context);
+  EXPECT_EQ(capped.num_candidates, 1);
+  EXPECT_EQ(capped.chosen_index, -1);
+  EXPECT_EQ(capped.goal_position_m[0], 1.0);
+  // No choice, no reason of its own: the context's reason and a zero goal.
   r.chosen = -1;
-  EXPECT_TRUE(std::isnan(
-      ToStatusMessage(r, ExplorationMode::kCombined, 0, 0.0, 0.75, 0, 0, 1).goal_position_m[0]));
+  r.reason.clear();
+  const exploration_status_t none = ToStatusMessage(r, context);
+  EXPECT_EQ(none.reason, "replan period");
+  EXPECT_EQ(none.goal_position_m[0], 0.0);
+}
+
+// H(map) is the sum of the cells' binary entropies; certain cells add nothing.
+TEST(StatusMessage, MapEntropyIsTheSumOfCellEntropies) {
+  const std::vector<float> p{0.5f, 0.1f, 0.0f, 1.0f};
+  OccupancyGridView view;
+  view.dims = Eigen::Vector3i(2, 2, 1);
+  view.probability = p.data();
+  const double q = static_cast<double>(0.1f);
+  EXPECT_NEAR(MapEntropyNats(view), std::log(2.0) - q * std::log(q) - (1 - q) * std::log(1 - q),
+              1e-12);
 }
 
 // A 2D map message has the map's geometry and values.

@@ -13,7 +13,9 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
@@ -444,6 +446,42 @@ TEST(Cellar, StoreRoomOnlyThroughTheGap) {
   const FreeSpace narrowed = ComputeFreeSpace(w);
   ASSERT_TRUE(narrowed.start_free);
   EXPECT_FALSE(narrowed.Reachable(inside_store.x(), inside_store.y()));
+}
+
+// The geofence of a flight in each world (WorldGeofence, the one derivation the mission, the
+// sheets and the tests use): the map limits with 0.2 m below and beside and 1.0 m above, the
+// start and the flight plane inside it; and the process sheets' default fence
+// (scripts/sheets/kestrel.env, which names lasr) is lasr's.
+TEST_P(EachWorld, GeofenceSurroundsTheMap) {
+  const World w = LoadWorld(kConfigDir + "/worlds/" + GetParam());
+  const Geofence fence = WorldGeofence(w);
+  EXPECT_EQ(fence.min_m, w.map_min_m - Eigen::Vector3d(0.2, 0.2, 0.2));
+  EXPECT_EQ(fence.max_m, w.map_max_m + Eigen::Vector3d(0.2, 0.2, 1.0));
+  const Eigen::Vector3d flight(w.start_X_WB.p.x(), w.start_X_WB.p.y(), w.exploration_height_m);
+  for (const Eigen::Vector3d& p : {w.start_X_WB.p, flight}) {
+    EXPECT_TRUE((p.array() > fence.min_m.array()).all() && (p.array() < fence.max_m.array()).all())
+        << p.transpose();
+  }
+}
+
+TEST(Worlds, SheetDefaultsAreLasrsGeofence) {
+  std::ifstream in(kConfigDir + "/../scripts/sheets/kestrel.env");
+  ASSERT_TRUE(in.good());
+  std::map<std::string, std::string> env;
+  for (std::string line; std::getline(in, line);) {
+    const size_t eq = line.find('=');
+    if (line.empty() || line[0] == '#' || eq == std::string::npos) continue;
+    env[line.substr(0, eq)] = line.substr(eq + 1);
+  }
+  const Geofence fence = WorldGeofence(LoadWorld(kConfigDir + "/worlds/lasr.yaml"));
+  const auto text = [](const Eigen::Vector3d& v) {
+    char t[96];
+    std::snprintf(t, sizeof(t), "[%g,%g,%g]", v.x(), v.y(), v.z());
+    return std::string(t);
+  };
+  EXPECT_EQ(env["KESTREL_WORLD"], "config/worlds/lasr.yaml");
+  EXPECT_EQ(env["KESTREL_FENCE_MIN"], text(fence.min_m));
+  EXPECT_EQ(env["KESTREL_FENCE_MAX"], text(fence.max_m));
 }
 
 }  // namespace

@@ -31,6 +31,7 @@ declare -A numeric=(
   [tools/fidelity/kestrel-calibrate]="--log l.lcmlog --world w.yaml --every x"
   [tools/flight_check/kestrel-flight-check]="memq:// 10s"
   [tools/fault/kestrel-fault]="malformed --count-per-channel x"
+  [tools/world_env/kestrel-world-env]=""
   [drivers/usb/kestrel-devices]="--watch soon"
   [viewer/report/kestrel-report-export]="--log a.lcmlog --out d --threshold x"
   [viewer/foxglove/kestrel-mcap-export]="--log a.lcmlog --out b.mcap --map-period x"
@@ -71,6 +72,8 @@ done
 # No own positional arguments: a stray word is refused (the mapper once ignored everything).
 expect 2 "unexpected argument .stray." "$build/mapping/kestrel-mapper" stray
 expect 2 "unexpected argument .stray." "$build/sim/kestrel-sim" --set a=1 stray
+# kestrel-world-env: one world file, no more.
+expect 2 "unexpected argument .stray." "$build/tools/world_env/kestrel-world-env" w.yaml stray
 # kestrel-cmd goto: a coordinate that is not a number is named.
 expect 2 "not a coordinate" "$build/tools/cmd/kestrel-cmd" goto 1 x 0
 # kestrel-report (a shell wrapper): --help and -h print the usage and exit 0 wherever they stand;

@@ -65,8 +65,10 @@ class SimFlight {
     sim_config_ = LoadSimConfig(sim_cfg, KESTREL_SOURCE_DIR);
     config_.flight.vehicle = sim_config_.vehicle;
     config_.flight.controller.attitude_error = form;
-    config_.flight.safety.geofence_min_m = sim_config_.world.map_min_m - Eigen::Vector3d(0, 0, 0.2);
-    config_.flight.safety.geofence_max_m = sim_config_.world.map_max_m;
+    // The world's geofence (WorldGeofence), its top at the test's height.
+    const Geofence fence = WorldGeofence(sim_config_.world);
+    config_.flight.safety.geofence_min_m = fence.min_m;
+    config_.flight.safety.geofence_max_m = fence.max_m;
     config_.flight.safety.geofence_max_m.z() = geofence_top_m;
     sim_ = std::make_unique<SimNode>(lcm_, sim_config_, clock_);
     controller_ = std::make_unique<ControllerNode>(lcm_, config_, clock_, &motors_);

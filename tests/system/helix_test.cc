@@ -59,10 +59,10 @@ double FlyHelix(bool sensor_noise, double* max_error_m) {
   const SimConfig sim_config = LoadSimConfig(sim_cfg, KESTREL_SOURCE_DIR);
   ControllerConfig controller_config;
   controller_config.flight.vehicle = sim_config.vehicle;
-  controller_config.flight.safety.geofence_min_m =
-      sim_config.world.map_min_m - Eigen::Vector3d(0, 0, 0.2);
-  controller_config.flight.safety.geofence_max_m =
-      sim_config.world.map_max_m + Eigen::Vector3d(0, 0, 1.5);
+  // The world's geofence (WorldGeofence), 0.5 m more headroom for the helix's top.
+  const Geofence fence = WorldGeofence(sim_config.world);
+  controller_config.flight.safety.geofence_min_m = fence.min_m;
+  controller_config.flight.safety.geofence_max_m = fence.max_m + Eigen::Vector3d(0, 0, 0.5);
   lcm::LCM lcm("memq://");
   SimClock clock(1700000000000000);
   SimNode sim(lcm, sim_config, clock);

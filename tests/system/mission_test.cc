@@ -147,7 +147,7 @@ MissionResult KillTheExplorer(double at_s, double max_left_s, MissionConfig mc =
 TEST(Mission, HoldsWhileTheExplorerIsDownAndResumesTheFlightHome) {
   const MissionResult r = KillTheExplorer(40.0, 0.5, CiProfile(), true);
   EXPECT_TRUE(r.explorer_down_held);
-  EXPECT_EQ(r.explorer_resume.rfind("resumed RETURNING from the flown state", 0), 0u)
+  EXPECT_EQ(r.explorer_resume.rfind("resumed returning from the flown state", 0), 0u)
       << r.explorer_resume;
   EXPECT_EQ(r.end_rule, "gain rule") << "kept across the restart";
 }
@@ -176,7 +176,7 @@ TEST(Mission, ContinuesAfterAControllerKillThenResumesExploringAfterAnExplorerKi
   // trajectory (controller_hold_replan_s = 0.5 s), not when its own trajectory ends.
   EXPECT_GE(r.controller_track_after_s, 0.0);
   EXPECT_LT(r.controller_track_after_s, 1.5);
-  EXPECT_EQ(r.explorer_resume.rfind("resumed EXPLORING from the flown state", 0), 0u)
+  EXPECT_EQ(r.explorer_resume.rfind("resumed exploring from the flown state", 0), 0u)
       << r.explorer_resume;
 }
 

@@ -34,8 +34,9 @@ class TwoVehicles {
       const std::string p = sim_config_.vehicles[static_cast<size_t>(k)].prefix;
       ControllerConfig c;
       c.flight.vehicle = sim_config_.vehicle;
-      c.flight.safety.geofence_min_m = sim_config_.world.map_min_m - Eigen::Vector3d(0, 0, 0.2);
-      c.flight.safety.geofence_max_m = sim_config_.world.map_max_m + Eigen::Vector3d(0, 0, 1.0);
+      const Geofence fence = WorldGeofence(sim_config_.world);
+      c.flight.safety.geofence_min_m = fence.min_m;
+      c.flight.safety.geofence_max_m = fence.max_m;
       c.pose_channel = p + c.pose_channel;
       c.imu_channel = p + c.imu_channel;
       c.trajectory_channel = p + c.trajectory_channel;

@@ -20,6 +20,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/lcm_decode.h"
+#include "exploration/explorer_state.h"
 #include "kestrel/exploration_status_t.hpp"
 #include "kestrel/pose_t.hpp"
 #include "viewer/report/report_export.h"
@@ -239,6 +240,7 @@ TEST(ReportVehicles, StatusesAreEachVehiclesOwn) {
     ASSERT_GE(statuses[k].size(), 2u) << kPrefixes[k];
     EXPECT_EQ(v.Number(k, "plans"), static_cast<double>(statuses[k].size())) << kPrefixes[k];
     EXPECT_EQ(v.Number(k, "final_state"), static_cast<double>(statuses[k].back().state));
+    EXPECT_EQ(v.Text(k, "final_state_name"), ExplorerStateName(statuses[k].back().state));
     EXPECT_EQ(v.Text(k, "final_reason"), statuses[k].back().reason);
     bool done = false;
     for (const auto& s : statuses[k]) done = done || s.state == exploration_status_t::STATE_DONE;

@@ -277,6 +277,8 @@ TEST(ViewerScene, EachVehicleIsKeptApart) {
     ASSERT_EQ(exploration.size(), 1u);  // V1_ has none yet
     EXPECT_EQ(exploration[0]["vehicle"].as<int>(), 1);
     EXPECT_EQ(exploration[0]["state"].as<int>(), exploration_status_t::STATE_RETURNING);
+    // The name from the explorer's table, which the page shows as it comes.
+    EXPECT_EQ(exploration[0]["state_name"].as<std::string>(), "returning");
     EXPECT_DOUBLE_EQ(exploration[0]["goal"][0].as<double>(), -4.0);
   }
   // A new pose of V2_ sends V2_'s pose and path only.

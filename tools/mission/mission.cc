@@ -21,7 +21,9 @@
 #include "common/log.h"
 #include "control/controller_node.h"
 #include "exploration/explorer_node.h"
+#include "exploration/explorer_state.h"
 #include "kestrel/command_t.hpp"
+#include "kestrel/exploration_status_t.hpp"
 #include "kestrel/grid_map_t.hpp"
 #include "mapping/mapper_node.h"
 #include "sim/ground_truth.h"
@@ -38,26 +40,6 @@ ConfigNode Load(const std::string& root, const std::string& file,
   ConfigNode node = ConfigNode::LoadFile(PathUnderRoot(root, file));
   for (const auto& o : overrides) node.ApplyOverride(o);
   return node;
-}
-
-// The explorer's state in words (exploration_status_t::STATE_*).
-std::string ExplorerStateName(int state) {
-  switch (state) {
-    case exploration_status_t::STATE_WAITING:
-      return "waiting";
-    case exploration_status_t::STATE_STARTUP:
-      return "start-up";
-    case exploration_status_t::STATE_EXPLORING:
-      return "exploring";
-    case exploration_status_t::STATE_RETURNING:
-      return "returning";
-    case exploration_status_t::STATE_DONE:
-      return "done";
-    case exploration_status_t::STATE_FAILED:
-      return "failed";
-    default:
-      return "state " + std::to_string(state);
-  }
 }
 
 std::string Fixed3(double v) {
@@ -130,205 +112,266 @@ std::vector<Eigen::Vector3d> VehicleStartOffsets(const World& world, int vehicle
   return offsets;
 }
 
-MissionResult RunMission(const MissionConfig& mc) {
-  const auto wall_start = std::chrono::steady_clock::now();
-  // The nodes' publisher epochs from the seed, so that the same seed gives the same messages
-  // (docs/design.md §7.5); the nodes are built in a fixed order below.
-  SeedPublisherEpochs(static_cast<uint64_t>(mc.seed));
-  const int64_t mission_epoch = NewPublisherEpoch();  // the take-off command's
-  // --- Configuration: one world, its limits everywhere.
-  std::vector<std::string> sim_overrides = mc.sim_overrides;
-  const bool faults = mc.sensor_drop_fraction > 0 || mc.mocap_outage_s > 0;
-  if (faults) {  // the simulator publishes on SIM_*; a relay drops what the fault asks
-    sim_overrides.push_back("channels.depth=SIM_DEPTH_XTION");
-    sim_overrides.push_back("channels.scan=SIM_SCAN_HOKUYO");
-    sim_overrides.push_back("channels.pose=SIM_POSE_VICON");
+namespace {
+
+// Every message in publication order, as lcm-logger would record it (stamped with the
+// simulated time), so the run can be replayed into fresh processes.
+struct LogWriter {
+  lcm::LogFile* file{nullptr};
+  const SimClock* clock{nullptr};
+  int64_t events{0};
+  void Handle(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    lcm::LogEvent ev;
+    ev.eventnum = events++;
+    ev.timestamp = clock->NowUtime();
+    ev.channel = channel;
+    ev.datalen = static_cast<int32_t>(rbuf->data_size);
+    ev.data = rbuf->data;
+    file->writeEvent(&ev);
   }
-  sim_overrides.push_back("world_file=" + PathUnderRoot(mc.root, mc.world_file));
-  sim_overrides.push_back("seed=" + std::to_string(mc.seed));
-  ConfigNode sim_node_cfg = Load(mc.root, mc.sim_file, sim_overrides);
-  SimConfig sim_config = LoadSimConfig(sim_node_cfg, mc.root);
-  KESTREL_THROW_UNLESS(mc.vehicles == 1 || !faults,
-                       "the fault injection applies to one vehicle only (--vehicles 1)");
-  std::vector<std::string> prefixes{""};
-  std::vector<Eigen::Vector3d> offsets{Eigen::Vector3d::Zero()};
-  if (mc.vehicles != 1) {
-    // Several vehicles: V1_, V2_, ... at clear places around the world's start.
-    offsets =
-        VehicleStartOffsets(sim_config.world, mc.vehicles, mc.vehicle_spacing_m,
-                            sim_config.vehicle.diameter_m, sim_config.world.exploration_height_m);
-    prefixes.clear();
-    std::ostringstream list;
-    list << "vehicles=[";
-    for (int k = 0; k < mc.vehicles; ++k) {
-      prefixes.push_back("V" + std::to_string(k + 1) + "_");
-      const Eigen::Vector3d& o = offsets[static_cast<size_t>(k)];
-      list << (k > 0 ? ", " : "") << "{prefix: " << prefixes.back() << ", start_offset_m: ["
-           << o.x() << ", " << o.y() << ", " << o.z() << "]}";
+};
+
+// Fault injection: relays one of the simulator's channels, dropping a seeded fraction of its
+// messages, or every message during the motion-capture outage.
+struct Relay {
+  lcm::LCM* lcm;
+  const SimClock* clock;
+  std::string to;
+  double drop_fraction;
+  int64_t outage_begin, outage_end;  // utime, pose relay only
+  std::mt19937_64* rng;
+  int64_t* dropped;
+  void Handle(const lcm::ReceiveBuffer* rbuf, const std::string&) {
+    const int64_t now = clock->NowUtime();
+    const bool drop =
+        (drop_fraction > 0 && std::uniform_real_distribution<double>(0, 1)(*rng) < drop_fraction) ||
+        (now >= outage_begin && now < outage_end);
+    if (drop) {
+      ++*dropped;
+      return;
     }
-    list << "]";
-    sim_node_cfg.ApplyOverride(list.str());
-    sim_config = LoadSimConfig(sim_node_cfg, mc.root);
+    lcm->publish(to, rbuf->data, rbuf->data_size);
   }
-  sim_node_cfg.CheckNoUnknownKeys();
-  const size_t num_vehicles = prefixes.size();
-  const World& world = sim_config.world;
+};
 
-  ConfigNode mapper_cfg = Load(mc.root, mc.mapper_file, mc.mapper_overrides);
-  MapperConfig mapper_config = LoadMapperConfig(mapper_cfg);
-  mapper_cfg.CheckNoUnknownKeys();
-  mapper_config.limits.min_m = world.map_min_m;
-  mapper_config.limits.max_m = world.map_max_m;
-  mapper_config.checkpoint_path.clear();
-  mapper_config.vehicle_prefixes = prefixes;
-  // memq:// has no receive buffer to protect (docs/design.md §7.6): snapshots go out whole at
-  // their instant, as before pacing, unless snapshot_bytes_per_s is set on the command line.
-  if (std::none_of(mc.mapper_overrides.begin(), mc.mapper_overrides.end(),
-                   [](const std::string& o) { return o.rfind("snapshot_bytes_per_s=", 0) == 0; })) {
-    mapper_config.snapshot_bytes_per_s = 0;
-  }
-  mapper_config.sensors[0].X_BS = sim_config.vehicle.X_BS_xtion;
-  if (mapper_config.sensors.size() > 1)
-    mapper_config.sensors[1].X_BS = sim_config.vehicle.X_BS_hokuyo;
+// One mission: its configuration, its nodes over one memq:// LCM, the lockstep loop and the
+// figures of MissionResult. Run() builds the world and the nodes in a fixed order (their
+// publisher epochs come from the seed, docs/design.md §7.5), runs the lockstep, then sums up.
+class Mission {
+ public:
+  explicit Mission(const MissionConfig& mc) : mc_(mc) {}
 
-  ConfigNode explorer_cfg = Load(mc.root, mc.explorer_file, mc.explorer_overrides);
-  ExplorerConfig explorer_config = LoadExplorerConfig(explorer_cfg);
-  explorer_cfg.CheckNoUnknownKeys();
-  explorer_config.map = mapper_config.limits;
-  explorer_config.p_init = mapper_config.occupancy.p_init;
-  explorer_config.planner.projection.height_m = world.exploration_height_m;
-  explorer_config.planner.projection.p_init = mapper_config.occupancy.p_init;
-  // The vehicle that flies is the simulator's: its diameter sets k_C and the disc checked.
-  explorer_config.planner.projection.vehicle_diameter_m = sim_config.vehicle.diameter_m;
-  explorer_config.planner.trajectory.vehicle_radius_m = 0.5 * sim_config.vehicle.diameter_m;
-
-  ControllerConfig controller_config;
-  ConfigNode controller_cfg = ConfigNode::FromString("{}", "(defaults)");
-  if (!mc.controller_file.empty()) {
-    controller_cfg = ConfigNode::LoadFile(PathUnderRoot(mc.root, mc.controller_file));
-    controller_config = LoadControllerConfig(controller_cfg, sim_config.vehicle);
-  }
-  controller_config.flight.vehicle = sim_config.vehicle;
-  controller_config.flight.safety.geofence_min_m = world.map_min_m - Eigen::Vector3d(0, 0, 0.2);
-  controller_config.flight.safety.geofence_max_m = world.map_max_m + Eigen::Vector3d(0, 0, 1.0);
-
-  int64_t r_sensor_dropped_ = 0;
-  int64_t r_poses_dropped_ = 0;
-  // --- The nodes, in one process: a controller and an explorer per vehicle, one mapper.
-  lcm::LCM lcm("memq://");
-  KESTREL_THROW_UNLESS(lcm.good(), "memq:// LCM unavailable");
-  SimClock clock(1700000000000000);  // a fixed, plausible epoch: stamps are the same every run
-  SimNode sim(lcm, sim_config, clock);
-  // Process kills: the state files (docs/design.md §2.5) in a folder of the run, one run id.
-  const bool kills = mc.controller_kill_at_s >= 0 || mc.explorer_kill_at_s >= 0;
-  KESTREL_THROW_UNLESS(!kills || mc.vehicles == 1, "process kills apply to one vehicle only");
-  std::string state_dir = mc.state_dir;
-  bool remove_state_dir = false;
-  if (kills && state_dir.empty()) {
-    char dir[] = "/tmp/kestrel-mission-XXXXXX";
-    KESTREL_THROW_UNLESS(mkdtemp(dir) != nullptr, "cannot make a state folder under /tmp");
-    state_dir = dir;
-    remove_state_dir = true;
-  }
-  if (kills) {
-    controller_config.state_path = state_dir + "/controller.state";
-    controller_config.run_id = "mission-" + std::to_string(mc.seed);
-    explorer_config.state_path = state_dir + "/explorer.state";
-    explorer_config.run_id = controller_config.run_id;
-  }
-  std::vector<ControllerConfig> controller_configs;
-  std::vector<ExplorerConfig> explorer_configs;
-  std::vector<std::unique_ptr<ControllerNode>> controllers;
-  for (const std::string& p : prefixes) {
-    ControllerConfig c = controller_config;
-    for (std::string* channel :
-         {&c.pose_channel, &c.imu_channel, &c.trajectory_channel, &c.command_channel,
-          &c.motor_channel, &c.status_channel, &c.heartbeat_channel}) {
-      *channel = p + *channel;
+  MissionResult Run() {
+    SeedPublisherEpochs(static_cast<uint64_t>(mc_.seed));
+    mission_epoch_ = NewPublisherEpoch();  // the take-off command's
+    LoadSimulator();
+    LoadNodeConfigurations();
+    StartNodes();
+    StartLog();
+    WatchExplorer();
+    StartQualityAndFaults();
+    StartLockstep();
+    while (Step()) {
     }
-    controller_configs.push_back(c);
-    controllers.push_back(std::make_unique<ControllerNode>(lcm, c, clock));
+    Summarise();
+    WriteFiles();
+    r_.wall_time_s = SecondsSince(wall_start_);
+    return std::move(r_);
   }
-  MapperNode mapper(lcm, mapper_config, clock);
-  std::vector<std::unique_ptr<ExplorerNode>> explorers;
-  for (const std::string& p : prefixes) {
-    ExplorerConfig e = explorer_config;
-    e.vehicle_prefix = p;
-    for (const std::string& q : prefixes) {
-      if (q != p) e.peer_prefixes.push_back(q);
-    }
-    explorer_configs.push_back(e);
-    explorers.push_back(std::make_unique<ExplorerNode>(lcm, e, clock));
+
+ private:
+  static double SecondsSince(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   // The first vehicle's nodes (replaced when killed and respawned: no references kept).
-  const auto explorer = [&]() -> ExplorerNode& { return *explorers.front(); };
-
-  // Every message in publication order, as lcm-logger would record it (stamped with the
-  // simulated time), so the run can be replayed into fresh processes.
-  std::unique_ptr<lcm::LogFile> log;
-  struct LogWriter {
-    lcm::LogFile* file;
-    const SimClock* clock;
-    int64_t events{0};
-    void Handle(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-      lcm::LogEvent ev;
-      ev.eventnum = events++;
-      ev.timestamp = clock->NowUtime();
-      ev.channel = channel;
-      ev.datalen = static_cast<int32_t>(rbuf->data_size);
-      ev.data = rbuf->data;
-      file->writeEvent(&ev);
+  ExplorerNode& explorer() { return *explorers_.front(); }
+  ControllerNode* controller() { return controllers_.front().get(); }
+  void Drain() {
+    while (lcm_.handleTimeout(0) > 0) {
     }
-  } writer{nullptr, &clock};
-  if (!mc.log_path.empty()) {
-    log = std::make_unique<lcm::LogFile>(mc.log_path, "w");
-    KESTREL_THROW_UNLESS(log->good(), "cannot write the log " << mc.log_path);
-    writer.file = log.get();
-    lcm.subscribe(".*", &LogWriter::Handle, &writer);
-    // What each node runs with, first in the log (docs/design.md §6). The values the mission
-    // sets from the world and the vehicle after loading (map limits, height, diameter) are not
-    // among them; the world and the vehicle files are, with the simulator's.
+  }
+
+  // --- Building the world and the nodes.
+
+  // The simulator's configuration: the world and seed, the vehicles (V1_, V2_, ... at clear
+  // places around the world's start), the sensors relayed when faults are injected.
+  void LoadSimulator() {
+    std::vector<std::string> overrides = mc_.sim_overrides;
+    faults_ = mc_.sensor_drop_fraction > 0 || mc_.mocap_outage_s > 0;
+    if (faults_) {  // the simulator publishes on SIM_*; a relay drops what the fault asks
+      overrides.push_back("channels.depth=SIM_DEPTH_XTION");
+      overrides.push_back("channels.scan=SIM_SCAN_HOKUYO");
+      overrides.push_back("channels.pose=SIM_POSE_VICON");
+    }
+    overrides.push_back("world_file=" + PathUnderRoot(mc_.root, mc_.world_file));
+    overrides.push_back("seed=" + std::to_string(mc_.seed));
+    sim_cfg_ = Load(mc_.root, mc_.sim_file, overrides);
+    sim_config_ = LoadSimConfig(sim_cfg_, mc_.root);
+    KESTREL_THROW_UNLESS(mc_.vehicles == 1 || !faults_,
+                         "the fault injection applies to one vehicle only (--vehicles 1)");
+    if (mc_.vehicles != 1) {
+      offsets_ = VehicleStartOffsets(sim_config_.world, mc_.vehicles, mc_.vehicle_spacing_m,
+                                     sim_config_.vehicle.diameter_m,
+                                     sim_config_.world.exploration_height_m);
+      prefixes_.clear();
+      std::ostringstream list;
+      list << "vehicles=[";
+      for (int k = 0; k < mc_.vehicles; ++k) {
+        prefixes_.push_back("V" + std::to_string(k + 1) + "_");
+        const Eigen::Vector3d& o = offsets_[static_cast<size_t>(k)];
+        list << (k > 0 ? ", " : "") << "{prefix: " << prefixes_.back() << ", start_offset_m: ["
+             << o.x() << ", " << o.y() << ", " << o.z() << "]}";
+      }
+      list << "]";
+      sim_cfg_.ApplyOverride(list.str());
+      sim_config_ = LoadSimConfig(sim_cfg_, mc_.root);
+    }
+    sim_cfg_.CheckNoUnknownKeys();
+  }
+
+  // The mapper's, the explorer's and the controller's files, with what the world and the
+  // simulated vehicle set in every one of them: one world, its limits everywhere.
+  void LoadNodeConfigurations() {
+    const World& world = sim_config_.world;
+    mapper_cfg_ = Load(mc_.root, mc_.mapper_file, mc_.mapper_overrides);
+    mapper_config_ = LoadMapperConfig(mapper_cfg_);
+    mapper_cfg_.CheckNoUnknownKeys();
+    mapper_config_.limits.min_m = world.map_min_m;
+    mapper_config_.limits.max_m = world.map_max_m;
+    mapper_config_.checkpoint_path.clear();
+    mapper_config_.vehicle_prefixes = prefixes_;
+    // memq:// has no receive buffer to protect (docs/design.md §7.6): snapshots go out whole at
+    // their instant, as before pacing, unless snapshot_bytes_per_s is set on the command line.
+    if (std::none_of(mc_.mapper_overrides.begin(), mc_.mapper_overrides.end(),
+                     [](const auto& o) { return o.rfind("snapshot_bytes_per_s=", 0) == 0; })) {
+      mapper_config_.snapshot_bytes_per_s = 0;
+    }
+    mapper_config_.sensors[0].X_BS = sim_config_.vehicle.X_BS_xtion;
+    if (mapper_config_.sensors.size() > 1) {
+      mapper_config_.sensors[1].X_BS = sim_config_.vehicle.X_BS_hokuyo;
+    }
+
+    explorer_cfg_ = Load(mc_.root, mc_.explorer_file, mc_.explorer_overrides);
+    explorer_config_ = LoadExplorerNodeConfig(explorer_cfg_);
+    explorer_cfg_.CheckNoUnknownKeys();
+    ExplorerConfig& e = explorer_config_.explorer;
+    e.map = mapper_config_.limits;
+    e.p_init = mapper_config_.occupancy.p_init;
+    e.planner.projection.height_m = world.exploration_height_m;
+    e.planner.projection.p_init = mapper_config_.occupancy.p_init;
+    // The vehicle that flies is the simulator's: its diameter sets k_C and the disc checked.
+    e.planner.projection.vehicle_diameter_m = sim_config_.vehicle.diameter_m;
+    e.planner.trajectory.vehicle_radius_m = 0.5 * sim_config_.vehicle.diameter_m;
+
+    controller_cfg_ = ConfigNode::FromString("{}", "(defaults)");
+    if (!mc_.controller_file.empty()) {
+      controller_cfg_ = ConfigNode::LoadFile(PathUnderRoot(mc_.root, mc_.controller_file));
+      controller_config_ = LoadControllerConfig(controller_cfg_, sim_config_.vehicle);
+    }
+    controller_config_.flight.vehicle = sim_config_.vehicle;
+    const Geofence fence = WorldGeofence(world);  // as the sheets' (scripts/world-env)
+    controller_config_.flight.safety.geofence_min_m = fence.min_m;
+    controller_config_.flight.safety.geofence_max_m = fence.max_m;
+  }
+
+  // The nodes in one process: the simulator, a controller per vehicle, the mapper, an explorer
+  // per vehicle (in this order: their epochs); with process kills, their state files in a
+  // folder of the run and one run id (docs/design.md §2.5).
+  void StartNodes() {
+    KESTREL_THROW_UNLESS(lcm_.good(), "memq:// LCM unavailable");
+    sim_ = std::make_unique<SimNode>(lcm_, sim_config_, clock_);
+    const bool kills = mc_.controller_kill_at_s >= 0 || mc_.explorer_kill_at_s >= 0;
+    KESTREL_THROW_UNLESS(!kills || mc_.vehicles == 1, "process kills apply to one vehicle only");
+    state_dir_ = mc_.state_dir;
+    if (kills && state_dir_.empty()) {
+      char dir[] = "/tmp/kestrel-mission-XXXXXX";
+      KESTREL_THROW_UNLESS(mkdtemp(dir) != nullptr, "cannot make a state folder under /tmp");
+      state_dir_ = dir;
+      remove_state_dir_ = true;
+    }
+    if (kills) {
+      controller_config_.state_path = state_dir_ + "/controller.state";
+      controller_config_.run_id = "mission-" + std::to_string(mc_.seed);
+      explorer_config_.state_path = state_dir_ + "/explorer.state";
+      explorer_config_.run_id = controller_config_.run_id;
+    }
+    for (const std::string& p : prefixes_) {
+      ControllerConfig c = controller_config_;
+      for (std::string* channel :
+           {&c.pose_channel, &c.imu_channel, &c.trajectory_channel, &c.command_channel,
+            &c.motor_channel, &c.status_channel, &c.heartbeat_channel}) {
+        *channel = p + *channel;
+      }
+      controller_configs_.push_back(c);
+      controllers_.push_back(std::make_unique<ControllerNode>(lcm_, c, clock_));
+    }
+    mapper_ = std::make_unique<MapperNode>(lcm_, mapper_config_, clock_);
+    for (const std::string& p : prefixes_) {
+      ExplorerNodeConfig e = explorer_config_;
+      e.vehicle_prefix = p;
+      for (const std::string& q : prefixes_) {
+        if (q != p) e.explorer.peers.push_back(q);
+      }
+      explorer_configs_.push_back(e);
+      explorers_.push_back(std::make_unique<ExplorerNode>(lcm_, e, clock_));
+    }
+  }
+
+  // The log (mc.log_path): every message, and first what each node runs with
+  // (docs/design.md §6). The values the mission sets from the world and the vehicle after loading
+  // (map limits, height, diameter) are not among them; the world and the vehicle files are, with
+  // the simulator's.
+  void StartLog() {
+    if (mc_.log_path.empty()) return;
+    log_ = std::make_unique<lcm::LogFile>(mc_.log_path, "w");
+    KESTREL_THROW_UNLESS(log_->good(), "cannot write the log " << mc_.log_path);
+    writer_.file = log_.get();
+    writer_.clock = &clock_;
+    lcm_.subscribe(".*", &LogWriter::Handle, &writer_);
     struct NodeConfig {
       const char* name;
       const ConfigNode* node;
       std::string file;
     };
     const NodeConfig configs[] = {
-        {"SIM", &sim_node_cfg, PathUnderRoot(mc.root, mc.sim_file)},
-        {"CONTROLLER", &controller_cfg, PathUnderRoot(mc.root, mc.controller_file)},
-        {"MAPPER", &mapper_cfg, PathUnderRoot(mc.root, mc.mapper_file)},
-        {"EXPLORER", &explorer_cfg, PathUnderRoot(mc.root, mc.explorer_file)}};
+        {"SIM", &sim_cfg_, PathUnderRoot(mc_.root, mc_.sim_file)},
+        {"CONTROLLER", &controller_cfg_, PathUnderRoot(mc_.root, mc_.controller_file)},
+        {"MAPPER", &mapper_cfg_, PathUnderRoot(mc_.root, mc_.mapper_file)},
+        {"EXPLORER", &explorer_cfg_, PathUnderRoot(mc_.root, mc_.explorer_file)}};
     for (const auto& [name, node, file] : configs) {
       ProcessArgs args;
       args.config_path = file;
-      args.command_line = mc.command_line;
+      args.command_line = mc_.command_line;
       params_t params = MakeParamsMessage("kestrel-mission", args, *node);
-      params.utime = clock.NowUtime();
-      params.epoch = mission_epoch;
-      lcm.publish(std::string("PARAMS_") + name, &params);
+      params.utime = clock_.NowUtime();
+      params.epoch = mission_epoch_;
+      lcm_.publish(std::string("PARAMS_") + name, &params);
     }
   }
-  MissionResult r;
-  const int64_t t0_utime = clock.NowUtime();
-  GuardedSubscriptions watch(lcm);
-  bool first_plan_seen = false;
-  watch.Add<exploration_status_t>(
-      prefixes.front() + explorer_config.status_channel,
-      [&](const std::string&, const exploration_status_t& m) {
-        if (m.state == exploration_status_t::STATE_DONE) r.done_status_published = true;
-        if (first_plan_seen || m.state == exploration_status_t::STATE_STARTUP ||
-            m.state == exploration_status_t::STATE_WAITING) {
-          return;
-        }
-        first_plan_seen = true;
-        r.first_plan_chose_goal = m.chosen_index >= 0;
-        r.first_plan_time_s = UtimeToSeconds(clock.NowUtime() - t0_utime);
-      },
-      nullptr);
-  if (mc.verbose) {
-    watch.Add<exploration_status_t>(
-        prefixes.front() + explorer_config.status_channel,
-        [&](const std::string&, const exploration_status_t& m) {
+
+  // The first explorer's status: its first exploration plan and its DONE; with mc.verbose every
+  // plan and the collision map around the vehicle at each plan.
+  void WatchExplorer() {
+    const int64_t t0_utime = clock_.NowUtime();
+    const std::string status = prefixes_.front() + explorer_config_.status_channel;
+    watch_.Add<exploration_status_t>(
+        status,
+        [this, t0_utime](const std::string&, const exploration_status_t& m) {
+          const ExplorerState state = static_cast<ExplorerState>(m.state);
+          if (state == ExplorerState::kDone) r_.done_status_published = true;
+          if (first_plan_seen_ || state == ExplorerState::kStartup ||
+              state == ExplorerState::kWaiting) {
+            return;
+          }
+          first_plan_seen_ = true;
+          r_.first_plan_chose_goal = m.chosen_index >= 0;
+          r_.first_plan_time_s = UtimeToSeconds(clock_.NowUtime() - t0_utime);
+        },
+        nullptr);
+    if (!mc_.verbose) return;
+    watch_.Add<exploration_status_t>(
+        status,
+        [](const std::string&, const exploration_status_t& m) {
           std::fprintf(stderr,
                        "  plan %lld state %d: %s (best gain %.1f nats, %d candidates, goal %.2f "
                        "%.2f yaw %.2f)\n",
@@ -337,450 +380,476 @@ MissionResult RunMission(const MissionConfig& mc) {
                        m.goal_position_m[1], m.goal_yaw_rad);
         },
         nullptr);
+    watch_.Add<grid_map_t>(
+        prefixes_.front() + explorer_config_.map2d_prefix + "COLLISION",
+        [this](const std::string&, const grid_map_t& m) { PrintCollisionMap(m); }, nullptr);
   }
 
-  Eigen::Vector3d vehicle_position = world.start_X_WB.p;
-  if (mc.verbose) {
-    // The collision map around the vehicle at each plan: '.' traversable, '#' occupied (P > 0.5),
-    // '?' neither, 'V' the vehicle's cell.
-    watch.Add<grid_map_t>(
-        prefixes.front() + explorer_config.map2d_prefix + "COLLISION",
-        [&](const std::string&, const grid_map_t& m) {
-          const int vx =
-              static_cast<int>(std::floor((vehicle_position.x() - m.origin_m[0]) / m.resolution_m));
-          const int vy =
-              static_cast<int>(std::floor((vehicle_position.y() - m.origin_m[1]) / m.resolution_m));
-          for (int y = std::min(m.height - 1, vy + 5); y >= std::max(0, vy - 5); --y) {
-            std::string row = "    ";
-            for (int x = std::max(0, vx - 8); x <= std::min(m.width - 1, vx + 8); ++x) {
-              const float p = m.values[static_cast<size_t>(y * m.width + x)];
-              row += (x == vx && y == vy)                                          ? 'V'
-                     : p <= explorer_config.planner.projection.collision_threshold ? '.'
-                     : p > 0.5                                                     ? '#'
-                                                                                   : '?';
-            }
-            std::fprintf(stderr, "%s\n", row.c_str());
-          }
-        },
-        nullptr);
+  // The collision map around the vehicle: '.' traversable, '#' occupied (P > 0.5), '?'
+  // neither, 'V' the vehicle's cell.
+  void PrintCollisionMap(const grid_map_t& m) const {
+    const int vx = static_cast<int>(std::floor((position_.x() - m.origin_m[0]) / m.resolution_m));
+    const int vy = static_cast<int>(std::floor((position_.y() - m.origin_m[1]) / m.resolution_m));
+    const double free = explorer_config_.explorer.planner.projection.collision_threshold;
+    for (int y = std::min(m.height - 1, vy + 5); y >= std::max(0, vy - 5); --y) {
+      std::string row = "    ";
+      for (int x = std::max(0, vx - 8); x <= std::min(m.width - 1, vx + 8); ++x) {
+        const float p = m.values[static_cast<size_t>(y * m.width + x)];
+        row += (x == vx && y == vy) ? 'V' : p <= free ? '.' : p > 0.5 ? '#' : '?';
+      }
+      std::fprintf(stderr, "%s\n", row.c_str());
+    }
   }
 
-  // --- Ground truth for map quality (section 10), on the mapper's lattice.
-  const GridGeometry& geometry = mapper.geometry();
-  const GridSpec grid = GridSpecOf(geometry);
-  std::optional<MapScorer> scorer;
-  if (mc.compute_quality) {
-    scorer.emplace(world, sim.simulator().caster(), grid, mapper_config.sensors[0].model.z_max_m,
-                   sim_config.depth.vfov_deg * M_PI / 180.0,
-                   mapper_config.sensors[0].model.no_return_informs);
+  // Ground truth for map quality (docs/algorithms.md §12.2) on the mapper's lattice, where the
+  // simulator's rays reached and the map's claims against it (docs/algorithms.md §12.5), and the
+  // fault injection's relays: a seeded fraction of depth images and scans dropped, and every pose
+  // during the motion-capture outage.
+  void StartQualityAndFaults() {
+    if (mc_.compute_quality) {
+      const GridSpec grid = GridSpecOf(mapper_->geometry());
+      scorer_.emplace(sim_config_.world, sim_->simulator().caster(), grid,
+                      mapper_config_.sensors[0].model.z_max_m,
+                      sim_config_.depth.vfov_deg * M_PI / 180.0,
+                      mapper_config_.sensors[0].model.no_return_informs);
+      reach_.emplace(grid);
+      sim_->mutable_simulator().SetRayReach(&*reach_);
+      claims_.emplace(sim_config_.world, grid, scorer_->truth());
+    }
+    const int64_t start_utime = clock_.NowUtime();
+    outage_begin_ =
+        mc_.mocap_outage_s > 0 ? start_utime + SecondsToUtime(mc_.mocap_outage_at_s) : -1;
+    outage_end_ = outage_begin_ + SecondsToUtime(mc_.mocap_outage_s);
+    relays_ = {Relay{&lcm_, &clock_, "DEPTH_XTION", mc_.sensor_drop_fraction, -1, -1, &fault_rng_,
+                     &r_.sensor_messages_dropped},
+               Relay{&lcm_, &clock_, "SCAN_HOKUYO", mc_.sensor_drop_fraction, -1, -1, &fault_rng_,
+                     &r_.sensor_messages_dropped},
+               Relay{&lcm_, &clock_, "POSE_VICON", 0.0, outage_begin_, outage_end_, &fault_rng_,
+                     &r_.poses_dropped}};
+    if (faults_) {
+      lcm_.subscribe("SIM_DEPTH_XTION", &Relay::Handle, &relays_[0]);
+      lcm_.subscribe("SIM_SCAN_HOKUYO", &Relay::Handle, &relays_[1]);
+      lcm_.subscribe("SIM_POSE_VICON", &Relay::Handle, &relays_[2]);
+    }
   }
-  auto quality = [&]() {
-    return scorer->Score([&](const CellIndex& c) { return mapper.ProbabilityAt(c); },
-                         mapper_config.occupancy.p_init);
-  };
-  // Where the simulator's rays reached, and the map's claims against it, sampled with the
-  // quality (docs/algorithms.md §12.5).
-  std::optional<RayReach> reach;
-  std::optional<ClaimTracker> claims;
-  auto known_free = [&]() {
+
+  [[nodiscard]] MapQuality Quality() const {
+    return scorer_->Score([&](const CellIndex& c) { return mapper_->ProbabilityAt(c); },
+                          mapper_config_.occupancy.p_init);
+  }
+
+  // The cells the map holds known free now (tools/map_score/map_claims.h).
+  [[nodiscard]] std::vector<uint8_t> KnownFree() const {
     return KnownFreeBelow(
-        scorer->Probabilities([&](const CellIndex& c) { return mapper.ProbabilityAt(c); }),
-        mapper_config.occupancy.p_init);
-  };
-  if (mc.compute_quality) {
-    reach.emplace(grid);
-    sim.mutable_simulator().SetRayReach(&*reach);
-    claims.emplace(world, grid, scorer->truth());
+        scorer_->Probabilities([&](const CellIndex& c) { return mapper_->ProbabilityAt(c); }),
+        mapper_config_.occupancy.p_init);
   }
 
-  // --- Fault injection: relay the simulator's sensors, dropping a seeded fraction of depth
-  // images and scans, and every pose during the motion-capture outage.
-  struct Relay {
-    lcm::LCM* lcm;
-    const SimClock* clock;
-    std::string to;
-    double drop_fraction;
-    int64_t outage_begin, outage_end;  // utime, pose relay only
-    std::mt19937_64* rng;
-    int64_t* dropped;
-    void Handle(const lcm::ReceiveBuffer* rbuf, const std::string&) {
-      const int64_t now = clock->NowUtime();
-      const bool drop = (drop_fraction > 0 &&
-                         std::uniform_real_distribution<double>(0, 1)(*rng) < drop_fraction) ||
-                        (now >= outage_begin && now < outage_end);
-      if (drop) {
-        ++*dropped;
-        return;
-      }
-      lcm->publish(to, rbuf->data, rbuf->data_size);
+  // --- The lockstep loop.
+
+  void StartLockstep() {
+    const World& world = sim_config_.world;
+    t0_ = clock_.NowUtime();
+    control_period_us_ = SecondsToUtime(1.0 / controller_config_.rate_hz);
+    next_control_ = next_explore_ = next_sample_ = t0_;
+    // The collision cell of the take-off point (docs/algorithms.md §7.1: edge alpha_C from the
+    // map's corner).
+    const double alpha = mapper_config_.limits.resolution_m;
+    alpha_c_ = CollisionFactor(explorer_config_.explorer.planner.projection, alpha) * alpha;
+    start_cell_ =
+        ((world.start_X_WB.p.head<2>() - world.map_min_m.head<2>()) / alpha_c_).array().floor();
+    position_ = position_at_last_step_ = world.start_X_WB.p;
+    r_.vehicles.resize(prefixes_.size());
+    for (size_t k = 0; k < prefixes_.size(); ++k) {
+      r_.vehicles[k].prefix = prefixes_[k];
+      r_.vehicles[k].start_offset_m = offsets_[k];
+      last_positions_.push_back(sim_->simulator().vehicle(k).state().p_W);
     }
-  };
-  std::mt19937_64 fault_rng(static_cast<uint64_t>(mc.seed) * 7 + 3);
-  const int64_t start_utime = clock.NowUtime();
-  const int64_t outage_begin =
-      mc.mocap_outage_s > 0 ? start_utime + SecondsToUtime(mc.mocap_outage_at_s) : -1;
-  const int64_t outage_end = outage_begin + SecondsToUtime(mc.mocap_outage_s);
-  Relay depth_relay{&lcm, &clock, "DEPTH_XTION", mc.sensor_drop_fraction,
-                    -1,   -1,     &fault_rng,    &r_sensor_dropped_};
-  Relay scan_relay{&lcm, &clock, "SCAN_HOKUYO", mc.sensor_drop_fraction,
-                   -1,   -1,     &fault_rng,    &r_sensor_dropped_};
-  Relay pose_relay{&lcm,         &clock,     "POSE_VICON", 0.0,
-                   outage_begin, outage_end, &fault_rng,   &r_poses_dropped_};
-  if (faults) {
-    lcm.subscribe("SIM_DEPTH_XTION", &Relay::Handle, &depth_relay);
-    lcm.subscribe("SIM_SCAN_HOKUYO", &Relay::Handle, &scan_relay);
-    lcm.subscribe("SIM_POSE_VICON", &Relay::Handle, &pose_relay);
   }
 
-  // --- Lockstep.
-  const int64_t t0 = clock.NowUtime();
-  const int64_t control_period_us = SecondsToUtime(1.0 / controller_config.rate_hz);
-  int64_t next_control = t0;
-  int64_t next_explore = t0;
-  int64_t next_sample = t0;
-  double next_progress_s = 0.0;
-  bool takeoff_sent = false;
-  int64_t takeoff_utime = -1, land_utime = -1;
-  int reported_collisions = 0;
-  // The collision cell of the take-off point (section 7: edge alpha_C from the map's corner).
-  const double alpha_c =
-      CollisionFactor(explorer_config.planner.projection, mapper_config.limits.resolution_m) *
-      mapper_config.limits.resolution_m;
-  const Eigen::Vector2d start_cell =
-      ((world.start_X_WB.p.head<2>() - world.map_min_m.head<2>()) / alpha_c).array().floor();
-  Eigen::Vector3d last_position = world.start_X_WB.p;
-  r.vehicles.resize(num_vehicles);
-  std::vector<Eigen::Vector3d> last_positions;
-  for (size_t k = 0; k < num_vehicles; ++k) {
-    r.vehicles[k].prefix = prefixes[k];
-    r.vehicles[k].start_offset_m = offsets[k];
-    last_positions.push_back(sim.simulator().vehicle(k).state().p_W);
+  // One simulator step and everything due at it; false when the run ends.
+  bool Step() {
+    sim_->Step();
+    Drain();
+    const int64_t now = clock_.NowUtime();
+    const double t = UtimeToSeconds(now - t0_);
+    SendTakeoff(t, now);
+    KillAndRespawnController(t, now);
+    KillAndRespawnExplorer(t, now);
+    const Eigen::Vector3d truth = sim_->simulator().vehicle().state().p_W;
+    const ControllerConfig& cc = controller_configs_[0];
+    r_.max_geofence_excursion_m =
+        std::max({r_.max_geofence_excursion_m, (cc.flight.safety.geofence_min_m - truth).maxCoeff(),
+                  (truth - cc.flight.safety.geofence_max_m).maxCoeff()});
+    StepNodes(now);
+    Measure(t, now);
+    if (now >= next_sample_) Sample(t);
+    return !Finished(t, now);
   }
-  auto all_explorers = [&](int8_t state) {
-    return std::all_of(explorers.begin(), explorers.end(),
-                       [state](const auto& e) { return e && e->state() == state; });
-  };
-  double controller_killed_at = -1, controller_z_kill = 0, controller_z_min = 0;
-  double explorer_killed_at = -1, explorer_restarted_at = -1;
-  auto drain = [&] {
-    while (lcm.handleTimeout(0) > 0) {
+
+  // The take-off command (as kestrel-cmd sends it) to every vehicle at mc.takeoff_at_s.
+  void SendTakeoff(double t, int64_t now) {
+    if (takeoff_utime_ >= 0 || t < mc_.takeoff_at_s) return;
+    const World& world = sim_config_.world;
+    command_t cmd{};
+    cmd.utime = now;
+    cmd.seq = 1;
+    cmd.epoch = mission_epoch_;
+    cmd.source = "mission";
+    cmd.command = command_t::COMMAND_TAKEOFF;
+    cmd.height_m = world.exploration_height_m - world.start_X_WB.p.z();
+    for (const std::string& p : prefixes_) {
+      lcm_.publish(p + controller_config_.command_channel, &cmd);
     }
-  };
-  while (true) {
-    sim.Step();
-    drain();
-    const int64_t now = clock.NowUtime();
-    const double t = UtimeToSeconds(now - t0);
-    if (!takeoff_sent && t >= mc.takeoff_at_s) {
-      command_t cmd{};
-      cmd.utime = now;
-      cmd.seq = 1;
-      cmd.epoch = mission_epoch;
-      cmd.source = "mission";
-      cmd.command = command_t::COMMAND_TAKEOFF;
-      cmd.height_m = world.exploration_height_m - world.start_X_WB.p.z();
-      for (const std::string& p : prefixes)
-        lcm.publish(p + controller_config.command_channel, &cmd);
-      takeoff_sent = true;
-      takeoff_utime = now;
-      drain();
+    takeoff_utime_ = now;
+    Drain();
+  }
+
+  // The controller kill (first vehicle): destroyed, nothing for the gap, then built again; what
+  // the vehicle lost meanwhile and how the new controller took over.
+  void KillAndRespawnController(double t, int64_t now) {
+    const Eigen::Vector3d truth = sim_->simulator().vehicle().state().p_W;
+    if (mc_.controller_kill_at_s >= 0 && controller_killed_at_ < 0 &&
+        t >= mc_.controller_kill_at_s) {
+      controllers_.front().reset();
+      controller_killed_at_ = t;
+      controller_z_kill_ = controller_z_min_ = truth.z();
     }
-    // Process kills (first vehicle): destroyed, nothing for the gap, then built again.
-    const Eigen::Vector3d truth_p = sim.simulator().vehicle().state().p_W;
-    if (mc.controller_kill_at_s >= 0 && controller_killed_at < 0 && t >= mc.controller_kill_at_s) {
-      controllers.front().reset();
-      controller_killed_at = t;
-      controller_z_kill = controller_z_min = truth_p.z();
+    if (controller_killed_at_ < 0) return;
+    const double respawn_at = controller_killed_at_ + mc_.controller_down_s;
+    if (!controller() && t >= respawn_at) {
+      controllers_.front() = std::make_unique<ControllerNode>(lcm_, controller_configs_[0], clock_);
+      next_control_ = now;
+      r_.controller_takeover = controller()->takeover_status();
     }
-    if (controller_killed_at >= 0 && !controllers.front() &&
-        t >= controller_killed_at + mc.controller_down_s) {
-      controllers.front() = std::make_unique<ControllerNode>(lcm, controller_configs[0], clock);
-      next_control = now;
-      r.controller_takeover = controllers.front()->takeover_status();
+    if (t > respawn_at + 3.0) return;
+    controller_z_min_ = std::min(controller_z_min_, truth.z());
+    r_.controller_height_lost_m = controller_z_kill_ - controller_z_min_;
+    if (!controller()) return;
+    r_.controller_takeover = controller()->takeover_status();
+    if (r_.controller_track_after_s < 0 && controller()->trajectory_seq() >= 0) {
+      r_.controller_track_after_s = t - respawn_at;
     }
-    if (controller_killed_at >= 0 && t <= controller_killed_at + mc.controller_down_s + 3.0) {
-      controller_z_min = std::min(controller_z_min, truth_p.z());
-      r.controller_height_lost_m = controller_z_kill - controller_z_min;
-      if (controllers.front()) {
-        r.controller_takeover = controllers.front()->takeover_status();
-        if (r.controller_track_after_s < 0 && controllers.front()->trajectory_seq() >= 0) {
-          r.controller_track_after_s = t - controller_killed_at - mc.controller_down_s;
-        }
-        if (r.controller_time_to_hold_s < 0 &&
-            controllers.front()->flight().supervisor().mode() == FlightMode::kHold) {
-          r.controller_time_to_hold_s = t - controller_killed_at;
-        }
-      }
+    if (r_.controller_time_to_hold_s < 0 &&
+        controller()->flight().supervisor().mode() == FlightMode::kHold) {
+      r_.controller_time_to_hold_s = t - controller_killed_at_;
     }
-    if (mc.explorer_kill_at_s >= 0 && explorer_killed_at < 0 && t >= mc.explorer_kill_at_s) {
-      const ControllerNode* c = controllers.front().get();
+  }
+
+  // The explorer kill (first vehicle), while it explores and its trajectory ends within
+  // mc.explorer_kill_max_left_s: what the controller did while it was down, and how the new one
+  // resumed.
+  void KillAndRespawnExplorer(double t, int64_t now) {
+    if (mc_.explorer_kill_at_s >= 0 && explorer_killed_at_ < 0 && t >= mc_.explorer_kill_at_s) {
+      const ControllerNode* c = controller();
       const double left_s = c != nullptr && c->trajectory_seq() >= 0
                                 ? c->trajectory_end_s() - UtimeToSeconds(now)
                                 : std::numeric_limits<double>::infinity();
-      const int8_t state = explorer().state();
-      const bool when =
-          mc.explorer_kill_returning
-              ? state == exploration_status_t::STATE_RETURNING
-              : state == exploration_status_t::STATE_EXPLORING || t >= mc.explorer_kill_at_s + 60;
-      if (left_s <= mc.explorer_kill_max_left_s && when) {
-        r.explorer_kill_trajectory_left_s = left_s;
-        explorers.front().reset();
-        explorer_killed_at = t;
-        r.explorer_killed_at_s = t;
+      const ExplorerState state = explorer().state();
+      const bool when = mc_.explorer_kill_returning
+                            ? state == ExplorerState::kReturning
+                            : state == ExplorerState::kExploring ||
+                                  t >= mc_.explorer_kill_at_s + 60;
+      if (left_s <= mc_.explorer_kill_max_left_s && when) {
+        r_.explorer_kill_trajectory_left_s = left_s;
+        explorers_.front().reset();
+        explorer_killed_at_ = t;
+        r_.explorer_killed_at_s = t;
       }
     }
-    if (explorer_killed_at >= 0 && !explorers.front()) {
-      const ControllerNode* c = controllers.front().get();
+    if (explorer_killed_at_ >= 0 && !explorers_.front()) {
+      const ControllerNode* c = controller();
       const FlightMode m = c != nullptr ? c->flight().supervisor().mode() : FlightMode::kIdle;
-      if (m != FlightMode::kTrack && m != FlightMode::kHold) r.explorer_down_flight_kept = false;
+      if (m != FlightMode::kTrack && m != FlightMode::kHold) r_.explorer_down_flight_kept = false;
       if (m == FlightMode::kHold) {
-        r.explorer_down_held = true;
-        r.explorer_down_hold_max_speed_mps = std::max(r.explorer_down_hold_max_speed_mps,
-                                                      sim.simulator().vehicle().state().v_W.norm());
+        r_.explorer_down_held = true;
+        r_.explorer_down_hold_max_speed_mps = std::max(
+            r_.explorer_down_hold_max_speed_mps, sim_->simulator().vehicle().state().v_W.norm());
       }
-      if (t >= explorer_killed_at + mc.explorer_down_s) {
-        explorers.front() = std::make_unique<ExplorerNode>(lcm, explorer_configs[0], clock);
-        explorer_restarted_at = t;
-        next_explore = now;
-      }
-    }
-    if (explorer_restarted_at >= 0 && r.explorer_first_trajectory_s < 0 && controllers.front() &&
-        controllers.front()->trajectory_epoch() == explorer().epoch()) {
-      r.explorer_first_trajectory_s = t - explorer_restarted_at;
-    }
-    if (explorer_restarted_at >= 0) {
-      r.explorer_resume = explorer().resume_status();
-      if (explorer().state() == exploration_status_t::STATE_STARTUP) {
-        r.explorer_startup_after_restart = true;
+      if (t >= explorer_killed_at_ + mc_.explorer_down_s) {
+        explorers_.front() = std::make_unique<ExplorerNode>(lcm_, explorer_configs_[0], clock_);
+        explorer_restarted_at_ = t;
+        next_explore_ = now;
       }
     }
-    {
-      const ControllerConfig& cc = controller_configs[0];
-      r.max_geofence_excursion_m = std::max(
-          {r.max_geofence_excursion_m, (cc.flight.safety.geofence_min_m - truth_p).maxCoeff(),
-           (truth_p - cc.flight.safety.geofence_max_m).maxCoeff()});
+    if (explorer_restarted_at_ < 0) return;
+    if (r_.explorer_first_trajectory_s < 0 && controller() &&
+        controller()->trajectory_epoch() == explorer().epoch()) {
+      r_.explorer_first_trajectory_s = t - explorer_restarted_at_;
     }
-    while (now >= next_control) {
-      for (auto& c : controllers) {
-        if (c) c->Tick(next_control);
+    r_.explorer_resume = explorer().resume_status();
+    if (explorer().state() == ExplorerState::kStartup) r_.explorer_startup_after_restart = true;
+  }
+
+  // The controllers at their rate, the mapper, and the explorers every 50 ms (in vehicle order,
+  // each one's messages delivered before the next plans: deterministic).
+  void StepNodes(int64_t now) {
+    while (now >= next_control_) {
+      for (auto& c : controllers_) {
+        if (c) c->Tick(next_control_);
       }
-      next_control += control_period_us;
+      next_control_ += control_period_us_;
     }
-    drain();
-    r.mapper_queue_max = std::max(r.mapper_queue_max, mapper.queue_depth());
-    mapper.ProcessPending();
-    mapper.PublishDue();
-    drain();
-    if (now >= next_explore) {
-      // In vehicle order, each one's messages delivered before the next plans (deterministic).
-      for (auto& e : explorers) {
-        if (!e) continue;  // killed
-        e->Step();
-        drain();
-      }
-      next_explore += 50000;
+    Drain();
+    r_.mapper_queue_max = std::max(r_.mapper_queue_max, mapper_->queue_depth());
+    mapper_->ProcessPending();
+    mapper_->PublishDue();
+    Drain();
+    if (now < next_explore_) return;
+    for (auto& e : explorers_) {
+      if (!e) continue;  // killed
+      e->Step();
+      Drain();
     }
-    if (outage_begin >= 0 && now > outage_end + SecondsToUtime(1.0) && controllers.front() &&
-        controllers.front()->flight().supervisor().mode() == FlightMode::kTrack) {
-      r.tracked_after_outage = true;
+    next_explore_ += 50000;
+  }
+
+  // The flight's figures at every step: tracking after the outage, collisions, the start cell
+  // left, the height error, path lengths, separations, the land command.
+  void Measure(double t, int64_t now) {
+    if (outage_begin_ >= 0 && now > outage_end_ + SecondsToUtime(1.0) && controller() &&
+        controller()->flight().supervisor().mode() == FlightMode::kTrack) {
+      r_.tracked_after_outage = true;
     }
-    const Eigen::Vector3d p = sim.simulator().vehicle().state().p_W;
-    vehicle_position = p;
-    if (mc.verbose && sim.simulator().vehicle().collision_count() != reported_collisions) {
-      reported_collisions = sim.simulator().vehicle().collision_count();
-      const auto& state = sim.simulator().vehicle().state();
-      const double tilt_deg =
-          std::acos(std::clamp((state.q_WB * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0)) * 180.0 /
-          M_PI;
-      std::fprintf(stderr,
-                   "COLLISION at t %.2f s with %s, vehicle at %.2f %.2f %.2f, velocity %.2f %.2f "
-                   "%.2f m/s, tilt %.1f deg\n",
-                   t, sim.simulator().vehicle().last_collision().c_str(), p.x(), p.y(), p.z(),
-                   state.v_W.x(), state.v_W.y(), state.v_W.z(), tilt_deg);
+    const Eigen::Vector3d p = sim_->simulator().vehicle().state().p_W;
+    position_ = p;
+    if (mc_.verbose && sim_->simulator().vehicle().collision_count() != reported_collisions_) {
+      reported_collisions_ = sim_->simulator().vehicle().collision_count();
+      PrintCollision(t);
     }
-    if (!r.left_start_collision_cell) {
+    if (!r_.left_start_collision_cell) {
       const Eigen::Vector2d cell_now =
-          ((p.head<2>() - world.map_min_m.head<2>()) / alpha_c).array().floor();
-      r.left_start_collision_cell = cell_now != start_cell;
+          ((p.head<2>() - sim_config_.world.map_min_m.head<2>()) / alpha_c_).array().floor();
+      r_.left_start_collision_cell = cell_now != start_cell_;
     }
-    if (explorers.front() && (explorer().state() == exploration_status_t::STATE_EXPLORING ||
-                              explorer().state() == exploration_status_t::STATE_RETURNING)) {
-      r.max_height_error_m = std::max(
-          r.max_height_error_m, std::abs(p.z() - explorer_config.planner.projection.height_m));
+    if (explorers_.front() && (explorer().state() == ExplorerState::kExploring ||
+                               explorer().state() == ExplorerState::kReturning)) {
+      r_.max_height_error_m =
+          std::max(r_.max_height_error_m,
+                   std::abs(p.z() - explorer_config_.explorer.planner.projection.height_m));
     }
-    r.path_length_m += (p - last_position).norm();
-    last_position = p;
-    for (size_t k = 1; k < num_vehicles; ++k) {
-      const Eigen::Vector3d q = sim.simulator().vehicle(k).state().p_W;
-      r.path_length_m += (q - last_positions[k]).norm();
-      r.vehicles[k].path_length_m += (q - last_positions[k]).norm();
-      last_positions[k] = q;
+    r_.path_length_m += (p - position_at_last_step_).norm();
+    position_at_last_step_ = p;
+    MeasureVehicles();
+    r_.vehicles[0].path_length_m += (p - last_positions_[0]).norm();
+    last_positions_[0] = p;
+    const bool all_done = std::all_of(explorers_.begin(), explorers_.end(), [](const auto& e) {
+      return e && e->state() == ExplorerState::kDone;
+    });
+    if (land_utime_ < 0 && all_done) {
+      land_utime_ = now;
+      r_.exploration_time_s = UtimeToSeconds(now - takeoff_utime_);
+    }
+  }
+
+  // Several vehicles: each one's path, the smallest separation and 3D distance between them.
+  void MeasureVehicles() {
+    const double vertical_m = explorer_config_.explorer.min_vertical_separation_m;
+    for (size_t k = 1; k < prefixes_.size(); ++k) {
+      const Eigen::Vector3d q = sim_->simulator().vehicle(k).state().p_W;
+      r_.path_length_m += (q - last_positions_[k]).norm();
+      r_.vehicles[k].path_length_m += (q - last_positions_[k]).norm();
+      last_positions_[k] = q;
       for (size_t j = 0; j < k; ++j) {
-        const Eigen::Vector3d d = q - sim.simulator().vehicle(j).state().p_W;
-        r.min_distance_3d_m = std::min(r.min_distance_3d_m, d.norm());
-        if (std::abs(d.z()) < explorer_config.min_vertical_separation_m) {
-          r.min_separation_m = std::min(r.min_separation_m, d.head<2>().norm());
+        const Eigen::Vector3d d = q - sim_->simulator().vehicle(j).state().p_W;
+        r_.min_distance_3d_m = std::min(r_.min_distance_3d_m, d.norm());
+        if (std::abs(d.z()) < vertical_m) {
+          r_.min_separation_m = std::min(r_.min_separation_m, d.head<2>().norm());
         }
       }
     }
-    r.vehicles[0].path_length_m += (p - last_positions[0]).norm();
-    last_positions[0] = p;
-    if (land_utime < 0 && all_explorers(exploration_status_t::STATE_DONE)) {
-      land_utime = now;
-      r.exploration_time_s = UtimeToSeconds(now - takeoff_utime);
-    }
-    if (now >= next_sample) {
-      next_sample += SecondsToUtime(mc.quality_period_s);
-      MissionSample s;
-      s.time_s = t;
-      s.entropy_nats = mapper.entropy_nats();
-      s.position_m = p;
-      s.explorer_state = explorers.front() ? explorer().state() : -1;
-      if (mc.compute_quality) {
-        claims->Sample(t, known_free());
-        const MapQuality q = quality();
-        s.known_fraction = q.known_fraction;
-        s.accuracy = q.accuracy;
-        if (r.time_to_95_s < 0 && q.known_fraction >= 0.95) {
-          r.time_to_95_s = t;
-          r.path_to_95_m = r.path_length_m;
-          for (MissionVehicle& v : r.vehicles) v.path_to_95_m = v.path_length_m;
-        }
-      }
-      r.samples.push_back(s);
-      if (mc.progress_period_s > 0.0 && t >= next_progress_s) {
-        next_progress_s = t + mc.progress_period_s - 0.5 * mc.quality_period_s;
-        std::fprintf(stderr,
-                     "progress: %6.1f s simulated, %-9s known %s, entropy %.0f nats, path %.0f m, "
-                     "collisions %d\n",
-                     t, ExplorerStateName(s.explorer_state).c_str(),
-                     mc.compute_quality ? Fixed3(s.known_fraction).c_str() : "-", s.entropy_nats,
-                     r.path_length_m, sim.simulator().vehicle().collision_count());
-      }
-      if (mc.verbose) {
-        std::fprintf(
-            stderr,
-            "t %6.1f s  state %d  pos %5.2f %5.2f %4.2f  H %.0f  known %.3f  collisions %d\n", t,
-            s.explorer_state, p.x(), p.y(), p.z(), s.entropy_nats, s.known_fraction,
-            sim.simulator().vehicle().collision_count());
+  }
+
+  void PrintCollision(double t) const {
+    const auto& vehicle = sim_->simulator().vehicle();
+    const auto& state = vehicle.state();
+    const double tilt_deg =
+        std::acos(std::clamp((state.q_WB * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0)) * 180.0 /
+        M_PI;
+    std::fprintf(stderr,
+                 "COLLISION at t %.2f s with %s, vehicle at %.2f %.2f %.2f, velocity %.2f %.2f "
+                 "%.2f m/s, tilt %.1f deg\n",
+                 t, vehicle.last_collision().c_str(), state.p_W.x(), state.p_W.y(), state.p_W.z(),
+                 state.v_W.x(), state.v_W.y(), state.v_W.z(), tilt_deg);
+  }
+
+  // A time-series sample every mc.quality_period_s: entropy, known fraction, the explorer's
+  // state; the time and path to 95% known; the progress and verbose lines.
+  void Sample(double t) {
+    next_sample_ += SecondsToUtime(mc_.quality_period_s);
+    MissionSample s;
+    s.time_s = t;
+    s.entropy_nats = mapper_->entropy_nats();
+    s.position_m = position_;
+    s.explorer_state = explorers_.front() ? static_cast<int>(explorer().state()) : -1;
+    if (mc_.compute_quality) {
+      claims_->Sample(t, KnownFree());
+      const MapQuality q = Quality();
+      s.known_fraction = q.known_fraction;
+      s.accuracy = q.accuracy;
+      if (r_.time_to_95_s < 0 && q.known_fraction >= 0.95) {
+        r_.time_to_95_s = t;
+        r_.path_to_95_m = r_.path_length_m;
+        for (MissionVehicle& v : r_.vehicles) v.path_to_95_m = v.path_length_m;
       }
     }
-    if (land_utime >= 0 && std::all_of(controllers.begin(), controllers.end(), [](const auto& c) {
+    r_.samples.push_back(s);
+    const int collisions = sim_->simulator().vehicle().collision_count();
+    if (mc_.progress_period_s > 0.0 && t >= next_progress_s_) {
+      next_progress_s_ = t + mc_.progress_period_s - 0.5 * mc_.quality_period_s;
+      // The state's name from the explorer's table (exploration/explorer_state.h).
+      std::fprintf(stderr,
+                   "progress: %6.1f s simulated, %-9s known %s, entropy %.0f nats, path %.0f m, "
+                   "collisions %d\n",
+                   t, ExplorerStateName(s.explorer_state).c_str(),
+                   mc_.compute_quality ? Fixed3(s.known_fraction).c_str() : "-", s.entropy_nats,
+                   r_.path_length_m, collisions);
+    }
+    if (mc_.verbose) {
+      std::fprintf(
+          stderr, "t %6.1f s  state %d  pos %5.2f %5.2f %4.2f  H %.0f  known %.3f  collisions %d\n",
+          t, s.explorer_state, position_.x(), position_.y(), position_.z(), s.entropy_nats,
+          s.known_fraction, collisions);
+    }
+  }
+
+  // The end: every vehicle landed after the land command, the known fraction reached, the time
+  // limit, or a stop requested (kestrel-mission: SIGINT or SIGTERM).
+  bool Finished(double t, int64_t) {
+    if (land_utime_ >= 0 &&
+        std::all_of(controllers_.begin(), controllers_.end(), [](const auto& c) {
           return c && c->flight().supervisor().mode() == FlightMode::kIdle;
         })) {
-      r.landed = true;
-      r.end_reason = "exploration ended by the " + explorer().end_rule() + "; " +
-                     explorer().landing() + "; landed";
-      if (num_vehicles > 1) r.end_reason = "every vehicle landed (" + r.end_reason + ")";
-      break;
+      r_.landed = true;
+      r_.end_reason = "exploration ended by the " + explorer().explorer().end_rule() + "; " +
+                      explorer().explorer().landing() + "; landed";
+      if (prefixes_.size() > 1) r_.end_reason = "every vehicle landed (" + r_.end_reason + ")";
+      return true;
     }
-    if (mc.stop_at_known > 0 && !r.samples.empty() &&
-        r.samples.back().known_fraction >= mc.stop_at_known) {
-      r.end_reason = "known fraction " + Fixed3(r.samples.back().known_fraction) + " reached";
-      break;
+    if (mc_.stop_at_known > 0 && !r_.samples.empty() &&
+        r_.samples.back().known_fraction >= mc_.stop_at_known) {
+      r_.end_reason = "known fraction " + Fixed3(r_.samples.back().known_fraction) + " reached";
+      return true;
     }
-    if (t >= mc.max_time_s) {
-      r.end_reason = "time limit " + std::to_string(mc.max_time_s) + " s";
-      break;
+    if (t >= mc_.max_time_s) {
+      r_.end_reason = "time limit " + std::to_string(mc_.max_time_s) + " s";
+      return true;
     }
-    if (mc.stop_requested && mc.stop_requested()) {
-      r.interrupted = true;
-      r.end_reason = "interrupted after " + Fixed3(t) + " s simulated";
-      break;
+    if (mc_.stop_requested && mc_.stop_requested()) {
+      r_.interrupted = true;
+      r_.end_reason = "interrupted after " + Fixed3(t) + " s simulated";
+      return true;
+    }
+    return false;
+  }
+
+  // --- The summary.
+
+  // The figures the nodes hold at the end: per vehicle, the explorers' plans and timings, the
+  // mapper's map.
+  void Summarise() {
+    r_.sim_time_s = UtimeToSeconds(clock_.NowUtime() - t0_);
+    // A run that ended while a node was down: built again so that the figures below can be read.
+    if (!explorers_.front()) {
+      explorers_.front() = std::make_unique<ExplorerNode>(lcm_, explorer_configs_[0], clock_);
+    }
+    if (remove_state_dir_) {
+      for (const char* f : {"/controller.state", "/explorer.state", "/controller.state.tmp",
+                            "/explorer.state.tmp"}) {
+        std::remove((state_dir_ + f).c_str());
+      }
+      rmdir(state_dir_.c_str());
+    }
+    r_.collisions = 0;
+    for (size_t k = 0; k < prefixes_.size(); ++k) {
+      MissionVehicle& v = r_.vehicles[k];
+      const Explorer& e = explorers_[k]->explorer();
+      v.collisions = sim_->simulator().vehicle(k).collision_count();
+      r_.collisions += v.collisions;
+      if (v.collisions > 0) r_.last_collision = sim_->simulator().vehicle(k).last_collision();
+      v.end_rule = e.end_rule();
+      v.landing = e.landing();
+      v.yields = e.count(ExplorerEvent::kYielded);
+      v.plans = static_cast<int>(e.plans());
+      v.landed = r_.landed;
+      r_.plans += v.plans;
+    }
+    r_.inter_vehicle_contacts = sim_->simulator().inter_vehicle_collision_count();
+    if (controller()) {
+      r_.far_start_refusals = controller()->drops().count("refused trajectory (far start)");
+    }
+    const Explorer& e = explorer().explorer();
+    r_.explorer_controller_holds = e.count(ExplorerEvent::kControllerHolds);
+    r_.vertical_separation_m = explorer_config_.explorer.min_vertical_separation_m;
+    r_.planning_wall_s = e.total_planning_s();
+    r_.end_rule = e.end_rule();
+    r_.landing = e.landing();
+    SummarisePlans(e);
+    r_.scans_applied = mapper_->scans_applied();
+    r_.mapper_applied_every_message = mapper_->applied_every_message();
+    r_.map_hash = mapper_->map_hash();
+    r_.final_entropy_nats = mapper_->entropy_nats();
+    if (mc_.compute_quality) {
+      r_.quality = Quality();
+      sim_->mutable_simulator().SetRayReach(nullptr);
+      r_.claims = claims_->Claims(KnownFree(), &reach_->first_reach_s());
     }
   }
-  r.sim_time_s = UtimeToSeconds(clock.NowUtime() - t0);
-  // A run that ended while a node was down: built again so that the figures below can be read.
-  if (!explorers.front()) {
-    explorers.front() = std::make_unique<ExplorerNode>(lcm, explorer_configs[0], clock);
-  }
-  if (remove_state_dir) {
-    for (const char* f :
-         {"/controller.state", "/explorer.state", "/controller.state.tmp", "/explorer.state.tmp"}) {
-      std::remove((state_dir + f).c_str());
-    }
-    rmdir(state_dir.c_str());
-  }
-  r.sensor_messages_dropped = r_sensor_dropped_;
-  r.poses_dropped = r_poses_dropped_;
-  r.collisions = 0;
-  for (size_t k = 0; k < num_vehicles; ++k) {
-    MissionVehicle& v = r.vehicles[k];
-    v.collisions = sim.simulator().vehicle(k).collision_count();
-    r.collisions += v.collisions;
-    if (v.collisions > 0) r.last_collision = sim.simulator().vehicle(k).last_collision();
-    v.end_rule = explorers[k]->end_rule();
-    v.landing = explorers[k]->landing();
-    v.yields = explorers[k]->yields();
-    v.plans = static_cast<int>(explorers[k]->plans());
-    v.landed = r.landed;
-  }
-  r.inter_vehicle_contacts = sim.simulator().inter_vehicle_collision_count();
-  if (controllers.front()) {
-    r.far_start_refusals = controllers.front()->drops().count("refused trajectory (far start)");
-  }
-  r.explorer_controller_holds = explorer().controller_holds();
-  r.vertical_separation_m = explorer_config.min_vertical_separation_m;
-  r.plans = 0;
-  for (const auto& e : explorers) r.plans += static_cast<int>(e->plans());
-  r.planning_wall_s = explorer().total_planning_s();
-  r.end_rule = explorer().end_rule();
-  r.landing = explorer().landing();
-  if (!explorer().plan_times_s().empty()) {
-    std::vector<double> times = explorer().plan_times_s();
+
+  // The first explorer's replans: wall and CPU times, stage medians, the volumetric gain's work.
+  void SummarisePlans(const Explorer& e) {
+    if (e.plan_times_s().empty()) return;
+    std::vector<double> times = e.plan_times_s();
     std::sort(times.begin(), times.end());
-    r.plan_median_s = times[times.size() / 2];
-    r.plan_max_s = times.back();
-    std::vector<double> cpu = explorer().plan_cpu_times_s();
+    r_.plan_median_s = times[times.size() / 2];
+    r_.plan_max_s = times.back();
+    std::vector<double> cpu = e.plan_cpu_times_s();
     std::sort(cpu.begin(), cpu.end());
-    r.plan_cpu_median_s = cpu[cpu.size() / 2];
-    r.plan_cpu_max_s = cpu.back();
+    r_.plan_cpu_median_s = cpu[cpu.size() / 2];
+    r_.plan_cpu_max_s = cpu.back();
     auto stage_median = [&](double PlanTimings::*stage) {
       std::vector<double> v;
-      for (const PlanTimings& t : explorer().plan_timings()) v.push_back(t.*stage);
+      for (const PlanTimings& t : e.plan_timings()) v.push_back(t.*stage);
       return Median(std::move(v));
     };
-    r.plan_stage_median_s.projection_s = stage_median(&PlanTimings::projection_s);
-    r.plan_stage_median_s.dijkstra_s = stage_median(&PlanTimings::dijkstra_s);
-    r.plan_stage_median_s.gain_s = stage_median(&PlanTimings::gain_s);
-    r.plan_stage_median_s.trajectory_s = stage_median(&PlanTimings::trajectory_s);
-    r.plan_stage_median_s.total_s = stage_median(&PlanTimings::total_s);
+    r_.plan_stage_median_s.projection_s = stage_median(&PlanTimings::projection_s);
+    r_.plan_stage_median_s.dijkstra_s = stage_median(&PlanTimings::dijkstra_s);
+    r_.plan_stage_median_s.gain_s = stage_median(&PlanTimings::gain_s);
+    r_.plan_stage_median_s.trajectory_s = stage_median(&PlanTimings::trajectory_s);
+    r_.plan_stage_median_s.total_s = stage_median(&PlanTimings::total_s);
     std::vector<double> bounded, gained;
     long rays = 0, hits = 0;
-    for (const VolumetricGainStats& g : explorer().plan_gain_stats()) {
+    for (const VolumetricGainStats& g : e.plan_gain_stats()) {
       bounded.push_back(static_cast<double>(g.poses_bounded));
       gained.push_back(static_cast<double>(g.poses_gained));
       rays += g.rays;
       hits += g.rays_memo_hits;
     }
-    r.plan_positions_bounded_median = Median(std::move(bounded));
-    r.plan_positions_gained_median = Median(std::move(gained));
-    r.plan_ray_memo_fraction = rays > 0 ? static_cast<double>(hits) / static_cast<double>(rays) : 0;
+    r_.plan_positions_bounded_median = Median(std::move(bounded));
+    r_.plan_positions_gained_median = Median(std::move(gained));
+    r_.plan_ray_memo_fraction =
+        rays > 0 ? static_cast<double>(hits) / static_cast<double>(rays) : 0;
   }
-  r.scans_applied = mapper.scans_applied();
-  r.mapper_applied_every_message = mapper.applied_every_message();
-  r.map_hash = mapper.map_hash();
-  r.final_entropy_nats = mapper.entropy_nats();
-  if (mc.compute_quality) {
-    r.quality = quality();
-    sim.mutable_simulator().SetRayReach(nullptr);
-    r.claims = claims->Claims(known_free(), &reach->first_reach_s());
-    if (!mc.reach_path.empty()) {
+
+  // The files asked for: where the rays reached, the map and its exports, the time series, one
+  // row per replan.
+  void WriteFiles() {
+    if (reach_ && !mc_.reach_path.empty()) {
       std::string error;
-      if (!WriteRayReachFile(mc.reach_path, *reach, &error)) throw std::runtime_error(error);
+      if (!WriteRayReachFile(mc_.reach_path, *reach_, &error)) throw std::runtime_error(error);
     }
-  }
-  if (!mc.map_path.empty()) mapper.SaveMapFile(mc.map_path);
-  if (!mc.octomap_path.empty()) mapper.ExportOctoMapFile(mc.octomap_path);
-  if (!mc.ply_path.empty()) mapper.ExportPlyFile(mc.ply_path);
-  if (!mc.csv_path.empty()) WriteMissionCsv(mc.csv_path, r);
-  if (!mc.plans_csv_path.empty()) {
-    std::ofstream out(mc.plans_csv_path);
+    if (!mc_.map_path.empty()) mapper_->SaveMapFile(mc_.map_path);
+    if (!mc_.octomap_path.empty()) mapper_->ExportOctoMapFile(mc_.octomap_path);
+    if (!mc_.ply_path.empty()) mapper_->ExportPlyFile(mc_.ply_path);
+    if (!mc_.csv_path.empty()) WriteMissionCsv(mc_.csv_path, r_);
+    if (mc_.plans_csv_path.empty()) return;
+    const Explorer& e = explorer().explorer();
+    std::ofstream out(mc_.plans_csv_path);
     out << "plan,total_ms,projection_ms,distance_field_ms,gain_ms,trajectory_ms,positions,"
            "positions_bounded,positions_evaluated,cpu_ms\n";
-    const std::vector<PlanTimings>& t = explorer().plan_timings();
-    const std::vector<VolumetricGainStats>& g = explorer().plan_gain_stats();
-    const std::vector<double>& cpu = explorer().plan_cpu_times_s();
+    const std::vector<PlanTimings>& t = e.plan_timings();
+    const std::vector<VolumetricGainStats>& g = e.plan_gain_stats();
+    const std::vector<double>& cpu = e.plan_cpu_times_s();
     for (size_t i = 0; i < t.size() && i < g.size(); ++i) {
       out << i << "," << 1e3 * t[i].total_s << "," << 1e3 * t[i].projection_s << ","
           << 1e3 * t[i].dijkstra_s << "," << 1e3 * t[i].gain_s << "," << 1e3 * t[i].trajectory_s
@@ -788,10 +857,71 @@ MissionResult RunMission(const MissionConfig& mc) {
           << (i < cpu.size() ? 1e3 * cpu[i] : -1.0) << "\n";
     }
   }
-  r.wall_time_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  return r;
-}
+
+  const MissionConfig& mc_;
+  const std::chrono::steady_clock::time_point wall_start_{std::chrono::steady_clock::now()};
+  int64_t mission_epoch_{0};
+  MissionResult r_;
+  // Configuration.
+  bool faults_{false};
+  ConfigNode sim_cfg_ = ConfigNode::FromString("{}", "(none)");
+  SimConfig sim_config_;
+  std::vector<std::string> prefixes_{""};
+  std::vector<Eigen::Vector3d> offsets_{Eigen::Vector3d::Zero()};
+  ConfigNode mapper_cfg_ = ConfigNode::FromString("{}", "(none)");
+  MapperConfig mapper_config_;
+  ConfigNode explorer_cfg_ = ConfigNode::FromString("{}", "(none)");
+  ExplorerNodeConfig explorer_config_;
+  ConfigNode controller_cfg_ = ConfigNode::FromString("{}", "(none)");
+  ControllerConfig controller_config_;
+  std::string state_dir_;
+  bool remove_state_dir_{false};
+  // The nodes, in one process.
+  lcm::LCM lcm_{"memq://"};
+  SimClock clock_{1700000000000000};  // a fixed, plausible epoch: stamps are the same every run
+  std::unique_ptr<SimNode> sim_;
+  std::vector<ControllerConfig> controller_configs_;
+  std::vector<std::unique_ptr<ControllerNode>> controllers_;
+  std::unique_ptr<MapperNode> mapper_;
+  std::vector<ExplorerNodeConfig> explorer_configs_;
+  std::vector<std::unique_ptr<ExplorerNode>> explorers_;
+  // The log, the watchers, the scorer, the fault relays.
+  std::unique_ptr<lcm::LogFile> log_;
+  LogWriter writer_;
+  GuardedSubscriptions watch_{lcm_};
+  bool first_plan_seen_{false};
+  std::optional<MapScorer> scorer_;
+  std::optional<RayReach> reach_;
+  std::optional<ClaimTracker> claims_;
+  std::mt19937_64 fault_rng_{static_cast<uint64_t>(mc_.seed) * 7 + 3};
+  std::vector<Relay> relays_;
+  int64_t outage_begin_{-1};
+  int64_t outage_end_{-1};
+  // The lockstep's clocks and the flight's running figures.
+  int64_t t0_{0};
+  int64_t control_period_us_{0};
+  int64_t next_control_{0};
+  int64_t next_explore_{0};
+  int64_t next_sample_{0};
+  double next_progress_s_{0.0};
+  int64_t takeoff_utime_{-1};
+  int64_t land_utime_{-1};
+  int reported_collisions_{0};
+  double alpha_c_{0.0};
+  Eigen::Vector2d start_cell_{Eigen::Vector2d::Zero()};
+  Eigen::Vector3d position_{Eigen::Vector3d::Zero()};  // the first vehicle, at the last step
+  Eigen::Vector3d position_at_last_step_{Eigen::Vector3d::Zero()};
+  std::vector<Eigen::Vector3d> last_positions_;
+  double controller_killed_at_{-1};
+  double controller_z_kill_{0};
+  double controller_z_min_{0};
+  double explorer_killed_at_{-1};
+  double explorer_restarted_at_{-1};
+};
+
+}  // namespace
+
+MissionResult RunMission(const MissionConfig& mc) { return Mission(mc).Run(); }
 
 void WriteMissionCsv(const std::string& path, const MissionResult& r) {
   std::ofstream out(path);

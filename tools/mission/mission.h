@@ -102,8 +102,8 @@ struct MissionVehicle {
   double path_length_m{0};  ///< flown distance (true state)
   double path_to_95_m{-1};  ///< flown when the map first reached 95% known (-1: never)
   int collisions{0};        ///< with obstacles and the floor
-  std::string end_rule;     ///< ExplorerNode::end_rule
-  std::string landing;      ///< ExplorerNode::landing
+  std::string end_rule;     ///< Explorer::end_rule
+  std::string landing;      ///< Explorer::landing
   int64_t yields{0};        ///< plans refused by the separation check
   int plans{0};
   bool landed{false};
@@ -142,7 +142,7 @@ struct MissionResult {
   std::vector<MissionSample> samples;
   std::string end_reason;
   bool interrupted{false};      ///< config.stop_requested ended the run before its end
-  std::string end_rule;         ///< what ended exploration (ExplorerNode::end_rule)
+  std::string end_rule;         ///< what ended exploration (Explorer::end_rule)
   std::string landing;          ///< "returned home (...)" or "landed elsewhere: ..."
   double plan_median_s{0};      ///< median wall time of an exploration replan
   double plan_max_s{0};         ///< slowest exploration replan

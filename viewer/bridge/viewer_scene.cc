@@ -8,6 +8,7 @@
 
 #include "common/check.h"
 #include "common/trajectory_message.h"
+#include "exploration/explorer_state.h"
 
 namespace kestrel {
 namespace {
@@ -275,6 +276,7 @@ std::string ViewerScene::ExplorationJson(size_t vehicle) const {
   std::string out = "{\"type\":\"exploration\",\"vehicle\":" + std::to_string(vehicle) +
                     ",\"utime\":" + std::to_string(m.utime) + ",\"seq\":" + std::to_string(m.seq) +
                     ",\"state\":" + std::to_string(static_cast<int>(m.state)) +
+                    ",\"state_name\":" + JsonString(ExplorerStateName(m.state)) +
                     ",\"mode\":" + JsonString(m.mode) + ",\"reason\":" + JsonString(m.reason) +
                     ",\"entropy\":";
   AppendNumber(&out, m.map_entropy_nats);

@@ -218,7 +218,6 @@ MAP2D_TITLES = {"collision": "collision map C", "combined": "combined map B",
 # the candidates' blue or orange.
 VEHICLE_COLORS = ["tab:red", "tab:green", "tab:purple", "tab:brown", "tab:pink", "tab:cyan",
                   "tab:olive", "black"]
-STATE_NAMES = ["waiting", "startup", "exploring", "returning", "done", "failed"]
 
 
 def read_vehicles(data_dir):
@@ -386,7 +385,8 @@ def vehicle_line(v):
     state = int(v["final_state"])
     if state < 0:
         return line + ", no exploration status"
-    state_name = STATE_NAMES[state] if state < len(STATE_NAMES) else str(state)
+    # The name from the explorer's own table (kestrel-report-export writes it).
+    state_name = v.get("final_state_name") or str(state)
     line += f", last status {state_name} at {float(v['final_time_s']):.1f} s"
     # The explorer's DONE status says "home: land sent (<end rule>, <landing>)".
     line += "; land sent" if v["land_sent"] == "1" else "; no land sent"

@@ -21,6 +21,7 @@
 #include "common/config_publisher.h"
 #include "common/lcm_decode.h"
 #include "common/se3.h"
+#include "exploration/explorer_state.h"
 #include "kestrel/exploration_status_t.hpp"
 #include "kestrel/grid_map_t.hpp"
 #include "kestrel/map3d_chunk_t.hpp"
@@ -561,14 +562,17 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
     CsvFile f(dir + "vehicles.csv");
     std::fprintf(f.get(),
                  "vehicle,prefix,trajectory_file,poses,valid_poses,path_length_m,plans,"
-                 "final_state,final_time_s,land_sent,final_reason\n");
+                 "final_state,final_time_s,land_sent,final_reason,final_state_name\n");
     for (size_t k = 0; k < summary.vehicles.size(); ++k) {
       const ReportVehicle& v = summary.vehicles[k];
-      std::fprintf(f.get(), "%zu,%s,%s,%lld,%lld,%.4f,%lld,%d,%.3f,%d,%s\n", k,
+      // The state's name from the explorer's table (exploration/explorer_state.h), "" if none.
+      const std::string state_name = v.final_state < 0 ? "" : ExplorerStateName(v.final_state);
+      std::fprintf(f.get(), "%zu,%s,%s,%lld,%lld,%.4f,%lld,%d,%.3f,%d,%s,%s\n", k,
                    CsvField(v.prefix).c_str(), CsvField(v.trajectory_file).c_str(),
                    static_cast<long long>(v.poses), static_cast<long long>(v.valid_poses),
                    v.path_length_m, static_cast<long long>(v.plans), v.final_state, v.final_time_s,
-                   v.land_sent ? 1 : 0, CsvField(v.final_reason).c_str());
+                   v.land_sent ? 1 : 0, CsvField(v.final_reason).c_str(),
+                   CsvField(state_name).c_str());
     }
     f.Close();
   }
@@ -577,17 +581,18 @@ ReportExportSummary ExportReportData(const ReportExportConfig& config) {
     CsvFile fc(dir + "candidates.csv");
     std::fprintf(fp.get(),
                  "plan,time_s,mode,state,chosen_index,goal_x_m,goal_y_m,goal_z_m,goal_yaw_rad,"
-                 "best_unweighted_gain_nats,num_candidates\n");
+                 "best_unweighted_gain_nats,num_candidates,state_name\n");
     std::fprintf(fc.get(),
                  "plan,time_s,index,x_m,y_m,z_m,yaw_rad,gain_nats,distance_m,bump,objective,"
                  "chosen\n");
     for (size_t k = 0; k < plans.size(); ++k) {
       const exploration_status_t& m = plans[k].msg;
       const double t = SecondsBetween(plans[k].clock_utime, origin_utime);
-      std::fprintf(fp.get(), "%zu,%.3f,%s,%d,%d,%.4f,%.4f,%.4f,%.4f,%.6f,%d\n", k, t,
+      std::fprintf(fp.get(), "%zu,%.3f,%s,%d,%d,%.4f,%.4f,%.4f,%.4f,%.6f,%d,%s\n", k, t,
                    m.mode.c_str(), m.state, m.chosen_index, m.goal_position_m[0],
                    m.goal_position_m[1], m.goal_position_m[2], m.goal_yaw_rad,
-                   m.best_unweighted_gain_nats, m.num_candidates);
+                   m.best_unweighted_gain_nats, m.num_candidates,
+                   CsvField(ExplorerStateName(m.state)).c_str());
       for (size_t i = 0; i < m.candidates.size(); ++i) {
         const candidate_t& c = m.candidates[i];
         std::fprintf(fc.get(), "%zu,%.3f,%zu,%.4f,%.4f,%.4f,%.4f,%.6f,%.4f,%.6f,%.6f,%d\n", k, t, i,

@@ -695,7 +695,6 @@ function drawEntropy() {
   ctx.stroke();
 }
 
-const kStateNames = ['waiting', 'startup', 'exploring', 'returning', 'done', 'failed'];
 const escapeHtml = (t) => String(t).replace(/[&<>"']/g, (c) => `&#${c.charCodeAt(0)};`);
 function drawStatus() {
   document.getElementById('conn').className = state.connected ? 'dot on' : 'dot';
@@ -707,12 +706,13 @@ function drawStatus() {
   const entries = multi() ? model.vehicles.map((v) => {
     const e = v.exploration;
     return `<span class="swatch" style="background:${v.color}"></span>${escapeHtml(v.prefix || '(none)')} ` +
-           `${e ? escapeHtml(kStateNames[e.state] || String(e.state)) : '-'}`;
+           `${e ? escapeHtml(e.state_name) : '-'}`;
   }) : [];
   const html = entries.join('&nbsp;&nbsp; ');
   if (legend.innerHTML !== html) legend.innerHTML = html;
   const vehicles = model.vehicles;
-  const explorerLine = (e) => (e ? `${kStateNames[e.state] || e.state} (${e.mode}), plan ${e.seq}` : '-');
+  // The state's name comes with the status, from the explorer's table (exploration/explorer_state.h).
+  const explorerLine = (e) => (e ? `${e.state_name} (${e.mode}), plan ${e.seq}` : '-');
   const lines = [
     `connected        ${state.connected}`,
     `messages         ${state.messagesReceived}`,
