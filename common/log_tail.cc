@@ -1,6 +1,11 @@
 #include "common/log_tail.h"
 
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <stdexcept>
 
 namespace kestrel {
@@ -27,6 +32,23 @@ std::optional<LoggedEvent> LogTail::Next() {
   out.data.assign(bytes, bytes + event->datalen);
   ++events_read_;
   return out;
+}
+
+int64_t TrimPartialLastEvent(const std::string& path) {
+  struct stat st {};
+  if (stat(path.c_str(), &st) != 0) return 0;
+  off_t whole_end = 0;
+  {
+    lcm::LogFile log(path, "r");
+    if (!log.good()) throw std::runtime_error("cannot read the LCM log " + path);
+    while (log.readNextEvent() != nullptr) whole_end = ftello(log.getFilePtr());
+  }
+  const int64_t cut = static_cast<int64_t>(st.st_size) - static_cast<int64_t>(whole_end);
+  if (cut > 0 && truncate(path.c_str(), whole_end) != 0) {
+    throw std::runtime_error("cannot cut the broken last event of " + path + ": " +
+                             std::strerror(errno));
+  }
+  return cut;
 }
 
 }  // namespace kestrel

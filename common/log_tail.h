@@ -39,4 +39,10 @@ class LogTail {
   int64_t events_read_{0};
 };
 
+/// Cuts an event that a writer killed mid-write left at the end of the LCM log `path`, so that
+/// a new writer appending to it (mode "a") does not put its events behind a broken one, which
+/// every reader stops at. Returns the bytes cut (0: the log ends with a whole event, or does not
+/// exist). Only for a log no one else writes to. @throws std::runtime_error if it cannot be cut.
+int64_t TrimPartialLastEvent(const std::string& path);
+
 }  // namespace kestrel

@@ -78,6 +78,43 @@ TEST(LogTail, ReadsWholeEventsAndWaitsForOnesWrittenInPart) {
   std::remove(whole_path.c_str());
 }
 
+// A writer killed mid-event, then another appending: the broken event is cut first, and every
+// whole event of both is read.
+TEST(LogTail, TrimPartialLastEventLetsAnAppendingWriterBeRead) {
+  const std::string whole_path = WriteThreeEvents();
+  const std::string whole = ReadAll(whole_path);
+  for (const size_t cut : {whole.size() - 500, whole.size() - 2100 - 20}) {
+    SCOPED_TRACE("cut at " + std::to_string(cut));
+    const std::string path = TempPath("appended.lcmlog");
+    std::remove(path.c_str());
+    Append(path, whole.substr(0, cut));
+    // The third event: a 28-byte header, its 9-byte channel and 2100 bytes of data.
+    const size_t two_events = whole.size() - (28 + 9 + 2100);
+    EXPECT_EQ(TrimPartialLastEvent(path), static_cast<int64_t>(cut - two_events));
+    EXPECT_EQ(TrimPartialLastEvent(path), 0) << "nothing left to cut";
+    {
+      lcm::LogFile log(path, "a");
+      ASSERT_TRUE(log.good());
+      std::string data(7, 'z');
+      lcm::LogEvent e;
+      e.eventnum = 9;
+      e.timestamp = 2000;
+      e.channel = "NEXT_LIFE";
+      e.datalen = static_cast<int32_t>(data.size());
+      e.data = data.data();
+      ASSERT_EQ(log.writeEvent(&e), 0);
+    }
+    LogTail tail(path);
+    std::vector<std::string> channels;
+    while (std::optional<LoggedEvent> e = tail.Next()) channels.push_back(e->channel);
+    EXPECT_EQ(channels, (std::vector<std::string>{"CHANNEL_0", "CHANNEL_1", "NEXT_LIFE"}));
+    std::remove(path.c_str());
+  }
+  EXPECT_EQ(TrimPartialLastEvent(whole_path), 0) << "a log of whole events is left as it is";
+  EXPECT_EQ(TrimPartialLastEvent(TempPath("none.lcmlog")), 0);
+  std::remove(whole_path.c_str());
+}
+
 TEST(LogTail, AMissingFileIsAClearError) {
   try {
     LogTail tail(TempPath("missing.lcmlog"));
