@@ -12,6 +12,7 @@
 #include "common/check.h"
 #include "common/fnv1a.h"
 #include "common/identity.h"
+#include "common/log_tail.h"
 #include "kestrel/map3d_chunk_t.hpp"
 #include "kestrel/map3d_delta_t.hpp"
 #include "kestrel/map_decisions_t.hpp"
@@ -98,6 +99,19 @@ MapperNode::MapperNode(lcm::LCM& lcm, const MapperConfig& config, const Clock& c
   }
   CreateIntegrator();
   if (!config_.decisions_log.empty()) {
+    // A life killed while writing a scan leaves part of it at the end: cut, or this life's
+    // decisions would sit behind it where no reader finds them.
+    try {
+      const int64_t cut = TrimPartialLastEvent(config_.decisions_log);
+      if (cut > 0) {
+        Log(LogLevel::kWarning, "decisions_log " + config_.decisions_log + ": cut " +
+                                    std::to_string(cut) +
+                                    " bytes of an event the previous life was writing when it "
+                                    "stopped");
+      }
+    } catch (const std::exception& e) {
+      Log(LogLevel::kError, e.what());
+    }
     decisions_log_ = std::make_unique<lcm::LogFile>(config_.decisions_log, "a");
     if (!decisions_log_->good()) {
       decisions_log_.reset();
@@ -334,13 +348,25 @@ void MapperNode::OnDepth(size_t sensor, size_t vehicle, const std::string& chann
   }
   if (!std::isfinite(msg.cx_px) || !std::isfinite(msg.cy_px))
     return bad("non-finite principal point");
-  // Every pixel 0 (docs/algorithms.md §3.4): a covered lens reads so, and an indoor scene never
-  // does; the frame is no evidence whatever the model says of a 0, and is dropped with that said.
+  // Every pixel 0 (docs/algorithms.md §3.4): a covered lens reads so, and an indoor scene seldom
+  // does. Where a 0 is a no-return such a frame would free everything in range: dropped. Where a
+  // 0 is no evidence it is applied as what it is, invalid pixels; said at the first of a run of
+  // them and every 150 after.
+  int64_t& streak = all_zero_streak_[channel];
   if (std::all_of(counts->begin(), counts->end(), [](uint16_t c) { return c == 0; })) {
-    skipped_.Count("all_zero", channel + " seq " + std::to_string(msg.seq) +
-                                   ": every pixel reads 0 (a covered lens, or nothing between "
-                                   "the near and far limits): no evidence, nothing applied");
-    return;
+    ++all_zero_frames_;
+    const std::string what = channel + " seq " + std::to_string(msg.seq) +
+                             ": every pixel reads 0 (a covered lens, or nothing between the near "
+                             "and far limits)";
+    if (config_.sensors[sensor].model.no_return_informs) {
+      return skipped_.Count("all_zero", what + ": dropped, as its 0s would be taken as no-returns");
+    }
+    if (streak++ % 150 == 0) {
+      Log(LogLevel::kWarning, what + ", " + std::to_string(streak) +
+                                  " such frames in a row: no evidence, nothing learnt from them");
+    }
+  } else {
+    streak = 0;
   }
   auto metadata = std::make_shared<depth_image_t>(msg);
   metadata->data.clear();  // the pixels travel decoded, in counts

@@ -183,6 +183,8 @@ class MapperNode {
   [[nodiscard]] uint64_t map_hash() const;
   [[nodiscard]] int64_t map_seq() const { return map_seq_; }
   [[nodiscard]] int64_t scans_applied() const { return scans_applied_; }
+  /// Depth frames whose every pixel read 0 (a covered lens; docs/algorithms.md §3.4).
+  [[nodiscard]] int64_t all_zero_frames() const { return all_zero_frames_; }
   [[nodiscard]] const DropCounter& skipped() const { return skipped_; }
   [[nodiscard]] size_t queue_depth() const { return queue_.size(); }
   /// True while no input has been skipped for a reason other than "already in the checkpoint",
@@ -296,6 +298,8 @@ class MapperNode {
   int64_t last_delta_map_seq_{0};
   int64_t status_seq_{0};
   int64_t scans_applied_{0};
+  int64_t all_zero_frames_{0};
+  std::map<std::string, int64_t> all_zero_streak_;  // per channel: frames of 0s in a row
   int64_t latest_input_utime_{0};
   // The newest stamp queued of each (vehicle, sensor) stream (order_wait_s).
   std::map<std::pair<size_t, size_t>, int64_t> stream_latest_utime_;

@@ -267,21 +267,29 @@ TEST_F(MapperNodeTest, ACoveredLensAndAJumpedClockAreSaidAndClaimNothing) {
   for (size_t i = 0; i < events_.size(); ++i) {
     if (i != covered_at && i != jumped_at) clean_events.push_back(events_[i]);
   }
-  lcm::LCM lcm("memq://");
-  SimClock clock;
-  MapperNode node(lcm, config_, clock);
-  Feed(lcm, node, clock, faulty);
-  EXPECT_EQ(node.skipped().count("all_zero"), 1);
-  EXPECT_EQ(node.skipped().count("stamp_ahead"), 1);
-  EXPECT_EQ(node.skipped().total(), 2) << node.skipped().last_reason();
-  // The jumped stamp is not the input's newest: no other scan's wait expired, nothing was
-  // decimated, and the map is the one without the two, bit for bit.
-  lcm::LCM clean_lcm("memq://");
-  SimClock clean_clock;
-  MapperNode clean(clean_lcm, config_, clean_clock);
-  Feed(clean_lcm, clean, clean_clock, clean_events);
-  EXPECT_EQ(node.scans_applied(), clean.scans_applied());
-  EXPECT_EQ(node.map_hash(), clean.map_hash());
+  // The shipped camera (a 0 is no evidence): the covered frame applies as invalid pixels.
+  // A camera whose 0 is a no-return: the covered frame is dropped.
+  for (const bool zero_is_no_return : {false, true}) {
+    SCOPED_TRACE(zero_is_no_return ? "0 = no return" : "0 = no evidence");
+    MapperConfig config = config_;
+    config.sensors[0].model.no_return_informs = zero_is_no_return;
+    lcm::LCM lcm("memq://");
+    SimClock clock;
+    MapperNode node(lcm, config, clock);
+    Feed(lcm, node, clock, faulty);
+    EXPECT_EQ(node.all_zero_frames(), 1);
+    EXPECT_EQ(node.skipped().count("all_zero"), zero_is_no_return ? 1 : 0);
+    EXPECT_EQ(node.skipped().count("stamp_ahead"), 1);
+    // The jumped stamp is not the input's newest: no other scan's wait expired, nothing was
+    // decimated, and the map is the one without the two, bit for bit.
+    lcm::LCM clean_lcm("memq://");
+    SimClock clean_clock;
+    MapperNode clean(clean_lcm, config, clean_clock);
+    Feed(clean_lcm, clean, clean_clock, clean_events);
+    EXPECT_EQ(node.skipped().total(), zero_is_no_return ? 2 : 1);
+    EXPECT_EQ(node.scans_applied(), clean.scans_applied() + (zero_is_no_return ? 0 : 1));
+    EXPECT_EQ(node.map_hash(), clean.map_hash());
+  }
 }
 
 TEST_F(MapperNodeTest, SnapshotThenDeltasRebuildTheMapExactly) {
