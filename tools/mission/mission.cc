@@ -546,10 +546,9 @@ class Mission {
                                 ? c->trajectory_end_s() - UtimeToSeconds(now)
                                 : std::numeric_limits<double>::infinity();
       const ExplorerState state = explorer().state();
-      const bool when = mc_.explorer_kill_returning
-                            ? state == ExplorerState::kReturning
-                            : state == ExplorerState::kExploring ||
-                                  t >= mc_.explorer_kill_at_s + 60;
+      const bool when = mc_.explorer_kill_returning ? state == ExplorerState::kReturning
+                                                    : state == ExplorerState::kExploring ||
+                                                          t >= mc_.explorer_kill_at_s + 60;
       if (left_s <= mc_.explorer_kill_max_left_s && when) {
         r_.explorer_kill_trajectory_left_s = left_s;
         explorers_.front().reset();
