@@ -118,7 +118,11 @@ def main():
                 any(m in ("LAND", "ESTOP", "IDLE") for m in modes):
             failures.append(f"{process} down: the controller went to {modes}")
         if process == "HEARTBEAT_CONTROLLER":
-            new_modes = [MODES.get(m.mode) for u, m in status if u > at][:1]
+            # The new life's first status (its epoch): under load the logger may stamp the old
+            # controller's last statuses after the kill.
+            old_lives = {m.epoch for u, m in status if u <= at}
+            new_modes = [MODES.get(m.mode) for u, m in status
+                         if u > at and m.epoch not in old_lives][:1]
             print(f"  the respawned controller's first mode: {new_modes}")
             # The rotors' own view of the gap: the old controller's last motor command to the new
             # one's first (docs/design.md §2.5: the ESC hold must outlast it).
