@@ -66,6 +66,24 @@ TEST(SensorCalibrator, SurfaceSigmaLeavesOutTheCellTerm) {
   EXPECT_NEAR(c.sigma_m, std::sqrt(0.02 * 0.02 + alpha * alpha / 12.0), 0.0015);
 }
 
+// A sensor whose no-return is no evidence shows out-of-range rays only when they return: left
+// out, they do not count as spurious returns (p_rand stays the in-range data's).
+TEST(SensorCalibrator, OutOfRangeRaysLeftOutForASensorWhoseZeroIsNoEvidence) {
+  SensorCalibrator seen = Draw(0.03, 0.02, 0.05, 20000, 3);
+  SensorCalibrator unseen = Draw(0.03, 0.02, 0.05, 20000, 3);
+  unseen.LeaveOutOutOfRangeRays();
+  for (int i = 0; i < 2000; ++i) {
+    seen.Add(kZMax + 1.0, kZMax + 1.0, true, 1.0 + 0.001 * i);
+    unseen.Add(kZMax + 1.0, kZMax + 1.0, true, 1.0 + 0.001 * i);
+  }
+  const SensorCalibration a = seen.Fit();
+  const SensorCalibration b = unseen.Fit();
+  EXPECT_EQ(a.rays_out_of_range, b.rays_out_of_range + 2000);
+  EXPECT_EQ(b.returns_out_of_range, a.returns_out_of_range - 2000);
+  EXPECT_NEAR(b.p_rand, 0.02, 0.005);
+  EXPECT_GT(a.p_rand, b.p_rand + 0.05) << "counted, the 2000 returns read as spurious";
+}
+
 TEST(SensorCalibrator, RefusesBadLimitsAndAnEmptyFit) {
   EXPECT_THROW(SensorCalibrator(1.0, 0.5), std::invalid_argument);
   EXPECT_THROW(SensorCalibrator(0.5, 4.0, 0.001), std::invalid_argument);

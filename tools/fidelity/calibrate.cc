@@ -130,6 +130,7 @@ std::vector<SensorCalibrationResult> CalibrateFromLog(const CalibrationRunConfig
   std::vector<int64_t> left_map(mapper_config.sensors.size(), 0);
   for (const auto& s : mapper_config.sensors) {
     calibrators.emplace_back(s.model.z_min_m, s.model.z_max_m);
+    if (!s.model.no_return_informs) calibrators.back().LeaveOutOutOfRangeRays();
     cells.emplace_back(s.model.z_max_m, geometry.resolution_m());
   }
   mapper.SetScanObserver([&](const MapperNode::AppliedScan& scan) {
@@ -156,11 +157,6 @@ std::vector<SensorCalibrationResult> CalibrateFromLog(const CalibrationRunConfig
         ++left_map[scan.sensor];
         continue;
       }
-      // A sensor whose 0 is no evidence (docs/algorithms.md §3.4) shows a ray whose first
-      // occupied cell lies out of range only when it returned: counted, such rays would make
-      // every one of them spurious. Its empty rays are not seen, so they are left out too.
-      const double z_min = scan.model->config().z_min_m;
-      if (!scan.model->config().no_return_informs && !(d_k >= z_min && d_k < z_max)) continue;
       cal.Add(d, d_k, returned, returned ? ray.reading.z_m : 0.0);
     }
   });

@@ -25,6 +25,7 @@ SensorCalibrator::SensorCalibrator(double z_min_m, double z_max_m, double window
 void SensorCalibrator::Add(double true_range_m, double cell_range_m, bool returned, double z_m) {
   const bool in_range = cell_range_m >= z_min_ && cell_range_m < z_max_;
   if (!in_range) {
+    if (!out_of_range_rays_seen_) return;
     ++out_of_range_;
     if (returned) ++out_of_range_returns_;
     return;

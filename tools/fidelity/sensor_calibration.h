@@ -43,6 +43,11 @@ class SensorCalibrator {
   /// @throws std::invalid_argument on bad limits or window.
   SensorCalibrator(double z_min_m, double z_max_m, double window_m = 1.0);
 
+  /// For a sensor whose no-return is no evidence (docs/algorithms.md §3.4: the mapper drops it,
+  /// so the caller never sees it): a ray whose d_k lies out of range would show only when it
+  /// returned, every one of them spurious, so Add leaves such rays out.
+  void LeaveOutOutOfRangeRays() { out_of_range_rays_seen_ = false; }
+
   /// One ray with its true range d to the surface (+infinity: none within z_max; used only for
   /// sigma_surface_m) and d_k (+infinity: no occupied cell within z_max), and its reading: a
   /// return at z_m, or no return when `returned` is false.
@@ -55,6 +60,7 @@ class SensorCalibrator {
 
  private:
   double z_min_, z_max_, window_;
+  bool out_of_range_rays_seen_{true};
   static constexpr double kBinM = 0.0005;
   std::vector<int64_t> cell_residuals_;     // z - d_k, bins of kBinM over [-window, window]
   std::vector<int64_t> surface_residuals_;  // z - d, the same bins
