@@ -33,9 +33,9 @@ struct VolumetricPlanner::Pass {
   double z;           // the gain height (VolumetricGainHeight)
   int n_yaw;          // headings per position
   double d_max{0.0};  // the bump's d_max over every reachable cell (eq. 17)
-  std::vector<Position> positions;
-  std::vector<size_t> order;  // of positions, as the last ChooseByBound sorted them
-  double best_gain{0.0};      // the best exact unweighted gain of any position evaluated
+  std::vector<Position> positions{};
+  std::vector<size_t> order{};  // of positions, as the last ChooseByBound sorted them
+  double best_gain{0.0};        // the best exact unweighted gain of any position evaluated
 };
 
 namespace {

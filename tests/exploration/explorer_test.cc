@@ -605,7 +605,9 @@ TEST_F(ExplorerTest, EveryStateWithEveryInputOutOfOrder) {
       SetRoom(state == ExplorerState::kExploring ? 1.2 : 10.0);
       config_.peers = {"V2_"};
       Restart();
-      if (state != ExplorerState::kWaiting) ASSERT_TRUE(RunToState(state, 60.0));
+      if (state != ExplorerState::kWaiting) {
+        ASSERT_TRUE(RunToState(state, 60.0));
+      }
       all_.clear();
       input.apply(this);
       for (int i = 0; i < 30; ++i) {  // 1.5 s

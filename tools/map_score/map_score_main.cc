@@ -87,15 +87,16 @@ int main(int argc, char** argv) {
                                         camera_no_return_informs);
         const double p_init = loaded.map->updater().ProbabilityOf(g.initial_value());
         const kestrel::MapQuality q = scorer.Score(
-            [&](const kestrel::CellIndex& c) { return loaded.map->ProbabilityAt(c); }, p_init);
+            [&](const kestrel::CellIndex& cell) { return loaded.map->ProbabilityAt(cell); },
+            p_init);
         std::printf(
             "known fraction: %.4f of %zu observable cells; accuracy %.4f; Brier %.4f; ROC AUC "
             "%.4f\n",
             q.known_fraction, q.observable_cells, q.accuracy, q.brier, q.roc_auc);
         const kestrel::ClaimTracker claims(world, grid, scorer.truth());
         const std::vector<uint8_t> known_free =
-            kestrel::KnownFreeBelow(scorer.Probabilities([&](const kestrel::CellIndex& c) {
-              return loaded.map->ProbabilityAt(c);
+            kestrel::KnownFreeBelow(scorer.Probabilities([&](const kestrel::CellIndex& cell) {
+              return loaded.map->ProbabilityAt(cell);
             }),
                                     p_init);
         std::optional<kestrel::RayReach> reach;
@@ -122,8 +123,8 @@ int main(int argc, char** argv) {
         }
         if (unknown_bin_m > 0.0) {
           const auto u = scorer.Unknown(
-              [&](const kestrel::CellIndex& c) { return loaded.map->ProbabilityAt(c); }, p_init,
-              unknown_bin_m);
+              [&](const kestrel::CellIndex& cell) { return loaded.map->ProbabilityAt(cell); },
+              p_init, unknown_bin_m);
           std::printf("unknown observable cells: %zu never updated, %zu updated but not known\n",
                       u.never_updated, u.updated);
           PrintPlanView(grid, unknown_bin_m, u.bins_x, u.bins_y, u.per_bin, u.per_layer);
