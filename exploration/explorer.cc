@@ -90,11 +90,25 @@ ReplanUse ChooseReplanUse(bool start_matched, bool in_flight, bool periodic_repl
   return periodic_replan && remaining_path_clear ? ReplanUse::kKeep : ReplanUse::kStop;
 }
 
+namespace {
+
+UnlearnedCellsConfig UnlearnedConfigOf(const ExplorerConfig& config) {
+  UnlearnedCellsConfig c;
+  c.enabled = config.unlearned_looks > 0 && config.planner.mode == ExplorationMode::kVolumetric;
+  c.looks = std::max(2, config.unlearned_looks);
+  c.min_entropy_drop_nats = config.unlearned_min_entropy_drop_nats;
+  c.certain_probability = config.planner.projection.p_min_entropy;
+  return c;
+}
+
+}  // namespace
+
 Explorer::Explorer(const ExplorerConfig& config, int64_t epoch, PlanningTime planning_time)
     : config_(config),
       epoch_(epoch),
       planning_time_(planning_time),
-      planner_(MakePlanner(config.planner)) {
+      planner_(MakePlanner(config.planner)),
+      unlearned_(UnlearnedConfigOf(config)) {
   config_.Validate();
   peers_.resize(config_.peers.size());
   for (size_t k = 0; k < peers_.size(); ++k) peers_[k].name = config_.peers[k];
@@ -362,7 +376,12 @@ void Explorer::PlanningTook(double wall_s) {
 void Explorer::Plan(ReplanReason reason) {
   const auto t0 = std::chrono::steady_clock::now();
   const double cpu0 = ThreadCpuSeconds();
-  auto result = std::make_shared<PlanResult>(planner_->Plan(PlanningInput()));
+  PlannerInput input = PlanningInput();
+  LookAndSetGainMap(&input);
+  auto result = std::make_shared<PlanResult>(planner_->Plan(input));
+  if (unlearned_.count() > 0) {
+    result->unlearned_cells = static_cast<int64_t>(unlearned_.count());
+  }
   PlanningTook(SecondsSince(t0));
   if (result->status == PlanStatus::kGoal && StallRuleApplies(planner_->mode(), config_) &&
       ProgressStalled()) {
@@ -712,6 +731,19 @@ PlannerInput Explorer::Input() const {
     in.current_goal = Eigen::Vector3d(goal.position_m.x(), goal.position_m.y(), goal.yaw_rad);
   }
   return in;
+}
+
+void Explorer::LookAndSetGainMap(PlannerInput* input) {
+  if (!unlearned_.config().enabled || !map_.view.probability) return;
+  const VolumetricGainConfig& gain = config_.planner.volumetric.gain;
+  unlearned_.Look(map_.view, CellsInView(map_.view, gain.sensors, pose_.p, YawOf(pose_.q),
+                                         config_.unlearned_azimuth_bins, config_.unlearned_rows));
+  if (unlearned_.count() == 0) return;
+  const size_t n = static_cast<size_t>(map_.view.dims.prod());
+  gain_map_.assign(map_.view.probability, map_.view.probability + n);
+  unlearned_.ApplyTo(&gain_map_, config_.planner.projection.p_min_entropy);
+  input->gain_map = map_.view;
+  input->gain_map.probability = gain_map_.data();
 }
 
 bool Explorer::Splicing() const {

@@ -48,6 +48,7 @@
 #include "exploration/explorer_state.h"
 #include "exploration/planner.h"
 #include "exploration/separation.h"
+#include "exploration/unlearned_cells.h"
 
 namespace kestrel {
 
@@ -239,6 +240,8 @@ class Explorer {
   [[nodiscard]] const std::vector<VolumetricGainStats>& plan_gain_stats() const {
     return plan_gain_stats_;
   }
+  /// The cells looked at again and again without learning (ExplorerConfig::unlearned_looks).
+  [[nodiscard]] const UnlearnedCells& unlearned() const { return unlearned_; }
   /// What the next plan is given now (at the last step's time, on its map): the vehicle, the
   /// take-off point, the goal and flown-path memory (reached goals and the views there, the flown
   /// corridor and views), the goal being flown to, the other vehicles' goals and the separation
@@ -292,6 +295,9 @@ class Explorer {
   bool ProgressStalled();
   // After a plan that took wall_s: time passes (PlanningTime::kPasses) or not.
   void PlanningTook(double wall_s);
+  // The volumetric mode with unlearned_looks: one look from the vehicle's pose
+  // (UnlearnedCells::Look), and `input`'s gain map with the unlearned cells read as certain.
+  void LookAndSetGainMap(PlannerInput* input);
 
   ExplorerConfig config_;
   int64_t epoch_;
@@ -346,6 +352,8 @@ class Explorer {
   std::optional<ExplorerState> resume_;  // the restored state to resume
   std::string resume_status_;
   std::array<int64_t, kExplorerEventCount> events_{};
+  UnlearnedCells unlearned_;
+  std::vector<float> gain_map_;  // the map with unlearned cells read as certain (gain_map)
 };
 
 }  // namespace kestrel

@@ -37,6 +37,11 @@ const ParamTable<ExplorerConfig>& ExplorerParams() {
       {"min_vertical_separation_m", &C::min_vertical_separation_m, Range::Positive()},
       {"max_yield_s", &C::max_yield_s, Range::Positive()},
       {"controller_hold_replan_s", &C::controller_hold_replan_s, Range::Positive()},
+      {"unlearned_looks", &C::unlearned_looks, Range::Closed(0, 254)},
+      {"unlearned_min_entropy_drop_nats", &C::unlearned_min_entropy_drop_nats,
+       Range::NonNegative()},
+      {"unlearned_azimuth_bins", &C::unlearned_azimuth_bins, Range::Closed(1, 36000)},
+      {"unlearned_rows", &C::unlearned_rows, Range::Closed(1, 1000)},
   }};
   return table;
 }
@@ -55,6 +60,9 @@ void ExplorerConfig::Validate() const {
   map.Validate();
   KESTREL_THROW_UNLESS(p_init > 0 && p_init < 1, "map.p_init = " << p_init << " must be in (0, 1)");
   CheckParams("explorer", ExplorerParams(), *this);
+  KESTREL_THROW_UNLESS(unlearned_looks != 1,
+                       "explorer.unlearned_looks = 1: a look only sets the reference; accepted 0 "
+                       "(off) or [2, 254]");
   for (size_t i = 0; i < peers.size(); ++i) {
     for (size_t j = 0; j < i; ++j) {
       KESTREL_THROW_UNLESS(peers[i] != peers[j], "explorer.peers[" << j << "] and [" << i

@@ -92,6 +92,18 @@ struct ExplorerConfig {
   int max_end_deferrals{5};
   bool return_home{true};  ///< fly back to the take-off point at the end
   bool land_at_end{true};  ///< then send a land command
+  /// Unlearned cells (docs/exploration.md, "Unlearned cells"; exploration/unlearned_cells.h), the
+  /// volumetric mode only: at each exploration replan the cells in the sensors' view from the
+  /// vehicle's pose are looked at, and a cell whose entropy has not dropped by
+  /// unlearned_min_entropy_drop_nats over this many looks in a row is read as certain by the
+  /// gain from then on (it is reported, not chased). 0: off (the gain reads the map as it is).
+  int unlearned_looks{0};
+  double unlearned_min_entropy_drop_nats{0.05};  ///< see unlearned_looks, nats (>= 0)
+  /// The view of a look: azimuths every 2 pi / unlearned_azimuth_bins inside each sensor's field
+  /// of view, unlearned_rows elevations over a camera's vertical one.
+  int unlearned_azimuth_bins{360};
+  int unlearned_rows{24};  ///< see unlearned_azimuth_bins
+
   /// While exploring or returning: the controller holding this long after the latest trajectory
   /// was sent without flying it makes the explorer replan from the flown state, s (> 0).
   double controller_hold_replan_s{0.5};

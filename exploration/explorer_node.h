@@ -58,6 +58,9 @@ class ExplorerNode {
   /// What the start-up found in the state file ("" without one) and, once resumed, how.
   [[nodiscard]] const std::string& resume_status() const;
 
+  /// The explorer's copy of the map now (a view valid until the next map message).
+  [[nodiscard]] ExplorerMap Map() const;
+
  private:
   void SubscribePeers(const std::string& pose_channel, const std::string& trajectory_channel);
   void OnPose(const pose_t& msg);
@@ -68,7 +71,6 @@ class ExplorerNode {
   void PublishStatus(const kestrel::PublishStatus& status);
   void PublishMaps(const PlanResult& result, int64_t seq);
   void PublishLand();
-  [[nodiscard]] ExplorerMap Map() const;
   [[nodiscard]] double now_s() const { return UtimeToSeconds(clock_.NowUtime()); }
 
   lcm::LCM& lcm_;

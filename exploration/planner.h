@@ -24,7 +24,11 @@ inline constexpr double kFlownViewYawStepRad = 0.2;
 
 /// The vehicle and map at replanning time.
 struct PlannerInput {
-  OccupancyGridView map;                                  ///< the 3D map (not owned)
+  OccupancyGridView map;  ///< the 3D map (not owned)
+  /// The map the volumetric gain reads (not owned; same lattice as `map`): the explorer's
+  /// unlearned cells read as certain (exploration/unlearned_cells.h; docs/exploration.md,
+  /// "Unlearned cells"). Unset (no probabilities): `map`. Traversability always reads `map`.
+  OccupancyGridView gain_map;
   Eigen::Vector3d position_m{Eigen::Vector3d::Zero()};    ///< vehicle position, m, W
   Eigen::Vector3d velocity_mps{Eigen::Vector3d::Zero()};  ///< vehicle velocity, m/s, W
   /// Vehicle acceleration, m/s^2, W (a replan spliced onto the flown trajectory starts from it).
@@ -61,6 +65,11 @@ struct PlannerInput {
   /// not. The volumetric mode tries its next candidates (at most 10 refused) when it refuses the
   /// best one's trajectory, and fails with the reason when every one is refused. Unset: no check.
   std::function<std::string(const PiecewisePolynomialTrajectory&)> trajectory_check;
+
+  /// gain_map if set, else map.
+  [[nodiscard]] const OccupancyGridView& GainMap() const {
+    return gain_map.probability != nullptr ? gain_map : map;
+  }
 
   /// The start state this input describes (position, velocity, acceleration, yaw, yaw rate, time).
   [[nodiscard]] TrajectoryStart Start() const;
@@ -109,6 +118,9 @@ struct PlanResult {
   /// Several vehicles: trajectories PlannerInput::trajectory_check refused in this plan; a plan
   /// that fails with some refused failed because of the other vehicles (the explorer yields).
   int refused_trajectories{0};
+  /// Cells the explorer reads as certain because looking at them again and again taught nothing
+  /// (exploration/unlearned_cells.h; set by the explorer, not the planner).
+  int64_t unlearned_cells{0};
   TrajectoryPlan trajectory;             ///< to the chosen candidate (status kGoal)
   GainStats gain_stats;                  ///< rays evaluated, rays per candidate
   VolumetricGainStats volumetric_stats;  ///< volumetric mode: 3D rays cast and evaluated

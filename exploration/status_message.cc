@@ -33,6 +33,10 @@ exploration_status_t ToStatusMessage(const PlanResult& result, const StatusConte
   msg.mode = ModeName(context.mode);
   msg.state = static_cast<int8_t>(context.state);
   msg.reason = result.reason.empty() ? context.reason : context.reason + ": " + result.reason;
+  if (result.unlearned_cells > 0) {
+    msg.reason += "; " + std::to_string(result.unlearned_cells) +
+                  " unlearned cells read as certain (not chased)";
+  }
   msg.map_entropy_nats = context.map_entropy_nats;
   msg.best_unweighted_gain_nats = result.best_unweighted_gain_nats;
   std::vector<int> order(result.candidates.size());

@@ -62,20 +62,21 @@ void UnlearnedCells::Look(const OccupancyGridView& map, const std::vector<int32_
   ++looks_taken_;
   if (!config_.enabled) return;
   const uint32_t look = static_cast<uint32_t>(looks_taken_);
-  const double lo = config_.certain_probability;
-  const double hi = 1.0 - config_.certain_probability;
+  // In the map's float: the clamp 1 - 1e-4 is stored as 0.9999f, below the double 1 - 1e-4.
+  const float lo = static_cast<float>(config_.certain_probability);
+  const float hi = static_cast<float>(1.0 - config_.certain_probability);
   for (const int32_t i : in_view) {
     if (i < 0 || static_cast<size_t>(i) >= streak_.size()) continue;
     if (last_look_[i] == look) continue;  // once per look
     last_look_[i] = look;
     uint8_t& streak = streak_[i];
     if (streak == kMarked) continue;  // for good
-    const double p = ValueAt(map, i);
-    if (p <= lo || p >= hi) {  // certain: nothing to learn, nothing to chase
+    const float stored = map.probability[i];
+    if (stored <= lo || stored >= hi) {  // certain: nothing to learn, nothing to chase
       streak = 0;
       continue;
     }
-    const double h = BinaryEntropy(p);
+    const double h = BinaryEntropy(static_cast<double>(stored));
     if (streak == 0 || h < static_cast<double>(reference_h_[i]) - config_.min_entropy_drop_nats) {
       reference_h_[i] = static_cast<float>(h);  // a first look, or it learned: a new streak
       streak = 1;

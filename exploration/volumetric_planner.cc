@@ -249,8 +249,8 @@ void VolumetricPlanner::Positions(Pass* pass) {
     } else {
       // The rays that read the same priors as at their last evaluation bound with their exact
       // I_ray (RayMemo); the rest with the prior-entropy bound.
-      PoseGains b = gains_.Evaluate(input.map, Eigen::Vector3d(p.xy.x(), p.xy.y(), pass->z), n_yaw,
-                                    false, &result.volumetric_stats, &c.memo);
+      PoseGains b = gains_.Evaluate(input.GainMap(), Eigen::Vector3d(p.xy.x(), p.xy.y(), pass->z),
+                                    n_yaw, false, &result.volumetric_stats, &c.memo);
       c.bounds = std::move(b.bound_nats);
       c.gains.clear();
     }
@@ -286,8 +286,9 @@ void VolumetricPlanner::Positions(Pass* pass) {
 void VolumetricPlanner::Evaluate(Pass* pass, Position* p) {
   if (p->evaluated) return;
   CachedPose& entry = cache_[p->cell];
-  PoseGains g = gains_.Evaluate(pass->input.map, Eigen::Vector3d(p->xy.x(), p->xy.y(), pass->z),
-                                pass->n_yaw, true, &pass->result.volumetric_stats, &entry.memo);
+  PoseGains g =
+      gains_.Evaluate(pass->input.GainMap(), Eigen::Vector3d(p->xy.x(), p->xy.y(), pass->z),
+                      pass->n_yaw, true, &pass->result.volumetric_stats, &entry.memo);
   p->gains = g.gain_nats;
   p->evaluated = true;
   MaskViewed(p);
@@ -395,7 +396,7 @@ int VolumetricPlanner::KeepCurrentGoal(Pass* pass, int chosen, double min_goal_g
 
 GoalChoice VolumetricPlanner::Choose(const PlannerInput& input, const SearchedCells&,
                                      PlanResult* result) {
-  UpdateAffectedTiles(input.map);
+  UpdateAffectedTiles(input.GainMap());
   reused_positions_ = 0;
   Pass pass{input, *result, VolumetricGainHeight(config_, input.map), config_.candidates.n_yaw};
   Positions(&pass);

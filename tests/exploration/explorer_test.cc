@@ -348,6 +348,57 @@ TEST_F(ExplorerTest, WithoutReturnHomeOrLandAtEnd) {
   EXPECT_TRUE(Of<SendLand>(all_).empty());
 }
 
+// Unlearned cells (docs/exploration.md, "Unlearned cells"): the room explored but for the layer
+// of cells in front of its east wall, which stay contested (P 0.3, the map does not change: what a
+// partly occupied wall does with a clamp that lets cells come back). The gain keeps predicting that
+// the wall can be learned, so the explorer flies for it plan after plan; with unlearned_looks the
+// cells looked at that often without learning are read as certain, the gain rule ends exploration,
+// and the status and the ledger say how many cells were left.
+TEST_F(ExplorerTest, ContestedCellsLookedAtWithoutLearningAreNotChased) {
+  const auto contested_east_wall = [&] {
+    SetRoom(10.0);
+    for (int k = 0; k < 17; ++k) {
+      for (int j = 0; j < 40; ++j) {
+        const double y = -2.0 + 0.1 * (j + 0.5), z = -0.15 + 0.1 * (k + 0.5);
+        if (z > 0.0 && std::abs(y) < 1.8)
+          cells_[static_cast<size_t>(37 + 40 * (j + 40 * k))] = 0.3f;
+      }
+    }
+  };
+  contested_east_wall();
+  Make();
+  ASSERT_TRUE(RunToState(ExplorerState::kExploring, 30.0));
+  EXPECT_FALSE(RunToState(ExplorerState::kReturning, 20.0))
+      << "without the ledger the contested wall keeps its predicted gain";
+  EXPECT_EQ(explorer_->unlearned().count(), 0u);
+  const int64_t plans_without = explorer_->plans();
+  ASSERT_GE(plans_without, 10);
+
+  config_.unlearned_looks = 3;
+  Restart();
+  contested_east_wall();
+  ASSERT_TRUE(RunToState(ExplorerState::kExploring, 30.0));
+  ASSERT_TRUE(RunToState(ExplorerState::kReturning, 20.0));
+  EXPECT_EQ(explorer_->end_rule(), "gain rule");
+  const size_t unlearned = explorer_->unlearned().count();
+  EXPECT_GT(unlearned, 50u);
+  // Only contested cells are marked: every marked one lies in the east wall.
+  for (int32_t i = 0; i < 40 * 40 * 17; ++i) {
+    if (explorer_->unlearned().unlearned(i)) {
+      ASSERT_EQ(i % 40, 37) << "cell " << i << " is not in the contested layer";
+    }
+  }
+  const std::vector<PublishStatus> s = Of<PublishStatus>(all_);
+  ASSERT_FALSE(s.empty());
+  bool said = false;
+  for (const PublishStatus& status : s) {
+    if (status.plan->status == PlanStatus::kExplorationDone) {
+      said = status.plan->unlearned_cells == static_cast<int64_t>(unlearned);
+    }
+  }
+  EXPECT_TRUE(said) << "the ending plan carries the count";
+}
+
 // Plans that keep failing (the vehicle outside the map): max_failed_plans in a row, each counted
 // and retry_period_s apart, end exploration ("planning failures"); the flights home fail too,
 // and after max_home_attempts the vehicle lands where it is, saying why.

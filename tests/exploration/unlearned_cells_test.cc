@@ -68,8 +68,14 @@ TEST_F(UnlearnedCellsTest, LearningCellsStayContestedCellsGo) {
   clamp.certain_probability = 0.03;
   UnlearnedCells certain(clamp);
   p_[Index(7, 5, 5)] = 0.03F;
-  for (int k = 0; k < 10; ++k) certain.Look(view_, {Index(7, 5, 5)});
+  // The high clamp as the map stores it, the float 1 - P_min (0.9999F is below the double 0.9999).
+  p_[Index(8, 5, 5)] = static_cast<float>(1.0 - 0.03);
+  for (int k = 0; k < 10; ++k) certain.Look(view_, {Index(7, 5, 5), Index(8, 5, 5)});
   EXPECT_EQ(certain.count(), 0u);
+  UnlearnedCells map_clamp(config);
+  p_[Index(8, 5, 5)] = static_cast<float>(1.0 - 1e-4);
+  for (int k = 0; k < 10; ++k) map_clamp.Look(view_, {Index(8, 5, 5)});
+  EXPECT_EQ(map_clamp.count(), 0u);
 }
 
 TEST_F(UnlearnedCellsTest, GainViewReadsThemAsCertainAndRegionsLocateThem) {

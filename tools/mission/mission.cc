@@ -783,6 +783,9 @@ class Mission {
     r_.planning_wall_s = e.total_planning_s();
     r_.end_rule = e.end_rule();
     r_.landing = e.landing();
+    r_.unlearned_cells = e.unlearned().count();
+    r_.unlearned_regions =
+        e.unlearned().Regions(explorer().Map().view, 3, &r_.unlearned_entropy_nats);
     SummarisePlans(e);
     r_.scans_applied = mapper_->scans_applied();
     r_.mapper_applied_every_message = mapper_->applied_every_message();
@@ -944,6 +947,13 @@ std::string MissionSummary(const MissionResult& r) {
     << "path length: " << r.path_length_m << " m\n"
     << "largest height error while exploring: " << r.max_height_error_m << " m\n"
     << "ended by: " << (r.end_rule.empty() ? "-" : r.end_rule) << "\n"
+    << "unlearned cells (looked at without learning, not chased): " << r.unlearned_cells;
+  if (r.unlearned_cells > 0) s << ", " << r.unlearned_entropy_nats << " nats";
+  for (const UnlearnedRegion& u : r.unlearned_regions) {
+    s << "; " << u.cells << " around (" << u.centroid_m.x() << ", " << u.centroid_m.y() << ", "
+      << u.centroid_m.z() << ") m, mean P " << u.mean_probability;
+  }
+  s << "\n"
     << "landing: " << (r.landing.empty() ? "-" : r.landing) << "\n"
     << "plans: " << r.plans << ", planning wall time " << r.planning_wall_s << " s ("
     << (r.plans > 0 ? 1000.0 * r.planning_wall_s / r.plans : 0) << " ms per plan; replan median "

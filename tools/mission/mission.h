@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "exploration/planner.h"
+#include "exploration/unlearned_cells.h"
 #include "mapping/map_quality.h"
 #include "sim/world.h"
 #include "tools/map_score/map_claims.h"
@@ -141,8 +142,13 @@ struct MissionResult {
   double time_to_95_s{-1};  ///< first sample with known fraction >= 0.95 (-1: never)
   std::vector<MissionSample> samples;
   std::string end_reason;
-  bool interrupted{false};      ///< config.stop_requested ended the run before its end
-  std::string end_rule;         ///< what ended exploration (Explorer::end_rule)
+  bool interrupted{false};  ///< config.stop_requested ended the run before its end
+  std::string end_rule;     ///< what ended exploration (Explorer::end_rule)
+  /// Cells the explorer stopped chasing because looking at them taught nothing
+  /// (Explorer::unlearned), their entropy in the final map, nats, and where the largest lie.
+  size_t unlearned_cells{0};
+  double unlearned_entropy_nats{0.0};
+  std::vector<UnlearnedRegion> unlearned_regions;
   std::string landing;          ///< "returned home (...)" or "landed elsewhere: ..."
   double plan_median_s{0};      ///< median wall time of an exploration replan
   double plan_max_s{0};         ///< slowest exploration replan
