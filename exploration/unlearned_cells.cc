@@ -72,10 +72,11 @@ void UnlearnedCells::Look(const OccupancyGridView& map, const std::vector<int32_
     uint8_t& streak = streak_[i];
     if (streak == kMarked) continue;  // for good
     const float stored = map.probability[i];
-    if (stored <= lo || stored >= hi) {  // certain: nothing to learn, nothing to chase
-      streak = 0;
-      continue;
-    }
+    // At the clamp the cell is certain for now: nothing to learn, nothing to chase, and no look
+    // that counts either way. Its streak stays: a contested cell with a clamp that lets cells
+    // come back (map.p_min 0.03) touches the clamp between swings, and resetting there would
+    // never let it be marked.
+    if (stored <= lo || stored >= hi) continue;
     const double h = BinaryEntropy(static_cast<double>(stored));
     if (streak == 0 || h < static_cast<double>(reference_h_[i]) - config_.min_entropy_drop_nats) {
       reference_h_[i] = static_cast<float>(h);  // a first look, or it learned: a new streak

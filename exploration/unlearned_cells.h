@@ -39,7 +39,8 @@ struct UnlearnedCellsConfig {
   int looks{5};
   /// An entropy drop smaller than this since the streak's first look is "nothing learned", nats.
   double min_entropy_drop_nats{0.05};
-  /// Cells at or beyond the map's clamp (P <= this or >= 1 - this) are certain: not tracked.
+  /// Cells at or beyond the map's clamp (P <= this or >= 1 - this) are certain for now: a look
+  /// there neither counts nor ends the streak.
   double certain_probability{1e-4};
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.

@@ -68,6 +68,10 @@ TEST(StatusMessage, EncodesTheDecision) {
   const exploration_status_t none = ToStatusMessage(r, context);
   EXPECT_EQ(none.reason, "replan period");
   EXPECT_EQ(none.goal_position_m[0], 0.0);
+  // Unlearned cells (exploration/unlearned_cells.h) are said after the reason.
+  r.unlearned_cells = 412;
+  EXPECT_EQ(ToStatusMessage(r, context).reason,
+            "replan period; 412 unlearned cells read as certain (not chased)");
 }
 
 // H(map) is the sum of the cells' binary entropies; certain cells add nothing.

@@ -72,6 +72,15 @@ TEST_F(UnlearnedCellsTest, LearningCellsStayContestedCellsGo) {
   p_[Index(8, 5, 5)] = static_cast<float>(1.0 - 0.03);
   for (int k = 0; k < 10; ++k) certain.Look(view_, {Index(7, 5, 5), Index(8, 5, 5)});
   EXPECT_EQ(certain.count(), 0u);
+  // A contested cell that touches the clamp between its swings is still marked: the looks at
+  // the clamp count neither way.
+  UnlearnedCells bouncing(clamp);
+  const float swing[] = {0.25F, 0.03F, 0.3F, 0.03F, 0.25F, 0.03F, 0.3F, 0.28F};
+  for (const float p : swing) {
+    p_[Index(7, 5, 5)] = p;
+    bouncing.Look(view_, {Index(7, 5, 5)});
+  }
+  EXPECT_TRUE(bouncing.unlearned(Index(7, 5, 5)));
   UnlearnedCells map_clamp(config);
   p_[Index(8, 5, 5)] = static_cast<float>(1.0 - 1e-4);
   for (int k = 0; k < 10; ++k) map_clamp.Look(view_, {Index(8, 5, 5)});
