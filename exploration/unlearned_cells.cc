@@ -78,6 +78,9 @@ void UnlearnedCells::Look(const OccupancyGridView& map, const std::vector<int32_
     // never let it be marked.
     if (stored <= lo || stored >= hi) continue;
     const double h = BinaryEntropy(static_cast<double>(stored));
+    // Nearly certain: less entropy left than a look has to remove to count as learning, so no
+    // look could; like the clamp, neither counted nor ending the streak.
+    if (h < config_.min_entropy_drop_nats) continue;
     if (streak == 0 || h < static_cast<double>(reference_h_[i]) - config_.min_entropy_drop_nats) {
       reference_h_[i] = static_cast<float>(h);  // a first look, or it learned: a new streak
       streak = 1;

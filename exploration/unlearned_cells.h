@@ -37,7 +37,9 @@ struct UnlearnedCellsConfig {
   /// Looks in a streak (the first one included) that mark a cell, >= 2: the first sets the
   /// reference, each later one without an entropy drop adds one.
   int looks{5};
-  /// An entropy drop smaller than this since the streak's first look is "nothing learned", nats.
+  /// An entropy drop smaller than this since the streak's first look is "nothing learned", nats;
+  /// a cell with less entropy than this left is nearly certain: a look neither counts nor ends
+  /// its streak.
   double min_entropy_drop_nats{0.05};
   /// Cells at or beyond the map's clamp (P <= this or >= 1 - this) are certain for now: a look
   /// there neither counts nor ends the streak.

@@ -81,6 +81,12 @@ TEST_F(UnlearnedCellsTest, LearningCellsStayContestedCellsGo) {
     bouncing.Look(view_, {Index(7, 5, 5)});
   }
   EXPECT_TRUE(bouncing.unlearned(Index(7, 5, 5)));
+  // A free cell nearly certain (P 0.005: 0.036 nats, less than the drop a look needs) is not
+  // unlearned however often it is looked at.
+  UnlearnedCells nearly(config);
+  p_[Index(9, 5, 5)] = 0.005F;
+  for (int k = 0; k < 10; ++k) nearly.Look(view_, {Index(9, 5, 5)});
+  EXPECT_EQ(nearly.count(), 0u);
   UnlearnedCells map_clamp(config);
   p_[Index(8, 5, 5)] = static_cast<float>(1.0 - 1e-4);
   for (int k = 0; k < 10; ++k) map_clamp.Look(view_, {Index(8, 5, 5)});
