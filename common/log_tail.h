@@ -42,7 +42,10 @@ class LogTail {
 /// Cuts an event that a writer killed mid-write left at the end of the LCM log `path`, so that
 /// a new writer appending to it (mode "a") does not put its events behind a broken one, which
 /// every reader stops at. Returns the bytes cut (0: the log ends with a whole event, or does not
-/// exist). Only for a log no one else writes to. @throws std::runtime_error if it cannot be cut.
+/// exist). Only for a log no one else writes to. It reads the events' headers and skips their
+/// channels and data (the whole log only where a header is broken), so that a respawn reads
+/// 28 bytes per event however large the events. @throws std::runtime_error if it cannot be read
+/// or cut.
 int64_t TrimPartialLastEvent(const std::string& path);
 
 }  // namespace kestrel

@@ -4,10 +4,13 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <random>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <lcm/lcm-cpp.hpp>
@@ -113,6 +116,58 @@ TEST(LogTail, TrimPartialLastEventLetsAnAppendingWriterBeRead) {
   EXPECT_EQ(TrimPartialLastEvent(whole_path), 0) << "a log of whole events is left as it is";
   EXPECT_EQ(TrimPartialLastEvent(TempPath("none.lcmlog")), 0);
   std::remove(whole_path.c_str());
+}
+
+// The header-by-header walk against the events' true boundaries (the file's size after each
+// was written): events whose data is full of the sync word and of headers, cut at every byte of
+// the last two events. (The LCM reader itself leaves a lone first byte of an event uncut: its
+// file position runs one byte past the last whole event when a byte follows it.)
+TEST(LogTail, TrimPartialLastEventCutsAtTheLastWholeEventsEnd) {
+  const std::string path = TempPath("sync_words.lcmlog");
+  std::remove(path.c_str());
+  std::vector<size_t> boundaries{0};
+  std::mt19937 rng(7);
+  for (int i = 0; i < 4; ++i) {
+    std::string data;
+    while (data.size() < 300) {
+      // The sync word, then lengths that a reader could take for a header's.
+      const char fake[] = {'\xED', '\xA1', '\xDA', '\x01'};
+      data.append(fake, 4);
+      data.append(16, static_cast<char>(rng() & 0xff));
+      const uint32_t channel = 1 + rng() % 20, length = rng() % 400;
+      for (const uint32_t v : {channel, length}) {
+        for (int b = 3; b >= 0; --b) data.push_back(static_cast<char>((v >> (8 * b)) & 0xff));
+      }
+      data.append(rng() % 40, static_cast<char>(rng() & 0xff));
+    }
+    {
+      lcm::LogFile log(path, i == 0 ? "w" : "a");
+      ASSERT_TRUE(log.good());
+      lcm::LogEvent e;
+      e.eventnum = i;
+      e.timestamp = 1000 + i;
+      e.channel = "SYNC_" + std::to_string(i);
+      e.datalen = static_cast<int32_t>(data.size());
+      e.data = data.data();
+      ASSERT_EQ(log.writeEvent(&e), 0);
+    }
+    boundaries.push_back(ReadAll(path).size());
+  }
+  const std::string whole = ReadAll(path);
+  int checked = 0;
+  for (size_t cut = boundaries[2]; cut <= whole.size(); ++cut) {
+    const std::string cut_path = TempPath("sync_words_cut.lcmlog");
+    std::remove(cut_path.c_str());
+    Append(cut_path, whole.substr(0, cut));
+    const size_t whole_end = *(std::upper_bound(boundaries.begin(), boundaries.end(), cut) - 1);
+    ASSERT_EQ(TrimPartialLastEvent(cut_path), static_cast<int64_t>(cut - whole_end))
+        << "cut at " << cut;
+    ASSERT_EQ(ReadAll(cut_path).size(), whole_end);
+    ++checked;
+    std::remove(cut_path.c_str());
+  }
+  EXPECT_GT(checked, 600);
+  std::remove(path.c_str());
 }
 
 TEST(LogTail, AMissingFileIsAClearError) {
