@@ -191,6 +191,8 @@ void FindPassages(const std::vector<bool>& site, int pw, const TraversabilityCon
       for (int j = 0; j < kPassageSamples; ++j) {
         for (int k = 0; k < kPassageSamples; ++k) {
           const Eigen::Vector2d p(x + (k + 0.5) * step, y + (j + 0.5) * step);
+          // The clearance grows by at most |p - c| from the centre's: skip what cannot qualify.
+          if (nc.d + (p - c).norm() < std::max(need, best + 1e-12)) continue;
           Nearest n;
           const double d = on_middle(p, std::max(need, best + 1e-12), &n);
           if (d > best) {
