@@ -59,10 +59,10 @@ struct VolumetricConfig {
   double band_below_m{0.25};
   double band_above_m{0.15};  ///< vehicle band above h, m (> 0)
   double margin_m{0.10};      ///< clearance beyond the vehicle radius, m (>= 0)
-  /// Clearance beyond the vehicle radius at a passage point, the middle of a gap of an even
-  /// number of free cells, m (>= 0; docs/exploration.md, "Traversability"
-  /// exploration/traversability.h, step 3b).
-  double passage_margin_m{0.08};
+  /// Clearance beyond the vehicle radius, to the blocked cells' surfaces, at a passage point (a
+  /// point on a gap's middle line, at any angle), m (>= 0; docs/exploration.md,
+  /// "Traversability"; exploration/traversability.h, step 3b).
+  double passage_margin_m{0.0125};
   /// Paths prefer this much clearance beyond radius + margin where the space allows, m (>= 0;
   /// 0: off): Dijkstra's steps weigh 1 + clearance_weight s^2, s the shortfall's fraction of this
   /// (docs/exploration.md, "Traversability"; exploration/traversability.h, step 4).

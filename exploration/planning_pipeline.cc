@@ -163,7 +163,10 @@ void SearchSpace::TrajectoryTo(const PlannerInput& input, const SearchedCells& c
       room.preferred_m = FineTraversabilityConfig(config_).required_clearance_m() +
                          config_.volumetric.preferred_clearance_m;
     }
-    if (result->traversability) room.path_points = &result->traversability->passage_points;
+    if (result->traversability) {
+      room.path_points = &result->traversability->passage_points;
+      room.path_across = &result->traversability->passage_across;
+    }
   }
   result->trajectory =
       PlanTrajectory(result->collision.collision, cells.traversable, result->field, goal_cell,

@@ -336,20 +336,39 @@ bool SegmentClear(const GridMap2D& grid, const std::vector<bool>& allowed, const
 
 namespace {
 // How far p lies across a passage from its cell's path point (nullopt where its cell has none):
-// the point is on a cell edge, the passage runs along that edge, and the offset is measured along
-// the edge's normal.
+// along the passage's normal (path_across) or, without one, the point is on a cell edge, the
+// passage runs along that edge, and the offset is measured along the edge's normal.
 std::optional<double> PassageOffset(const PathClearance& room, const GridMap2D& grid,
                                     const Eigen::Vector2d& p) {
   if (room.path_points == nullptr) return std::nullopt;
   const std::optional<Cell2> c = grid.CellOf(p);
   if (!c) return std::nullopt;
-  const auto it = room.path_points->find(grid.IndexOf(*c));
+  const int cell = grid.IndexOf(*c);
+  const auto it = room.path_points->find(cell);
   if (it == room.path_points->end()) return std::nullopt;
   const Eigen::Vector2d& q = it->second;
+  if (room.path_across != nullptr) {
+    const auto across = room.path_across->find(cell);
+    if (across != room.path_across->end()) return std::abs((p - q).dot(across->second.normal));
+  }
   const double u = (q.x() - grid.origin_m.x()) / grid.resolution_m;
   const bool on_x_edge =
       std::abs(u - std::round(u)) < 0.25;  // a cell boundary in x: a vertical edge
   return on_x_edge ? std::abs(p.x() - q.x()) : std::abs(p.y() - q.y());
+}
+
+// Whether p keeps within its passage cell's tolerance across the passage (true outside
+// passages).
+bool WithinPassage(const PathClearance& room, const GridMap2D& grid, const Eigen::Vector2d& p) {
+  const std::optional<double> offset = PassageOffset(room, grid, p);
+  if (!offset) return true;
+  double tolerance = 0.5 * grid.resolution_m;
+  if (room.path_across != nullptr) {
+    const std::optional<Cell2> c = grid.CellOf(p);
+    const auto across = room.path_across->find(grid.IndexOf(*c));
+    if (across != room.path_across->end()) tolerance = across->second.tolerance_m;
+  }
+  return *offset <= tolerance + 1e-9;
 }
 
 // The clearance at p (0 outside the map): its cell's; in a cell with a path point (a passage),
@@ -371,6 +390,21 @@ double SegmentClearance(const PathClearance& room, const Eigen::Vector2d& a,
     least = std::min(least, ClearanceAt(room, a + (b - a) * (static_cast<double>(k) / steps)));
   }
   return least;
+}
+}  // namespace
+
+namespace {
+// Whether [a, b], sampled every quarter cell (its ends included), keeps within every passage's
+// tolerance (WithinPassage).
+bool SegmentWithinPassages(const GridMap2D& grid, const PathClearance& room,
+                           const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  if (room.path_points == nullptr || room.path_points->empty()) return true;
+  const int steps =
+      std::max(1, static_cast<int>(std::ceil((b - a).norm() / (0.25 * grid.resolution_m))));
+  for (int k = 0; k <= steps; ++k) {
+    if (!WithinPassage(room, grid, a + (b - a) * (static_cast<double>(k) / steps))) return false;
+  }
+  return true;
 }
 }  // namespace
 
@@ -396,6 +430,7 @@ std::vector<Eigen::Vector2d> PruneWaypoints(const GridMap2D& grid, const std::ve
       for (size_t j = i + 1; j < points.size(); ++j) least[j] = std::min(least[j - 1], at[j]);
     }
     const auto keeps_room = [&](size_t j) {
+      if (!SegmentWithinPassages(grid, clearance, points[i], points[j])) return false;
       if (room == nullptr) return true;
       const double need = std::min(clearance.preferred_m, least[j]) - 0.5 * room->resolution_m;
       return SegmentClearance(clearance, points[i], points[j]) >= need;
@@ -875,15 +910,13 @@ TrajectoryPlan PlanTrajectory(const GridMap2D& collision, const std::vector<bool
         double t = s.time_s - start.time_s;
         size_t seg = 0;
         while (seg + 1 < durations.size() && t > durations[seg]) t -= durations[seg++];
-        // In a passage, the half cell next to its middle line only (PathClearance), unless the
+        // In a passage, within its tolerance of its middle line only (PathClearance), unless the
         // piece is straight (a rest at both ends): then it is a segment SegmentClear checked.
         const bool straight = (seg == 0 ? v0.isZero() && a0.isZero() : stop_at[seg]) &&
                               (seg + 2 == way2.size() || stop_at[seg + 1]);
         if (DiscClear(collision, leaving[seg] ? allowed_leaving : allowed,
                       s.flat.position_m.head<2>(), r) &&
-            (straight ||
-             PassageOffset(clearance, collision, s.flat.position_m.head<2>()).value_or(0.0) <=
-                 0.5 * collision.resolution_m)) {
+            (straight || WithinPassage(clearance, collision, s.flat.position_m.head<2>()))) {
           continue;
         }
         bad[seg] = true;

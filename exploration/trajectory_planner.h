@@ -66,6 +66,7 @@
 #include "common/trajectory.h"
 #include "exploration/dijkstra.h"
 #include "exploration/grid_map_2d.h"
+#include "exploration/traversability.h"
 
 namespace kestrel {
 
@@ -132,14 +133,17 @@ struct YawPiece {
 /// the clearance-weighted search chose (cut a shelf's end at the margin).
 /// Passages (exploration/traversability.h, step 3b): a path crosses a cell with a path point
 /// there, not at its centre; in such a cell the clearance counts less the offset across the
-/// passage from the point, and the sampled trajectory must keep within alpha/2 of the point
-/// across the passage (the half cell next to its middle line).
+/// passage from the point, and the sampled trajectory (and every shortcut) must keep within the
+/// cell's tolerance of the point across the passage (path_across; alpha/2 without it).
 struct PathClearance {
   const GridMap2D* clearance{nullptr};  ///< per cell, m (Traversability::clearance); null: off
   double preferred_m{0.0};              ///< radius + margin + the preferred extra, m
   /// Cells a path crosses at a point other than their centre (Traversability::passage_points,
   /// the middle of a passage), by index; null: none.
   const std::unordered_map<int, Eigen::Vector2d>* path_points{nullptr};
+  /// Per such cell, the direction across its passage and the tolerance (Traversability::
+  /// passage_across); null or missing: across the cell edge the point lies on, alpha/2.
+  const std::unordered_map<int, PassageAcross>* path_across{nullptr};
 };
 
 /// Greedy line-of-sight pruning of `points` (step 2 of the file comment): keeps the first and

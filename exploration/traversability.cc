@@ -55,58 +55,183 @@ void DistanceTransform1D(const double* f, int n, double* d, std::vector<int>* v_
   }
 }
 
-// Step 3b of the file comment: for every pair of 4-adjacent free cells, neither traversable, the
-// clearance at their shared edge's midpoint m (distance to the nearest blocked cell centre minus
-// alpha/2, as at the centres) by a local search: a clearance >= need makes both passage cells,
-// each keeping its best midpoint (the first in scan order on ties). Only pairs whose centres both
-// lie within alpha/2 of need can qualify (the clearance changes by at most alpha/2 from a centre
-// to the midpoint), so few pairs are searched. `site` is the padded blocked grid (width pw).
-void FindPassages(const std::vector<bool>& site, int pw, double need, const std::vector<bool>& free,
-                  Traversability* t) {
+// Step 3b of the file comment. Lengths in cells; a blocked square's lower corner `lo`, its
+// extent [lo, lo + 1]^2.
+struct Nearest {
+  double d{std::numeric_limits<double>::infinity()};
+  Eigen::Vector2d a{0.0, 0.0};  // the nearest point of the nearest square
+};
+
+Eigen::Vector2d ClampToSquare(const Eigen::Vector2d& p, const Eigen::Vector2d& lo) {
+  return {std::clamp(p.x(), lo.x(), lo.x() + 1.0), std::clamp(p.y(), lo.y(), lo.y() + 1.0)};
+}
+
+Nearest NearestSurface(const std::vector<Eigen::Vector2d>& squares, const Eigen::Vector2d& p) {
+  Nearest n;
+  for (const Eigen::Vector2d& lo : squares) {
+    const Eigen::Vector2d a = ClampToSquare(p, lo);
+    const double d = (a - p).norm();
+    if (d < n.d) n = {d, a};
+  }
+  return n;
+}
+
+// The nearest surface on the far side of p from n.a: squares whose nearest point a has
+// (a - p).(n.a - p) < kOpposite |a - p| n.d, more than 110 deg away. Not just past 90 deg: on a
+// room's 90 deg inner corner's bisector, at distance d from both walls, the points of one wall
+// just past its foot lie a little over 90 deg from the other wall's foot at almost the same
+// distance; past 110 deg they are 0.063 d farther (0.38 cells at the passage clearance, beyond
+// tol), so a corner is no gap. A door's middle line keeps its surfaces more than 110 deg apart
+// until its clearance is 1/sin(55 deg) = 1.22 times the door's half width (0.558 m for a door
+// mapped 0.91 m wide), past the required clearance, where its cells are traversable.
+constexpr double kOpposite = -0.34;
+
+double OppositeDistance(const std::vector<Eigen::Vector2d>& squares, const Eigen::Vector2d& p,
+                        const Nearest& n) {
+  double best = std::numeric_limits<double>::infinity();
+  const Eigen::Vector2d toward = n.a - p;
+  for (const Eigen::Vector2d& lo : squares) {
+    const Eigen::Vector2d e = ClampToSquare(p, lo) - p;
+    const double d = e.norm();
+    if (d < best && e.dot(toward) < kOpposite * d * n.d) best = d;
+  }
+  return best;
+}
+
+// Samples per cell edge of the passage search (file comment, step 3b).
+constexpr int kPassageSamples = 10;
+// How close to its cell's edges a passage point may come, in cells.
+constexpr double kInside = 1e-4;
+
+// Step 3b of the file comment: in every free cell that is not traversable, the point of largest
+// clearance to the blocked cells' surfaces (exact, the squares themselves, not their centres)
+// among the points of the cell that lie on a gap's middle line: their nearest surfaces on two
+// opposite sides at distances within 2 samples' spacing of each other. A clearance >= need makes
+// the cell a passage cell with that point. `site` is the padded blocked grid (width pw).
+void FindPassages(const std::vector<bool>& site, int pw, const TraversabilityConfig& config,
+                  const std::vector<bool>& free, Traversability* t) {
   const GridMap2D& grid = t->clearance;
   const double alpha = grid.resolution_m;
   const int w = grid.width;
   const int h = grid.height;
   const int ph = h + 2;
-  // Sites farther than need + alpha from m cannot be its nearest when its clearance is below
-  // need + alpha/2, which holds for every pair searched (its centres are below need).
-  const int reach = static_cast<int>(std::ceil((need + alpha) / alpha)) + 1;
-  const double limit2 = (need + 0.5 * alpha) * (need + 0.5 * alpha) / (alpha * alpha);
-  const auto candidate = [&](int x, int y) {
-    const size_t i = static_cast<size_t>(x) + static_cast<size_t>(w) * static_cast<size_t>(y);
-    return free[i] && !t->traversable[i] && t->clearance.values[i] >= need - 0.5 * alpha;
-  };
-  const auto offer = [&](int cell, const Eigen::Vector2d& point, double clearance) {
-    double& c = t->clearance.values[static_cast<size_t>(cell)];
-    const auto it = t->passage_points.find(cell);
-    if (it == t->passage_points.end() || clearance > c) {
-      t->passage_points[cell] = point;
-      c = clearance;
+  const double need_m = config.passage_clearance_m();
+  const double need = need_m / alpha;
+  const double radius = config.vehicle_radius_m / alpha;
+  const double step = 1.0 / kPassageSamples;
+  const double tol = 2.0 * step;
+  // Candidates have a centre clearance below the required one (it over-reads the surface distance
+  // by less than 0.25 cells), so their points lie within top of a surface; their opposite
+  // surface within top + tol.
+  const double top = config.required_clearance_m() / alpha + 1.0;
+  const int reach = static_cast<int>(std::ceil(top + tol + 1.0)) + 1;
+  // Only blocked squares with a free 4-neighbour can hold a nearest point.
+  std::vector<bool> edge(site.size(), false);
+  for (int v = 0; v < ph; ++v) {
+    for (int u = 0; u < pw; ++u) {
+      if (!site[static_cast<size_t>(u + pw * v)]) continue;
+      bool open = false;
+      for (const auto& [du, dv] :
+           {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+        const int uu = u + du;
+        const int vv = v + dv;
+        if (uu >= 0 && vv >= 0 && uu < pw && vv < ph && !site[static_cast<size_t>(uu + pw * vv)])
+          open = true;
+      }
+      edge[static_cast<size_t>(u + pw * v)] = open;
     }
-  };
+  }
+  std::vector<Eigen::Vector2d> squares;
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
-      if (!candidate(x, y)) continue;
-      for (const auto& [dx, dy] : {std::pair{1, 0}, std::pair{0, 1}}) {
-        const int xb = x + dx;
-        const int yb = y + dy;
-        if (xb >= w || yb >= h || !candidate(xb, yb)) continue;
-        // m in padded cell units (cell (x, y) has its centre at (x + 1, y + 1) padded).
-        const double mx = x + 1 + 0.5 * dx;
-        const double my = y + 1 + 0.5 * dy;
-        double best2 = std::numeric_limits<double>::infinity();
-        for (int v = std::max(0, y + 1 - reach); v <= std::min(ph - 1, y + 1 + reach); ++v) {
-          for (int u = std::max(0, x + 1 - reach); u <= std::min(pw - 1, x + 1 + reach); ++u) {
-            if (!site[static_cast<size_t>(u + pw * v)]) continue;
-            best2 = std::min(best2, (u - mx) * (u - mx) + (v - my) * (v - my));
+      const size_t i = static_cast<size_t>(x) + static_cast<size_t>(w) * static_cast<size_t>(y);
+      // The clearance changes by at most sqrt(1/2) cells within a cell, and the centre's reads
+      // at most 0.25 cells above the surface distance: a cell below need - 1 has no passage point.
+      if (!free[i] || t->traversable[i] || t->clearance.values[i] < need_m - alpha) continue;
+      squares.clear();
+      for (int v = std::max(0, y + 1 - reach); v <= std::min(ph - 1, y + 1 + reach); ++v) {
+        for (int u = std::max(0, x + 1 - reach); u <= std::min(pw - 1, x + 1 + reach); ++u) {
+          // Padded cell (u, v) is the map's (u - 1, v - 1).
+          if (edge[static_cast<size_t>(u + pw * v)]) squares.emplace_back(u - 1, v - 1);
+        }
+      }
+      if (squares.empty()) continue;
+      // A gap at all: from the centre, a surface within reach of the nearest one's distance and
+      // at least 60 deg away from it (a point of the cell on a middle line has its two surfaces
+      // more than 110 deg apart, each seen from the centre at most about 15 deg off).
+      const Eigen::Vector2d c(x + 0.5, y + 0.5);
+      const Nearest nc = NearestSurface(squares, c);
+      bool gap = false;
+      for (const Eigen::Vector2d& lo : squares) {
+        const Eigen::Vector2d e = ClampToSquare(c, lo) - c;
+        const double d = e.norm();
+        if (d <= nc.d + tol + 2.0 && e.dot(nc.a - c) <= 0.5 * d * nc.d) {
+          gap = true;
+          break;
+        }
+      }
+      if (!gap) continue;
+      // A point of the cell is within sqrt(1/2) of c, so its nearest surface within nc.d +
+      // sqrt(1/2) of it and its opposite one within tol more: farther squares cannot matter.
+      const double keep = nc.d + tol + 1.5;
+      squares.erase(std::remove_if(squares.begin(), squares.end(),
+                                   [&](const Eigen::Vector2d& lo) {
+                                     return (ClampToSquare(c, lo) - c).norm() > keep;
+                                   }),
+                    squares.end());
+      // On a middle line with at least `floor` of clearance: its clearance, else -1.
+      const auto on_middle = [&](const Eigen::Vector2d& p, double floor, Nearest* n) {
+        *n = NearestSurface(squares, p);
+        if (n->d < floor) return -1.0;
+        return OppositeDistance(squares, p, *n) - n->d <= tol ? n->d : -1.0;
+      };
+      double best = -1.0;
+      Eigen::Vector2d q = c;
+      Nearest nq;
+      for (int j = 0; j < kPassageSamples; ++j) {
+        for (int k = 0; k < kPassageSamples; ++k) {
+          const Eigen::Vector2d p(x + (k + 0.5) * step, y + (j + 0.5) * step);
+          // The clearance grows by at most |p - c| from the centre's: skip what cannot qualify.
+          if (nc.d + (p - c).norm() < std::max(need, best + 1e-12)) continue;
+          Nearest n;
+          const double d = on_middle(p, std::max(need, best + 1e-12), &n);
+          if (d > best) {
+            best = d;
+            q = p;
+            nq = n;
           }
         }
-        if (best2 < limit2) continue;
-        const double clearance = std::sqrt(best2) * alpha - 0.5 * alpha;
-        const Eigen::Vector2d point = 0.5 * (grid.CenterOf({x, y}) + grid.CenterOf({xb, yb}));
-        offer(x + w * y, point, clearance);
-        offer(xb + w * yb, point, clearance);
       }
+      if (best < need) continue;
+      // Refine: pattern search inside the cell, on the middle line, towards more clearance.
+      for (double s = 0.5 * step; s > 1e-3; s *= 0.5) {
+        bool moved = true;
+        while (moved) {
+          moved = false;
+          for (const auto& [dx, dy] :
+               {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1},
+                std::pair{1, 1}, std::pair{1, -1}, std::pair{-1, 1}, std::pair{-1, -1}}) {
+            const Eigen::Vector2d p = q + s * Eigen::Vector2d(dx, dy);
+            // Inside the cell (a hair off its edges, which belong to its neighbours).
+            if (p.x() < x + kInside || p.x() > x + 1 - kInside || p.y() < y + kInside ||
+                p.y() > y + 1 - kInside) {
+              continue;
+            }
+            Nearest n;
+            const double d = on_middle(p, best + 1e-9, &n);
+            if (d > best) {
+              best = d;
+              q = p;
+              nq = n;
+              moved = true;
+            }
+          }
+        }
+      }
+      t->clearance.values[i] = best * alpha;
+      t->passage_points[static_cast<int>(i)] = grid.origin_m + q * alpha;
+      t->passage_across[static_cast<int>(i)] = {(nq.a - q) / nq.d,
+                                                std::min(0.5 * alpha, (best - radius) * alpha)};
     }
   }
 }
@@ -261,7 +386,7 @@ Traversability ComputeTraversability(const OccupancyGridView& map,
       t.traversable[i] = free[i] && c >= need;
     }
   }
-  FindPassages(site, pw, config.passage_clearance_m(), free, &t);
+  FindPassages(site, pw, config, free, &t);
   if (band_inside && flown != nullptr && flown->size() >= 2) {
     // The flown corridor (file comment): the vehicle's centre has been along these segments
     // (consecutive points at most kMaxFlownGap apart).

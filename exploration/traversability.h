@@ -15,11 +15,17 @@
 ///     straight ahead, within alpha (sqrt(2) - 1)/2 = 0.016 m for the paper's cells otherwise).
 ///  3. Traversable: clearance >= vehicle radius + margin. A gap whose mapped free width is w is
 ///     passable where w/2 >= radius + margin, wherever it lies: no lattice.
-///  3b. Passages: a gap of an even number of free cells has its middle on a cell edge, half a cell
-///     from the centres on either side, so the centres' clearance under-reads it by alpha/2 (14
-///     free cells read like 13). Two 4-adjacent free cells, neither traversable, whose shared
-///     edge's midpoint has clearance >= radius + passage_margin are passage cells: paths may
-///     cross them and pass them through that midpoint (passage_points), goals may not.
+///  3b. Passages: centre clearance samples a gap on the lattice, and the jamb cells of a door at
+///     an angle to the map's axes (any overlap blocks a cell) reach up to alpha sqrt(2) into it,
+///     so a door of 1.12 m can map to 0.91 m between blocked surfaces. A free cell that is not
+///     traversable but holds a point on a gap's middle line (its nearest blocked surfaces on
+///     two opposite sides, more than 110 deg apart, at distances within 2 alpha/10 of each
+///     other) whose clearance to the blocked cells' surfaces (the squares, exactly) is
+///     >= radius + passage_margin is a passage cell: paths may cross it and pass it through its
+///     best such point (passage_points; found on a 10 x 10 grid in the cell, then refined), never
+///     farther across the passage from it than min(alpha/2, its clearance - radius)
+///     (passage_across); goals may not use it. Any angle, any offset (docs/exploration.md,
+///     "Traversability").
 ///  4. Preferred clearance (ClearanceStepWeights): paths are searched with steps weighted up
 ///     where the clearance is below radius + margin + preferred_extra, so they keep that much
 ///     more room where the space allows (round a shelf's end wide, not at the margin) and pass
@@ -52,16 +58,16 @@ namespace kestrel {
 
 /// Parameters of the fine traversability.
 struct TraversabilityConfig {
-  double height_m{0.75};          ///< exploration height h, m, W
-  double band_below_m{0.2};       ///< vehicle band below h, m (> 0)
-  double band_above_m{0.2};       ///< vehicle band above h, m (> 0)
-  double vehicle_radius_m{0.44};  ///< disc radius, m (> 0)
-  double margin_m{0.10};          ///< clearance beyond the radius, m (>= 0)
-  double free_threshold{0.05};    ///< a band cell blocks when P > this (C_thresh), in (0, 1)
-  double p_init{0.1};             ///< P_init of the 3D map (the start-up zone's rule), in (0, 1)
-  double preferred_extra_m{0.0};  ///< clearance paths prefer beyond radius + margin, m (>= 0)
-  double clearance_weight{0.0};   ///< step weight at the required clearance, minus 1 (>= 0)
-  double passage_margin_m{0.08};  ///< clearance beyond the radius at a passage point, m (>= 0)
+  double height_m{0.75};            ///< exploration height h, m, W
+  double band_below_m{0.2};         ///< vehicle band below h, m (> 0)
+  double band_above_m{0.2};         ///< vehicle band above h, m (> 0)
+  double vehicle_radius_m{0.44};    ///< disc radius, m (> 0)
+  double margin_m{0.10};            ///< clearance beyond the radius, m (>= 0)
+  double free_threshold{0.05};      ///< a band cell blocks when P > this (C_thresh), in (0, 1)
+  double p_init{0.1};               ///< P_init of the 3D map (the start-up zone's rule), in (0, 1)
+  double preferred_extra_m{0.0};    ///< clearance paths prefer beyond radius + margin, m (>= 0)
+  double clearance_weight{0.0};     ///< step weight at the required clearance, minus 1 (>= 0)
+  double passage_margin_m{0.0125};  ///< clearance beyond the radius at a passage point, m (>= 0)
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.
   void Validate() const;
@@ -71,13 +77,21 @@ struct TraversabilityConfig {
   [[nodiscard]] double passage_clearance_m() const { return vehicle_radius_m + passage_margin_m; }
 };
 
+/// How a path crosses a passage cell (file comment, step 3b).
+struct PassageAcross {
+  /// Unit vector across the passage, from the passage point to its nearest blocked surface.
+  Eigen::Vector2d normal{1.0, 0.0};
+  /// How far across the passage (along normal) from its point the vehicle's centre may be, m.
+  double tolerance_m{0.0};
+};
+
 /// The fine traversability of one map.
 struct Traversability {
   /// Per 2D cell, the largest P over the band (1 where the band leaves the map): what blocks.
   GridMap2D band;
   /// Per 2D cell, clearance to the nearest blocked cell (file comment, step 2), m, at the cell's
-  /// centre or, for a passage cell, at its passage point; 0 on blocked cells, large where nothing
-  /// is blocked.
+  /// centre or, for a passage cell, at its passage point (to the blocked squares' surfaces); 0 on
+  /// blocked cells, large where nothing is blocked.
   GridMap2D clearance;
   /// clearance >= radius + margin, x fastest.
   std::vector<bool> traversable;
@@ -85,8 +99,11 @@ struct Traversability {
   /// known occupied): what the frontier baseline looks for.
   std::vector<bool> unknown;
   /// Passage cells (file comment, step 3b) by index, each with the point paths pass it through
-  /// (an edge midpoint, m). Not in `traversable`: AllowPassages adds them for paths.
+  /// (on the gap's middle line, m). Not in `traversable`: AllowPassages adds them for paths.
   std::unordered_map<int, Eigen::Vector2d> passage_points;
+  /// Per passage cell, the direction across the passage and how far from the point a path may
+  /// stray across it.
+  std::unordered_map<int, PassageAcross> passage_across;
 };
 
 /// Computes the fine traversability (file comment).

@@ -89,62 +89,8 @@ bool TriangleOverlapsCell(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
   return true;
 }
 
-// Distance from p to triangle abc (closest point by region tests, Ericson 2004, 5.1.5).
-double DistanceToTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                          const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0.0 && d2 <= 0.0) return ap.norm();
-  const Eigen::Vector3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0.0 && d4 <= d3) return bp.norm();
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return (p - (a + d1 / (d1 - d3) * ab)).norm();
-  const Eigen::Vector3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0.0 && d5 <= d6) return cp.norm();
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return (p - (a + d2 / (d2 - d6) * ac)).norm();
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
-    return (p - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b))).norm();
-  }
-  const double denom = 1.0 / (va + vb + vc);
-  return (p - (a + ab * (vb * denom) + ac * (vc * denom))).norm();
-}
-
-// Euclidean distance from p to the solid (0 inside).
-double DistanceToBox(const WorldBox& b, const Eigen::Vector3d& p) {
-  const Eigen::Vector3d p_O = b.q_WO.conjugate() * (p - b.center_m);
-  return (p_O.cwiseAbs() - b.half_extents_m).cwiseMax(0.0).norm();
-}
-
-double DistanceToCylinder(const WorldCylinder& c, const Eigen::Vector3d& p) {
-  const double radial = std::max(0.0, (p.head<2>() - c.center_xy_m).norm() - c.radius_m);
-  const double vertical = std::max({0.0, c.z_min_m - p.z(), p.z() - c.z_max_m});
-  return std::hypot(radial, vertical);
-}
-
 bool SphereIsClear(const World& world, const Eigen::Vector3d& p, double radius) {
-  for (const WorldBox& b : world.boxes) {
-    if (DistanceToBox(b, p) <= radius) return false;
-  }
-  for (const WorldCylinder& c : world.cylinders) {
-    if (DistanceToCylinder(c, p) <= radius) return false;
-  }
-  for (const WorldPlane& pl : world.planes) {
-    if (pl.normal.dot(p) - pl.offset_m <= radius) return false;
-  }
-  for (const WorldMesh& m : world.meshes) {
-    for (const Eigen::Vector3i& t : m.triangles) {
-      if (DistanceToTriangle(p, m.vertices_W[static_cast<size_t>(t[0])],
-                             m.vertices_W[static_cast<size_t>(t[1])],
-                             m.vertices_W[static_cast<size_t>(t[2])]) <= radius) {
-        return false;
-      }
-    }
-  }
-  return true;
+  return !NearestObstacleWithin(world, p, radius).has_value();
 }
 
 }  // namespace

@@ -113,6 +113,13 @@ void SimConfig::Validate() const {
     }
     KESTREL_THROW_UNLESS(v.start_offset_m.allFinite(),
                          "sim vehicles[" << i << "].start_offset_m is not finite");
+    const std::optional<std::string> start_problem =
+        StartClearanceProblem(world, v.start_offset_m, 0.5 * vehicle.diameter_m);
+    if (start_problem) {
+      throw std::invalid_argument(
+          (vehicles.size() > 1 ? "sim vehicles[" + std::to_string(i) + "]: " : std::string()) +
+          *start_problem);
+    }
     for (size_t j = 0; j < i; ++j) {
       KESTREL_THROW_UNLESS(vehicles[j].prefix != v.prefix,
                            "sim vehicles[" << j << "] and [" << i << "] share the prefix \""

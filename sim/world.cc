@@ -105,6 +105,89 @@ WorldPlane ParsePlane(const ConfigNode& n) {
 
 }  // namespace
 
+namespace {
+
+// Distance from p to triangle abc (closest point by region tests, Ericson 2004, 5.1.5).
+double DistanceToTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                          const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0.0 && d2 <= 0.0) return ap.norm();
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0.0 && d4 <= d3) return bp.norm();
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return (p - (a + d1 / (d1 - d3) * ab)).norm();
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0.0 && d5 <= d6) return cp.norm();
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return (p - (a + d2 / (d2 - d6) * ac)).norm();
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+    return (p - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b))).norm();
+  }
+  const double denom = 1.0 / (va + vb + vc);
+  return (p - (a + ab * (vb * denom) + ac * (vc * denom))).norm();
+}
+
+// Euclidean distance from p to the solid (0 inside).
+double DistanceToBox(const WorldBox& b, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d p_O = b.q_WO.conjugate() * (p - b.center_m);
+  return (p_O.cwiseAbs() - b.half_extents_m).cwiseMax(0.0).norm();
+}
+
+double DistanceToCylinder(const WorldCylinder& c, const Eigen::Vector3d& p) {
+  const double radial = std::max(0.0, (p.head<2>() - c.center_xy_m).norm() - c.radius_m);
+  const double vertical = std::max({0.0, c.z_min_m - p.z(), p.z() - c.z_max_m});
+  return std::hypot(radial, vertical);
+}
+
+}  // namespace
+
+std::optional<NearObstacle> NearestObstacleWithin(const World& world, const Eigen::Vector3d& p,
+                                                  double radius_m) {
+  std::optional<NearObstacle> best;
+  const auto offer = [&](const std::string& what, double d) {
+    if (d <= radius_m && (!best || d < best->distance_m)) best = NearObstacle{what, d};
+  };
+  for (const WorldBox& b : world.boxes) offer("box '" + b.name + "'", DistanceToBox(b, p));
+  for (const WorldCylinder& c : world.cylinders) {
+    offer("cylinder '" + c.name + "'", DistanceToCylinder(c, p));
+  }
+  for (const WorldPlane& pl : world.planes) {
+    offer("plane '" + pl.name + "'", std::max(0.0, pl.normal.dot(p) - pl.offset_m));
+  }
+  for (const WorldMesh& m : world.meshes) {
+    for (const Eigen::Vector3i& t : m.triangles) {
+      offer("mesh '" + m.name + "'", DistanceToTriangle(p, m.vertices_W[static_cast<size_t>(t[0])],
+                                                        m.vertices_W[static_cast<size_t>(t[1])],
+                                                        m.vertices_W[static_cast<size_t>(t[2])]));
+    }
+  }
+  return best;
+}
+
+std::optional<std::string> StartClearanceProblem(const World& world,
+                                                 const Eigen::Vector3d& start_offset_m,
+                                                 double clearance_m) {
+  const Eigen::Vector3d p(world.start_X_WB.p.x() + start_offset_m.x(),
+                          world.start_X_WB.p.y() + start_offset_m.y(), world.exploration_height_m);
+  const std::optional<NearObstacle> near = NearestObstacleWithin(world, p, clearance_m);
+  if (!near) return std::nullopt;
+  std::ostringstream m;
+  m << "world '" << world.name << "': the start (" << p.x() << ", " << p.y()
+    << ") at the exploration height " << p.z() << " m lies " << near->distance_m << " m from "
+    << near->what;
+  if (clearance_m > 0.0) {
+    m << ", inside the vehicle's clearance of " << clearance_m << " m (half its diameter)";
+  } else {
+    m << " (inside it)";
+  }
+  m << ": the vehicle cannot take off and climb there; move the start or the obstacle";
+  return m.str();
+}
+
 void World::Validate() const {
   for (int a = 0; a < 3; ++a) {
     KESTREL_THROW_UNLESS(
@@ -145,6 +228,10 @@ void World::Validate() const {
   KESTREL_THROW_UNLESS(exploration_height_m > map_min_m.z() && exploration_height_m < map_max_m.z(),
                        "world '" << name << "': exploration height " << exploration_height_m
                                  << " m outside the z limits");
+  // The vehicle's clearance is the simulator's (SimConfig::Validate); here, not inside a solid.
+  const std::optional<std::string> start_problem =
+      StartClearanceProblem(*this, Eigen::Vector3d::Zero(), 0.0);
+  if (start_problem) throw std::invalid_argument(*start_problem);
 }
 
 World ParseWorld(const ConfigNode& root) { return ParseWorld(root, ReadObjFile); }

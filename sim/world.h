@@ -26,6 +26,7 @@
 /// inside is neither occupied nor "inside" for IsInsideObstacle.
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -99,6 +100,27 @@ struct World {
   /// @throws std::invalid_argument naming the primitive and the bad value.
   void Validate() const;
 };
+
+/// An obstacle near a point: what it is ("box 'desk'", "cylinder 'bin'", "plane 'floor'",
+/// "mesh 'statue'") and its distance, m (0 inside it).
+struct NearObstacle {
+  std::string what;
+  double distance_m{0.0};
+};
+
+/// The obstacle nearest to p among those within radius_m of it (the sphere the observable set
+/// requires clear, sim/ground_truth.h ComputeObservableCells), or nullopt when that sphere is
+/// clear.
+[[nodiscard]] std::optional<NearObstacle> NearestObstacleWithin(const World& world,
+                                                                const Eigen::Vector3d& p,
+                                                                double radius_m);
+
+/// A start the vehicle cannot use: the world's start moved by start_offset_m (x, y), at the
+/// exploration height, with an obstacle within clearance_m (0: inside one). The message names the
+/// world, the start, the obstacle, its distance and the clearance; nullopt when the start is
+/// clear. Without this check such a world flies nowhere and scores "nan of 0 observable cells".
+[[nodiscard]] std::optional<std::string> StartClearanceProblem(
+    const World& world, const Eigen::Vector3d& start_offset_m, double clearance_m);
 
 /// Reads a world from a parsed YAML document (format in the file comment). Unknown keys are errors.
 /// @throws ConfigError naming the file, key path, YAML line and reason.

@@ -135,7 +135,11 @@ TEST(MultiVehicle, RefusesBadVehicleLists) {
   c = Config(2);
   c.vehicles[1].start_offset_m = Eigen::Vector3d(0.1, 0, 0);
   refused(c, "closer than the");
-  EXPECT_NO_THROW(Config(4).Validate());
+  // Four vehicles 1 m apart in a line would put the fourth inside paper_sim's divider (refused
+  // since starts are checked against the world): the fourth beside the first.
+  c = Config(4);
+  c.vehicles[3].start_offset_m = Eigen::Vector3d(1.0, 0, 0);
+  EXPECT_NO_THROW(c.Validate());
 
   ConfigNode yaml = ConfigNode::LoadFile(kRoot + "/config/sim/sim.yaml");
   yaml.ApplyOverride(
@@ -155,6 +159,47 @@ struct ChannelCounts {
   void handleMessage(const lcm::ReceiveBuffer*, const std::string& channel) { ++count[channel]; }
   std::map<std::string, int> count;
 };
+
+// A start with an obstacle inside the vehicle's clearance (half its diameter) at the exploration
+// height flies nowhere ("known fraction: nan of 0 observable cells"): the simulator's config, which
+// kestrel-sim and kestrel-mission load, refuses it naming the obstacle, its distance and the
+// clearance; each vehicle's start is checked.
+TEST(SimConfig, RefusesAStartInsideAnObstaclesClearance) {
+  SimConfig c = Config(1);
+  ASSERT_FALSE(StartClearanceProblem(c.world, Eigen::Vector3d::Zero(), 0.5 * c.vehicle.diameter_m));
+  const Eigen::Vector3d s(c.world.start_X_WB.p.x(), c.world.start_X_WB.p.y(),
+                          c.world.exploration_height_m);
+  WorldBox crate;
+  crate.name = "crate";
+  crate.center_m = s + Eigen::Vector3d(0.4, 0.0, 0.0);
+  crate.half_extents_m = Eigen::Vector3d::Constant(0.1);  // its near face 0.3 m from the start
+  c.world.boxes.push_back(crate);
+  try {
+    c.Validate();
+    ADD_FAILURE() << "accepted a start 0.3 m from a box";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    for (const std::string& words : {std::string("box 'crate'"), std::string("lies 0.3 m"),
+                                     std::string("clearance of 0.44 m")}) {
+      EXPECT_NE(what.find(words), std::string::npos) << what;
+    }
+  }
+  // A second vehicle's start beside the crate, the first one's clear of it.
+  SimConfig two = Config(2);
+  crate.center_m = s + Eigen::Vector3d(0.0, 1.0 + 0.4, 0.0);
+  two.world.boxes.push_back(crate);
+  try {
+    two.Validate();
+    ADD_FAILURE() << "accepted vehicles[1] 0.3 m from a box";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("sim vehicles[1]: "), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("box 'crate'"), std::string::npos) << e.what();
+  }
+  // 0.5 m away: clear.
+  crate.center_m = s + Eigen::Vector3d(0.0, 1.0 + 0.6, 0.0);
+  two.world.boxes.back() = crate;
+  EXPECT_NO_THROW(two.Validate());
+}
 
 TEST(MultiVehicle, EachVehicleHasItsOwnChannels) {
   lcm::LCM lcm("memq://");

@@ -99,6 +99,36 @@ TEST(World, RefusesBadFilesNamingKeyAndReason) {
   EXPECT_THROW((void)LoadWorld("/nonexistent/world.yaml"), ConfigError);
 }
 
+// A start inside an obstacle at the exploration height is refused naming it (the vehicle's own
+// clearance is the simulator's check, SimConfig); StartClearanceProblem and NearestObstacleWithin
+// name the nearest obstacle within a clearance.
+TEST(World, RefusesAStartInsideAnObstacle) {
+  try {
+    (void)ParseWorld(
+        ConfigNode::FromString(Replace(Replace(kMinimal, "max_m: [2, 3, 1]", "max_m: [2, 3, 1.5]"),
+                                       "position_m: [0.5, 0.5, 0]", "position_m: [1.5, 2, 0]"),
+                               "bad_world.yaml"));
+    FAIL() << "accepted a start inside box a";
+  } catch (const std::exception& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("box 'a'"), std::string::npos) << what;
+    EXPECT_NE(what.find("the start (1.5, 2)"), std::string::npos) << what;
+  }
+  const World w = ParseWorld(ConfigNode::FromString(kMinimal, "tiny.yaml"));
+  // From (0.5, 0.5, 1): box a's edge at (1, 1, 1) is sqrt(0.5) away, the floor 1 m.
+  EXPECT_FALSE(StartClearanceProblem(w, Eigen::Vector3d::Zero(), 0.44));
+  const std::optional<NearObstacle> near =
+      NearestObstacleWithin(w, Eigen::Vector3d(0.5, 0.5, 1.0), 1.5);
+  ASSERT_TRUE(near);
+  EXPECT_EQ(near->what, "box 'a'");
+  EXPECT_NEAR(near->distance_m, std::sqrt(0.5), 1e-12);
+  const std::optional<std::string> problem =
+      StartClearanceProblem(w, Eigen::Vector3d(0.3, 0.3, 0.0), 0.44);
+  ASSERT_TRUE(problem);
+  EXPECT_NE(problem->find("box 'a'"), std::string::npos) << *problem;
+  EXPECT_NE(problem->find("clearance of 0.44 m"), std::string::npos) << *problem;
+}
+
 // The shipped worlds load, carry the paper's limits, and leave 0.5 m free around the start from
 // just above the floor to above the exploration height (sampled every 2 cm).
 TEST(World, ShippedWorldsLoadWithClearStart) {
