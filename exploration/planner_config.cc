@@ -63,6 +63,7 @@ const ParamTable<VolumetricConfig>& VolumetricParams() {
       {"tour_site_m", &C::tour_site_m, kPositive},
       {"tour_max_sites", &C::tour_max_sites, Range::Closed(1, 1000)},
       {"tour_coarsen", &C::tour_coarsen, Range::Closed(1, 64)},
+      {"tour_prize_weight", &C::tour_prize_weight, kNonNegative},
   }};
   return table;
 }

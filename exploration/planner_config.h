@@ -110,6 +110,10 @@ struct VolumetricConfig {
   int tour_max_sites{20};
   /// The site-to-site travel times on a grid coarser by this factor (1: the fine cells; >= 1).
   int tour_coarsen{4};
+  /// Prize-collecting tour, nats per second of travel (0: off, every site is visited): the tour
+  /// minimises this x travel time - the sites' best gains collected, so a site whose gain does not
+  /// pay for its detour waits (>= 0). When it leaves every site out, the plain tour decides.
+  double tour_prize_weight{0.0};
   VolumetricGainConfig gain;  ///< sensors' 3D rays (gain.sensors' vertical keys), azimuth bins
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.

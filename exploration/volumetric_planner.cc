@@ -459,10 +459,18 @@ int VolumetricPlanner::ChooseByTour(Pass* pass, const SearchedCells& cells) {
   tc.speed_mps = config_.trajectory.max_speed_mps;
   tc.yaw_rate_radps = config_.trajectory.max_yaw_rate_radps;
   tc.coarsen = config_.volumetric.tour_coarsen;
-  const TourProblem problem = TravelTimes(
+  TourProblem problem = TravelTimes(
       result.field, input.yaw_rad, sites, grid.width, grid.height, cells.traversable,
       grid.resolution_m, ClearanceStepWeights(tr, FineTraversabilityConfig(config_)), tc);
-  const Tour tour = SolveTour(problem);
+  Tour tour;
+  if (config_.volumetric.tour_prize_weight > 0.0) {  // prize-collecting: gains against time
+    problem.cost_weight = config_.volumetric.tour_prize_weight;
+    problem.prize.assign(static_cast<size_t>(problem.n), 0.0);
+    for (size_t k = 0; k < sites.size(); ++k) problem.prize[k + 1] = sites[k].best.gain_nats;
+    tour = SolveTour(problem);
+    problem.prize.clear();
+  }
+  if (tour.order.size() < 2) tour = SolveTour(problem);
   tour_sites_ = sites;
   for (size_t k = 1; k < tour.order.size(); ++k) tour_order_.push_back(tour.order[k] - 1);
   const InfoSite& first = sites[static_cast<size_t>(tour_order_.front())];
