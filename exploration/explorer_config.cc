@@ -128,7 +128,7 @@ ExplorerNodeConfig LoadExplorerNodeConfig(const ConfigNode& node) {
 
 bool StallRuleApplies(ExplorationMode mode, const ExplorerConfig& config) {
   if (config.end_stall_window_s <= 0.0) return false;
-  return mode != ExplorationMode::kVolumetric || config.end_stall_in_volumetric;
+  return !IsVolumetric(mode) || config.end_stall_in_volumetric;
 }
 
 }  // namespace kestrel

@@ -110,7 +110,7 @@ std::string CheckPlannerInput(const PlannerInput& input) {
 }
 
 std::unique_ptr<ExplorationPlanner> MakePlanner(const PlannerConfig& config) {
-  if (config.mode == ExplorationMode::kVolumetric) {
+  if (IsVolumetric(config.mode)) {
     return std::make_unique<VolumetricPlanner>(config);
   }
   if (config.mode == ExplorationMode::kFrontier) {

@@ -18,6 +18,8 @@ const char* ModeName(ExplorationMode mode) {
       return "frontier";
     case ExplorationMode::kVolumetric:
       return "volumetric";
+    case ExplorationMode::kVolumetricTour:
+      return "volumetric_tour";
   }
   return "unknown";
 }
@@ -58,6 +60,10 @@ const ParamTable<VolumetricConfig>& VolumetricParams() {
       {"skip_viewed_poses", &C::skip_viewed_poses},
       {"skip_flown_poses", &C::skip_flown_poses},
       {"peer_view_radius_m", &C::peer_view_radius_m, kPositive},
+      {"tour_site_m", &C::tour_site_m, kPositive},
+      {"tour_max_sites", &C::tour_max_sites, Range::Closed(1, 1000)},
+      {"tour_coarsen", &C::tour_coarsen, Range::Closed(1, 64)},
+      {"tour_prize_weight", &C::tour_prize_weight, kNonNegative},
   }};
   return table;
 }

@@ -24,10 +24,19 @@ enum class ExplorationMode {
   kFrontier,  ///< nearest reachable frontier (Yamauchi 1997), the baseline
   /// 3D expected information gain on the exact map, fine traversability (docs/exploration.md)
   kVolumetric,
+  /// The volumetric mode's gains, traversability and end rule, the goal chosen by an open tour
+  /// over information sites (docs/exploration.md, "The information tour")
+  kVolumetricTour,
 };
 
-/// "combined", "two_map", "frontier" or "volumetric" (the names of exploration_status_t.mode).
+/// "combined", "two_map", "frontier", "volumetric" or "volumetric_tour" (the names of
+/// exploration_status_t.mode).
 [[nodiscard]] const char* ModeName(ExplorationMode mode);
+
+/// Whether `mode` plans with the volumetric planner (volumetric or volumetric_tour).
+[[nodiscard]] inline bool IsVolumetric(ExplorationMode mode) {
+  return mode == ExplorationMode::kVolumetric || mode == ExplorationMode::kVolumetricTour;
+}
 
 /// Parameters of the frontier baseline.
 struct FrontierConfig {
@@ -94,6 +103,17 @@ struct VolumetricConfig {
   /// objective discounted by 1 - d / peer_view_radius_m for each such goal (Burgard et al. 2005's
   /// linear visibility discount; at most to 0), m (> 0). The end rule ignores the discount.
   double peer_view_radius_m{3.0};
+  /// Mode volumetric_tour (docs/exploration.md, "The information tour"): the edge of the square
+  /// tiles that group candidate poses into information sites, m (> 0).
+  double tour_site_m{4.0};
+  /// The sites the tour orders, at most (the largest gains; >= 1).
+  int tour_max_sites{20};
+  /// The site-to-site travel times on a grid coarser by this factor (1: the fine cells; >= 1).
+  int tour_coarsen{4};
+  /// Prize-collecting tour, nats per second of travel (0: off, every site is visited): the tour
+  /// minimises this x travel time - the sites' best gains collected, so a site whose gain does not
+  /// pay for its detour waits (>= 0). When it leaves every site out, the plain tour decides.
+  double tour_prize_weight{0.0};
   VolumetricGainConfig gain;  ///< sensors' 3D rays (gain.sensors' vertical keys), azimuth bins
 
   /// @throws std::invalid_argument naming the field, its value and the accepted range.

@@ -48,12 +48,14 @@ void ReadSensor(const ConfigNode& n, GainSensor* s, VolumetricSensor* v) {
 PlannerConfig LoadPlannerConfig(const ConfigNode& node) {
   PlannerConfig c;
   std::string mode = ModeName(c.mode);
-  node.Read("mode", &mode,
-            std::vector<std::string>{"combined", "two_map", "frontier", "volumetric"});
-  c.mode = mode == "two_map"      ? ExplorationMode::kTwoMap
-           : mode == "frontier"   ? ExplorationMode::kFrontier
-           : mode == "volumetric" ? ExplorationMode::kVolumetric
-                                  : ExplorationMode::kCombined;
+  node.Read(
+      "mode", &mode,
+      std::vector<std::string>{"combined", "two_map", "frontier", "volumetric", "volumetric_tour"});
+  c.mode = mode == "two_map"           ? ExplorationMode::kTwoMap
+           : mode == "frontier"        ? ExplorationMode::kFrontier
+           : mode == "volumetric"      ? ExplorationMode::kVolumetric
+           : mode == "volumetric_tour" ? ExplorationMode::kVolumetricTour
+                                       : ExplorationMode::kCombined;
   double vfov_deg = c.startup_vertical_fov_rad / kDegToRad;
   node.Read("startup_vertical_fov_deg", &vfov_deg, Range::Open(0.0, 180.0));
   c.startup_vertical_fov_rad = vfov_deg * kDegToRad;

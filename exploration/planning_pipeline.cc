@@ -80,9 +80,8 @@ SearchSpace SearchSpace::Fine(const PlannerConfig& config) {
 }
 
 SearchSpace SearchSpace::For(const PlannerConfig& config) {
-  const bool fine =
-      config.mode == ExplorationMode::kVolumetric ||
-      (config.mode == ExplorationMode::kFrontier && config.frontier.fine_traversability);
+  const bool fine = IsVolumetric(config.mode) || (config.mode == ExplorationMode::kFrontier &&
+                                                  config.frontier.fine_traversability);
   return fine ? Fine(config) : Collision(config, config.mode == ExplorationMode::kTwoMap);
 }
 

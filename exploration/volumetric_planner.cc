@@ -6,10 +6,13 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <map>
 #include <numeric>
 #include <string>
 #include <unordered_map>
 #include <utility>
+
+#include "exploration/tour.h"
 
 namespace kestrel {
 
@@ -137,7 +140,7 @@ double VolumetricGainHeight(const PlannerConfig& config, const OccupancyGridView
 
 VolumetricPlanner::VolumetricPlanner(const PlannerConfig& config)
     : config_(config), gains_(config.volumetric.gain), space_(SearchSpace::Fine(config)) {
-  config_.mode = ExplorationMode::kVolumetric;
+  if (config_.mode != ExplorationMode::kVolumetricTour) config_.mode = ExplorationMode::kVolumetric;
   config_.Validate();
 }
 
@@ -394,7 +397,143 @@ int VolumetricPlanner::KeepCurrentGoal(Pass* pass, int chosen, double min_goal_g
   return chosen;
 }
 
-GoalChoice VolumetricPlanner::Choose(const PlannerInput& input, const SearchedCells&,
+int VolumetricPlanner::ChooseByTour(Pass* pass, const SearchedCells& cells) {
+  const PlannerInput& input = pass->input;
+  PlanResult& result = pass->result;
+  const Traversability& tr = *result.traversability;
+  const GridMap2D& grid = tr.band;
+  const double end_gain = config_.volumetric.end_gain_nats;
+  const int n_yaw = pass->n_yaw;
+  const int tile_cells = std::max(
+      1, static_cast<int>(std::lround(config_.volumetric.tour_site_m / grid.resolution_m)));
+  const int tiles_x = (grid.width + tile_cells - 1) / tile_cells;
+  auto tile_of = [&](int cell) {
+    const Cell2 c = grid.CellAt(cell);
+    return c.x / tile_cells + tiles_x * (c.y / tile_cells);
+  };
+  // Each tile's exact best gain: its positions in decreasing bound until the best exact gain
+  // reaches the next bound (a gain never exceeds its bound).
+  std::map<int, std::vector<size_t>> by_tile;
+  for (size_t i = 0; i < pass->positions.size(); ++i) {
+    by_tile[tile_of(pass->positions[i].cell)].push_back(i);
+  }
+  auto best_heading = [](const Position& p) {
+    return static_cast<int>(std::max_element(p.gains.begin(), p.gains.end()) - p.gains.begin());
+  };
+  std::vector<SitePose> poses;
+  for (auto& [tile, members] : by_tile) {
+    std::stable_sort(members.begin(), members.end(), [&](size_t a, size_t b) {
+      return pass->positions[a].max_bound > pass->positions[b].max_bound;
+    });
+    double best = -1.0;
+    for (size_t i : members) {
+      Position& p = pass->positions[i];
+      if (p.max_bound < end_gain || p.max_bound <= best) break;
+      Evaluate(pass, &p);
+      const int m = best_heading(p);
+      const double g = p.gains[static_cast<size_t>(m)];
+      pass->best_gain = std::max(pass->best_gain, g);
+      best = std::max(best, g);
+    }
+  }
+  for (const Position& p : pass->positions) {
+    if (!p.evaluated) continue;
+    const int m = best_heading(p);
+    poses.push_back(
+        SitePose{p.cell, p.xy, 2.0 * M_PI * m / n_yaw, p.gains[static_cast<size_t>(m)]});
+  }
+  std::vector<InfoSite> sites = GroupSites(grid, poses, tile_cells, end_gain);
+  ListCandidates(pass, end_gain);  // every evaluated pose; the tour picks among them
+  tour_sites_.clear();
+  tour_order_.clear();
+  if (sites.empty()) return -1;
+  const size_t max_sites = static_cast<size_t>(config_.volumetric.tour_max_sites);
+  if (sites.size() > max_sites) {  // the largest gains, then back in tile order
+    std::stable_sort(sites.begin(), sites.end(), [](const InfoSite& a, const InfoSite& b) {
+      return a.best.gain_nats > b.best.gain_nats;
+    });
+    sites.resize(max_sites);
+    std::sort(sites.begin(), sites.end(),
+              [](const InfoSite& a, const InfoSite& b) { return a.tile < b.tile; });
+  }
+  TravelTimeConfig tc;
+  tc.speed_mps = config_.trajectory.max_speed_mps;
+  tc.yaw_rate_radps = config_.trajectory.max_yaw_rate_radps;
+  tc.coarsen = config_.volumetric.tour_coarsen;
+  TourProblem problem = TravelTimes(
+      result.field, input.yaw_rad, sites, grid.width, grid.height, cells.traversable,
+      grid.resolution_m, ClearanceStepWeights(tr, FineTraversabilityConfig(config_)), tc);
+  Tour tour;
+  if (config_.volumetric.tour_prize_weight > 0.0) {  // prize-collecting: gains against time
+    problem.cost_weight = config_.volumetric.tour_prize_weight;
+    problem.prize.assign(static_cast<size_t>(problem.n), 0.0);
+    for (size_t k = 0; k < sites.size(); ++k) problem.prize[k + 1] = sites[k].best.gain_nats;
+    tour = SolveTour(problem);
+    problem.prize.clear();
+  }
+  if (tour.order.size() < 2) tour = SolveTour(problem);
+  tour_sites_ = sites;
+  for (size_t k = 1; k < tour.order.size(); ++k) tour_order_.push_back(tour.order[k] - 1);
+  const InfoSite& first = sites[static_cast<size_t>(tour_order_.front())];
+  // The candidate index of a pose (cell, heading m).
+  const std::vector<Candidate>& candidates = result.candidates;
+  auto candidate_of = [&](int cell, int m) {
+    for (size_t i = 0; i < candidates.size(); ++i) {
+      const Candidate& c = candidates[i];
+      if (c.cell == cell &&
+          std::abs(std::remainder(c.yaw_rad - 2.0 * M_PI * m / n_yaw, 2.0 * M_PI)) < 1e-9) {
+        return static_cast<int>(i);
+      }
+    }
+    return -1;
+  };
+  // The current goal, while it lies in the first site and keeps end_gain_nats: replans on the way
+  // do not swap poses of one site.
+  if (input.current_goal) {
+    const double half = 0.5 * config_.volumetric.candidate_spacing_m;
+    for (const Position& p : pass->positions) {
+      if (!p.evaluated || (p.xy - input.current_goal->head<2>()).norm() > half) continue;
+      const long m = std::lround(input.current_goal->z() / (2.0 * M_PI / n_yaw));
+      const int mm = static_cast<int>(((m % n_yaw) + n_yaw) % n_yaw);
+      if (tile_of(p.cell) == first.tile && p.gains[static_cast<size_t>(mm)] >= end_gain) {
+        const int kept = candidate_of(p.cell, mm);
+        if (kept >= 0) return kept;
+      }
+      break;
+    }
+  }
+  // Refinement towards the next site: among the first site's poses worth 3/4 of its best gain,
+  // the one with the least time from the vehicle (its Dijkstra path) plus the time on to the next
+  // site's best pose (straight line), each leg the larger of path and turn time.
+  const double v = tc.speed_mps;
+  const double w = tc.yaw_rate_radps;
+  auto leg = [&](double d, double yaw_a, double yaw_b) {
+    return std::max(d / v, std::abs(std::remainder(yaw_b - yaw_a, 2.0 * M_PI)) / w);
+  };
+  const InfoSite* next =
+      tour_order_.size() > 1 ? &sites[static_cast<size_t>(tour_order_[1])] : nullptr;
+  int chosen_cell = first.best.cell;
+  int chosen_m = static_cast<int>(std::lround(first.best.yaw_rad / (2.0 * M_PI / n_yaw))) % n_yaw;
+  double chosen_time = std::numeric_limits<double>::infinity();
+  for (const Position& p : pass->positions) {
+    if (!p.evaluated || tile_of(p.cell) != first.tile) continue;
+    for (int m = 0; m < n_yaw; ++m) {
+      const double g = p.gains[static_cast<size_t>(m)];
+      if (g < end_gain || g < 0.75 * first.best.gain_nats) continue;
+      const double yaw = 2.0 * M_PI * m / n_yaw;
+      double t = leg(p.distance_m, input.yaw_rad, yaw);
+      if (next != nullptr) t += leg((next->best.xy_m - p.xy).norm(), yaw, next->best.yaw_rad);
+      if (t < chosen_time) {
+        chosen_time = t;
+        chosen_cell = p.cell;
+        chosen_m = m;
+      }
+    }
+  }
+  return candidate_of(chosen_cell, chosen_m);
+}
+
+GoalChoice VolumetricPlanner::Choose(const PlannerInput& input, const SearchedCells& cells,
                                      PlanResult* result) {
   UpdateAffectedTiles(input.GainMap());
   reused_positions_ = 0;
@@ -408,13 +547,24 @@ GoalChoice VolumetricPlanner::Choose(const PlannerInput& input, const SearchedCe
   const double horizon = config_.volumetric.local_horizon_m;
   pass.order.resize(pass.positions.size());
   double min_goal_gain = 0.0;
-  if (horizon > 0.0 && horizon < d_max && ChooseByBound(&pass, horizon, end_gain) >= end_gain) {
+  int chosen = -1;
+  if (config_.mode == ExplorationMode::kVolumetricTour) {
+    // The tour (docs/exploration.md, "The information tour"); its goals are poses worth the end
+    // threshold, like local first's. Without a site no pose keeps end_gain_nats: the end rule
+    // below ends the flight.
     min_goal_gain = end_gain;
+    chosen = ChooseByTour(&pass, cells);
+    std::iota(pass.order.begin(), pass.order.end(), size_t{0});
+    EndRule(&pass);
   } else {
-    ChooseByBound(&pass, d_max, 0.0);
+    if (horizon > 0.0 && horizon < d_max && ChooseByBound(&pass, horizon, end_gain) >= end_gain) {
+      min_goal_gain = end_gain;
+    } else {
+      ChooseByBound(&pass, d_max, 0.0);
+    }
+    EndRule(&pass);
+    chosen = KeepCurrentGoal(&pass, ListCandidates(&pass, min_goal_gain), min_goal_gain);
   }
-  EndRule(&pass);
-  const int chosen = KeepCurrentGoal(&pass, ListCandidates(&pass, min_goal_gain), min_goal_gain);
   const double best_gain = pass.best_gain;
   result->best_unweighted_gain_nats = best_gain;
   result->end_test_gain_nats = best_gain;

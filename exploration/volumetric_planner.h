@@ -7,6 +7,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "exploration/info_sites.h"
 #include "exploration/planning_pipeline.h"
 
 namespace kestrel {
@@ -31,11 +32,16 @@ class VolumetricPlanner final : public ExplorationPlanner, private Objective {
   /// @throws std::invalid_argument if config is invalid.
   explicit VolumetricPlanner(const PlannerConfig& config);
   PlanResult Plan(const PlannerInput& input) override;
-  [[nodiscard]] ExplorationMode mode() const override { return ExplorationMode::kVolumetric; }
+  [[nodiscard]] ExplorationMode mode() const override { return config_.mode; }
 
   /// Positions whose gains were reused from an earlier replan in the last Plan (the map did not
   /// change within their rays' reach: exact reuse, same numbers).
   [[nodiscard]] int reused_positions() const { return reused_positions_; }
+
+  /// Mode volumetric_tour, the last Plan: the information sites found and the order the tour
+  /// visits them in (indices into sites; empty when the plan did not use the tour).
+  [[nodiscard]] const std::vector<InfoSite>& tour_sites() const { return tour_sites_; }
+  [[nodiscard]] const std::vector<int>& tour_order() const { return tour_order_; }
 
  private:
   struct Position;  // one candidate position and its gains
@@ -71,6 +77,13 @@ class VolumetricPlanner final : public ExplorationPlanner, private Objective {
   // the tiles within the rays' reach of a changed one (affected_); copies the map. All tiles are
   // affected when the lattice changed or on the first call.
   void UpdateAffectedTiles(const OccupancyGridView& map);
+  // Mode volumetric_tour (docs/exploration.md, "The information tour"): the exact best gain of
+  // every tile of tour_site_m (positions in decreasing bound until the tile's best exact gain
+  // reaches the next bound; positions below end_gain_nats skipped), the sites, the travel-time
+  // matrix and the open tour; the goal is a pose of the tour's first site (the current goal while
+  // it lies there and keeps end_gain_nats). Returns its index in result->candidates after
+  // ListCandidates (called here), or -1 when there is no site.
+  int ChooseByTour(Pass* pass, const SearchedCells& cells);
   [[nodiscard]] bool Affected(const Cell2& cell) const;
 
   static constexpr int kTile = 8;
@@ -85,6 +98,8 @@ class VolumetricPlanner final : public ExplorationPlanner, private Objective {
   std::vector<bool> affected_;                 // per tile
   std::unordered_map<int, CachedPose> cache_;  // by 2D cell index
   int reused_positions_{0};
+  std::vector<InfoSite> tour_sites_;
+  std::vector<int> tour_order_;
 };
 
 /// The height at which poses' gains are predicted: h, or h + 1 mm when a sensor's origin would lie

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -303,6 +304,45 @@ TEST(Planner, VolumetricLocalFirst) {
   // first never takes the near one.
   const test::TestMap faint = CorridorMap({{2.5, 2.65}, {8.0, 12.0}});
   EXPECT_GT(goal_x(faint, 12.0), 5.0);
+}
+
+// Mode volumetric_tour (docs/exploration.md, "The information tour"): a 2 m alcove 6-8 m behind
+// the vehicle (x = 2-4, the vehicle at x = 10) and two 4 m ones ahead (x = 14-18 and 22-26). The
+// gain rule's goal is the largest gain x bump, ahead (the bump barely tells 6 m from 8 m); the
+// tour's open path visits the near end first, since going back later costs the corridor twice,
+// so its goal is behind. Sites lie where the alcoves are; the first site of the tour is behind.
+TEST(Planner, VolumetricTourVisitsTheNearEndFirst) {
+  const test::TestMap map = CorridorMap({{2.0, 4.0}, {14.0, 18.0}, {22.0, 26.0}});
+  PlannerConfig config;
+  config.mode = ExplorationMode::kVolumetric;
+  const PlanResult greedy = VolumetricPlanner(config).Plan(map.Input(10.0, 1.5));
+  ASSERT_EQ(greedy.status, PlanStatus::kGoal) << greedy.reason;
+  EXPECT_GT(greedy.candidates[static_cast<size_t>(greedy.chosen)].position_m.x(), 10.0);
+
+  config.mode = ExplorationMode::kVolumetricTour;
+  VolumetricPlanner planner(config);
+  EXPECT_EQ(planner.mode(), ExplorationMode::kVolumetricTour);
+  const PlanResult tour = planner.Plan(map.Input(10.0, 1.5));
+  ASSERT_EQ(tour.status, PlanStatus::kGoal) << tour.reason;
+  const Candidate& goal = tour.candidates[static_cast<size_t>(tour.chosen)];
+  EXPECT_LT(goal.position_m.x(), 8.0) << "the alcove behind first";
+  EXPECT_GE(goal.gain_nats, config.volumetric.end_gain_nats);
+  ASSERT_FALSE(planner.tour_sites().empty());
+  ASSERT_EQ(planner.tour_order().size(), planner.tour_sites().size());
+  // Every site's best pose sees an alcove: within 4 m (the Xtion's z_max) of one.
+  for (const InfoSite& s : planner.tour_sites()) {
+    const double x = s.best.xy_m.x();
+    const double to_alcove =
+        std::min({std::abs(x - 3.0) - 1.0, std::abs(x - 16.0) - 2.0, std::abs(x - 24.0) - 2.0});
+    EXPECT_LT(to_alcove, 4.0) << "site at x = " << x;
+    EXPECT_GE(s.best.gain_nats, config.volumetric.end_gain_nats);
+  }
+  const InfoSite& first = planner.tour_sites()[static_cast<size_t>(planner.tour_order().front())];
+  EXPECT_LT(first.best.xy_m.x(), 8.0);
+  // Sites on both sides of the vehicle.
+  bool ahead = false;
+  for (const InfoSite& s : planner.tour_sites()) ahead = ahead || s.best.xy_m.x() > 14.0;
+  EXPECT_TRUE(ahead);
 }
 
 // The planner's first plan from `in` into *first: a goal worth more than the end threshold (the
