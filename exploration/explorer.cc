@@ -94,7 +94,7 @@ namespace {
 
 UnlearnedCellsConfig UnlearnedConfigOf(const ExplorerConfig& config) {
   UnlearnedCellsConfig c;
-  c.enabled = config.unlearned_looks > 0 && config.planner.mode == ExplorationMode::kVolumetric;
+  c.enabled = config.unlearned_looks > 0 && IsVolumetric(config.planner.mode);
   c.looks = std::max(2, config.unlearned_looks);
   c.min_entropy_drop_nats = config.unlearned_min_entropy_drop_nats;
   c.certain_probability = config.planner.projection.p_min_entropy;
