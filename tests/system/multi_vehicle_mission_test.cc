@@ -26,6 +26,8 @@ MissionConfig TwoOnLasr() {
 
 // Measured (seed 1, 2026-12-04): 95% known at 50 s (one vehicle: 70 s, system_mission_test),
 // 45 m flown by both by then, known 0.993, both home and landed at 94 s, nearest 1.48 m apart.
+// Since passages open at any angle (2026-12-07, docs/exploration.md "Traversability"): 95% at
+// 70 s, one vehicle 170 s, known 0.975.
 TEST(MultiVehicleMission, TwoVehiclesExploreLasrFasterAndBothLandAtHome) {
   const MissionResult r = RunMission(TwoOnLasr());
   std::printf("%s", MissionSummary(r).c_str());
@@ -38,10 +40,10 @@ TEST(MultiVehicleMission, TwoVehiclesExploreLasrFasterAndBothLandAtHome) {
     EXPECT_EQ(v.end_rule, "gain rule") << v.prefix;
     EXPECT_GT(v.path_to_95_m, 5.0) << v.prefix << " took part in the exploration";
   }
-  EXPECT_GE(r.quality.known_fraction, 0.95) << "measured 0.993";
-  EXPECT_GE(r.quality.accuracy, 0.97) << "measured 0.994";
+  EXPECT_GE(r.quality.known_fraction, 0.95) << "measured 0.975";
+  EXPECT_GE(r.quality.accuracy, 0.97) << "measured 0.991";
   EXPECT_GT(r.time_to_95_s, 0);
-  EXPECT_LT(r.time_to_95_s, 70.0) << "one vehicle takes 70 s; measured 50 s";
+  EXPECT_LE(r.time_to_95_s, 85.0) << "one vehicle takes 170 s; measured 70 s";
   // The explorers plan at least min_separation_m (1.2 m); the controllers track within a few cm.
   EXPECT_GE(r.min_separation_m, 1.1) << "measured 1.48 m";
   EXPECT_TRUE(r.mapper_applied_every_message);
