@@ -4,7 +4,9 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "exploration/dijkstra.h"
 #include "exploration/planner.h"
+#include "exploration/traversability.h"
 
 namespace kestrel::test {
 
@@ -26,6 +28,20 @@ inline PlannerInput InputOn(const OccupancyGridView& map, double x_m, double y_m
   in.position_m = Eigen::Vector3d(x_m, y_m, 0.75);
   in.time_s = 10.0;
   return in;
+}
+
+/// Whether `to` is traversable and reachable from `from` over the traversable cells and the
+/// passages of `t` (AllowPassages), as the fine planners' paths are.
+inline bool Reachable(const Traversability& t, const Eigen::Vector2d& from,
+                      const Eigen::Vector2d& to) {
+  const auto a = t.band.CellOf(from);
+  const auto b = t.band.CellOf(to);
+  if (!a || !b) return false;
+  std::vector<bool> usable = t.traversable;
+  AllowPassages(t, &usable);
+  const DistanceField f =
+      ComputeDistanceField(t.band.width, t.band.height, usable, *a, t.band.resolution_m);
+  return f.Reachable(t.band.IndexOf(*b)) && t.traversable[static_cast<size_t>(t.band.IndexOf(*b))];
 }
 
 /// A test's 3D map: dims cells of edge alpha from origin, values x fastest.

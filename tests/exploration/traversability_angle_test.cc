@@ -112,17 +112,7 @@ TraversabilityConfig Config() {
   return c;  // margin_m and passage_margin_m: the defaults
 }
 
-// Whether `to` is traversable and reachable from `from` over the traversable and passage cells.
-bool Reachable(const Traversability& t, const Eigen::Vector2d& from, const Eigen::Vector2d& to) {
-  const auto a = t.band.CellOf(from);
-  const auto b = t.band.CellOf(to);
-  if (!a || !b) return false;
-  std::vector<bool> usable = t.traversable;
-  AllowPassages(t, &usable);
-  const DistanceField f =
-      ComputeDistanceField(t.band.width, t.band.height, usable, *a, t.band.resolution_m);
-  return f.Reachable(t.band.IndexOf(*b)) && t.traversable[static_cast<size_t>(t.band.IndexOf(*b))];
-}
+using test::Reachable;  // over the traversable cells and the passages
 
 // A straight wall 0.12 m thick through `centre` at `angle_deg` to the x axis, with a gap of
 // `width_m` centred on `centre`; both parts reach beyond the map.

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "exploration/dijkstra.h"
+#include "tests/exploration/test_input.h"
 
 namespace kestrel {
 namespace {
@@ -62,17 +63,7 @@ TraversabilityConfig Config(double h) {
   return c;
 }
 
-// Whether `to` is reachable from `from` over the traversable cells.
-bool Reachable(const Traversability& t, const Eigen::Vector2d& from, const Eigen::Vector2d& to) {
-  const auto a = t.band.CellOf(from);
-  const auto b = t.band.CellOf(to);
-  if (!a || !b) return false;
-  std::vector<bool> usable = t.traversable;
-  AllowPassages(t, &usable);
-  const DistanceField f =
-      ComputeDistanceField(t.band.width, t.band.height, usable, *a, t.band.resolution_m);
-  return f.Reachable(t.band.IndexOf(*b)) && t.traversable[static_cast<size_t>(t.band.IndexOf(*b))];
-}
+using test::Reachable;  // over the traversable cells and the passages
 
 TEST(SquaredDistanceTransform, EqualsBruteForce) {
   std::mt19937 rng(7);
