@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <iterator>
@@ -32,20 +33,26 @@ void Append(const std::string& path, const std::string& bytes) {
   out << bytes;
 }
 
+// One event through the LCM library's writer, as lcm-logger writes it: 0 on success.
+int WriteEvent(lcm::LogFile* log, int64_t eventnum, int64_t timestamp, const std::string& channel,
+               std::string data) {
+  lcm::LogEvent e;
+  e.eventnum = eventnum;
+  e.timestamp = timestamp;
+  e.channel = channel;
+  e.datalen = static_cast<int32_t>(data.size());
+  e.data = data.data();
+  return log->writeEvent(&e);
+}
+
 // Three events written by the LCM library's writer, as lcm-logger writes them.
 std::string WriteThreeEvents() {
   const std::string path = TempPath("whole.lcmlog");
   lcm::LogFile log(path, "w");
   EXPECT_TRUE(log.good());
   for (int i = 0; i < 3; ++i) {
-    std::string data(static_cast<size_t>(100 + 1000 * i), static_cast<char>('a' + i));
-    lcm::LogEvent e;
-    e.eventnum = i;
-    e.timestamp = 1000 + i;
-    e.channel = "CHANNEL_" + std::to_string(i);
-    e.datalen = static_cast<int32_t>(data.size());
-    e.data = data.data();
-    EXPECT_EQ(log.writeEvent(&e), 0);
+    const std::string data(static_cast<size_t>(100 + 1000 * i), static_cast<char>('a' + i));
+    EXPECT_EQ(WriteEvent(&log, i, 1000 + i, "CHANNEL_" + std::to_string(i), data), 0);
   }
   return path;
 }
@@ -98,14 +105,7 @@ TEST(LogTail, TrimPartialLastEventLetsAnAppendingWriterBeRead) {
     {
       lcm::LogFile log(path, "a");
       ASSERT_TRUE(log.good());
-      std::string data(7, 'z');
-      lcm::LogEvent e;
-      e.eventnum = 9;
-      e.timestamp = 2000;
-      e.channel = "NEXT_LIFE";
-      e.datalen = static_cast<int32_t>(data.size());
-      e.data = data.data();
-      ASSERT_EQ(log.writeEvent(&e), 0);
+      ASSERT_EQ(WriteEvent(&log, 9, 2000, "NEXT_LIFE", std::string(7, 'z')), 0);
     }
     LogTail tail(path);
     std::vector<std::string> channels;
@@ -143,13 +143,7 @@ TEST(LogTail, TrimPartialLastEventCutsAtTheLastWholeEventsEnd) {
     {
       lcm::LogFile log(path, i == 0 ? "w" : "a");
       ASSERT_TRUE(log.good());
-      lcm::LogEvent e;
-      e.eventnum = i;
-      e.timestamp = 1000 + i;
-      e.channel = "SYNC_" + std::to_string(i);
-      e.datalen = static_cast<int32_t>(data.size());
-      e.data = data.data();
-      ASSERT_EQ(log.writeEvent(&e), 0);
+      ASSERT_EQ(WriteEvent(&log, i, 1000 + i, "SYNC_" + std::to_string(i), data), 0);
     }
     boundaries.push_back(ReadAll(path).size());
   }
