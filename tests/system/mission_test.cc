@@ -19,6 +19,14 @@ MissionConfig CiProfile() {
   return mc;
 }
 
+// A flight without a collision that the gain rule ended, flown home and landed.
+void ExpectHomeByTheGainRule(const MissionResult& r) {
+  EXPECT_EQ(r.collisions, 0);
+  EXPECT_TRUE(r.landed) << r.end_reason;
+  EXPECT_EQ(r.end_rule, "gain rule") << r.end_reason;
+  EXPECT_EQ(r.landing.rfind("returned home", 0), 0u) << r.landing;
+}
+
 // The volumetric mode (the default; docs/exploration.md). Measured (seed 1, 2026-12-02, sensor
 // models 0.1 / 0.05 m, margin 0.10 m): 95% known at 70 s (the paper's experiment ended at 167 s;
 // Kestrel's combined mode reached 95% at 435 s), ended by the gain rule at 128 s, returned home
@@ -32,11 +40,8 @@ TEST(Mission, ExploresLasrWithoutCollisionAndLands) {
   mc.max_time_s = 900;
   const MissionResult r = RunMission(mc);
   std::printf("%s", MissionSummary(r).c_str());
-  EXPECT_EQ(r.collisions, 0);
-  EXPECT_TRUE(r.landed) << r.end_reason;
+  ExpectHomeByTheGainRule(r);
   EXPECT_TRUE(r.done_status_published) << "EXPLORATION_STATUS never said DONE";
-  EXPECT_EQ(r.end_rule, "gain rule") << r.end_reason;
-  EXPECT_EQ(r.landing.rfind("returned home", 0), 0u) << r.landing;
   EXPECT_GT(r.exploration_time_s, 0);
   EXPECT_LT(r.exploration_time_s, 250) << "measured 174 s";
   EXPECT_GT(r.time_to_95_s, 0) << "never 95% known";
@@ -59,10 +64,7 @@ TEST(Mission, ExploresOfficeWithoutCollisionAndLands) {
   mc.max_time_s = 900;
   const MissionResult r = RunMission(mc);
   std::printf("%s", MissionSummary(r).c_str());
-  EXPECT_EQ(r.collisions, 0);
-  EXPECT_TRUE(r.landed) << r.end_reason;
-  EXPECT_EQ(r.end_rule, "gain rule") << r.end_reason;
-  EXPECT_EQ(r.landing.rfind("returned home", 0), 0u) << r.landing;
+  ExpectHomeByTheGainRule(r);
   EXPECT_GE(r.quality.known_fraction, 0.95) << "measured 0.971";
   EXPECT_GT(r.time_to_95_s, 0) << "never 95% known";
   EXPECT_GE(r.quality.accuracy, 0.97) << "measured 0.987";
@@ -91,10 +93,7 @@ TEST(Mission, FliesTheSmallRoomWithRealisticSensorErrors) {
     mc.max_time_s = 300;
     const MissionResult r = RunMission(mc);
     std::printf("%s", MissionSummary(r).c_str());
-    EXPECT_EQ(r.collisions, 0);
-    EXPECT_TRUE(r.landed) << r.end_reason;
-    EXPECT_EQ(r.end_rule, "gain rule") << r.end_reason;
-    EXPECT_EQ(r.landing.rfind("returned home", 0), 0u) << r.landing;
+    ExpectHomeByTheGainRule(r);
     EXPECT_GE(r.quality.known_fraction, 0.85);
     EXPECT_EQ(r.claims.free_outside, 0u);
   }
