@@ -1,5 +1,6 @@
 #include "sim/ground_truth.h"
 
+#include <algorithm>
 #include <cmath>
 #include <queue>
 #include <thread>
@@ -205,12 +206,13 @@ void ObservabilityConfig::Validate() const {
 }
 
 ObservabilityConfig SensorSweep(double max_range_m, double vertical_fov_rad,
-                                bool camera_no_return_informs, double horizontal_fov_rad) {
+                                bool camera_no_return_informs, double camera_depth_range_m,
+                                double horizontal_fov_rad) {
   ObservabilityConfig oc;
   oc.max_range_m = max_range_m;
-  oc.return_range_m =
-      max_range_m * std::sqrt(1.0 + std::pow(std::tan(0.5 * horizontal_fov_rad), 2) +
-                              std::pow(std::tan(0.5 * vertical_fov_rad), 2));
+  oc.return_range_m = std::max(max_range_m, camera_depth_range_m) *
+                      std::sqrt(1.0 + std::pow(std::tan(0.5 * horizontal_fov_rad), 2) +
+                                std::pow(std::tan(0.5 * vertical_fov_rad), 2));
   oc.elevation_min_rad = -0.5 * vertical_fov_rad;
   oc.elevation_max_rad = 0.5 * vertical_fov_rad;
   if (!camera_no_return_informs) oc.empty_ray_max_elevation_rad = 0.0;

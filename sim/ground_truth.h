@@ -96,11 +96,14 @@ struct ObservabilityConfig {
 /// The observable set and the poses it came from.
 /// The sweep of the vehicle's sensors as the scorers use it (tools/map_score, kestrel-report):
 /// rays to max_range_m within +-vertical_fov_rad/2; a ray returns from up to the depth camera's
-/// longest along-ray range (max_range_m at the corner of its field of view as an axial depth,
-/// max_range_m |(tan(hfov/2), tan(vfov/2), 1)|); a ray that meets nothing observes only in the
-/// LIDAR's plane unless the depth camera's "no return" is evidence (docs/algorithms.md §12.1).
+/// longest along-ray range (the axial depth it reports to, camera_depth_range_m, at the corner of
+/// its field of view: camera_depth_range_m |(tan(hfov/2), tan(vfov/2), 1)|; a depth beyond
+/// max_range_m is a no-return, which tells the map its cells up to max_range_m are free); a ray
+/// that meets nothing within that observes only in the LIDAR's plane unless the depth camera's
+/// "no return" is evidence (docs/algorithms.md §12.1). camera_depth_range_m 0: max_range_m.
 [[nodiscard]] ObservabilityConfig SensorSweep(double max_range_m, double vertical_fov_rad,
                                               bool camera_no_return_informs,
+                                              double camera_depth_range_m = 8.0,
                                               double horizontal_fov_rad = 58.0 * M_PI / 180.0);
 
 struct ObservableCells {

@@ -22,12 +22,16 @@ namespace kestrel {
 
 /// Depth camera (ASUS Xtion-like) parameters.
 struct DepthCameraConfig {
-  int width_px{640};                  ///< columns (VGA 640, QVGA 320, or 80)
-  int height_px{480};                 ///< rows (VGA 480, QVGA 240, or 60)
-  double hfov_deg{58.0};              ///< horizontal field of view, deg, (0, 180)
-  double vfov_deg{45.0};              ///< vertical field of view, deg, (0, 180)
-  double range_min_m{0.5};            ///< nearest depth returned, m (nearer: 0)
-  double range_max_m{4.0};            ///< farthest depth returned, m (farther: 0)
+  int width_px{640};        ///< columns (VGA 640, QVGA 320, or 80)
+  int height_px{480};       ///< rows (VGA 480, QVGA 240, or 60)
+  double hfov_deg{58.0};    ///< horizontal field of view, deg, (0, 180)
+  double vfov_deg{45.0};    ///< vertical field of view, deg, (0, 180)
+  double range_min_m{0.5};  ///< nearest depth returned, m (nearer: 0)
+  /// Farthest depth returned, m (farther: 0). The PS1080 in a real Xtion reports depth well past
+  /// the 3.5 m of its datasheet, to 8-10 m indoors (noisier: the sigma below gives 0.11 m at
+  /// 8 m); the mapper reads a depth beyond its model's z_max as a no-return, which is evidence,
+  /// and a 0 as no evidence (docs/algorithms.md §3.4).
+  double range_max_m{8.0};
   double sigma_a_m{0.0012};           ///< axial noise sigma = a + b (z - z0)^2: a, m
   double sigma_b_per_m{0.0019};       ///< b, 1/m
   double sigma_z0_m{0.4};             ///< z0, m

@@ -427,6 +427,7 @@ TEST(SensorErrors, DisparityQuantisedDepthLiesOnTheLattice) {
                              Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()))});
   const WorldRayCaster caster(w, 0.5);
   DepthCameraConfig c = DepthCameraConfig::WithResolution(80, 60);  // fx ~ 72 px, not 580
+  c.range_max_m = 4.0;  // the sweep's far end (the wall runs on beyond the default 8 m)
   c.disparity_focal_px = 580.0;
   c.disparity_baseline_m = 0.075;
   c.disparity_steps_per_px = 8;

@@ -116,7 +116,8 @@ TEST(DepthCamera, SlantedWallGivesPinholeDepths) {
   EXPECT_GT(in_range, 1000);
 }
 
-// A face-on wall at 2 m reads 2000 mm everywhere; walls nearer than 0.5 m or beyond 4 m read 0.
+// A face-on wall at 2 m reads 2000 mm everywhere; walls nearer than 0.5 m or beyond 8 m read 0
+// (the default range: a real Xtion reports depth past its model's z_max of 4 m).
 TEST(DepthCamera, FaceOnWallReadsItsDistanceAndRangeLimitsGiveZero) {
   DepthCameraConfig config = DepthCameraConfig::WithResolution(80, 60);
   config.noise = false;
@@ -124,8 +125,8 @@ TEST(DepthCamera, FaceOnWallReadsItsDistanceAndRangeLimitsGiveZero) {
   const Pose3 X_WS = CameraLookingAlongX(Eigen::Vector3d::Zero());
   SimRandom rng(3);
   std::vector<uint16_t> counts;
-  for (const auto& [wall_m, expected] :
-       std::vector<std::pair<double, uint16_t>>{{2.0, 2000}, {0.3, 0}, {4.5, 0}, {4.0, 4000}}) {
+  for (const auto& [wall_m, expected] : std::vector<std::pair<double, uint16_t>>{
+           {2.0, 2000}, {0.3, 0}, {4.5, 4500}, {8.0, 8000}, {8.5, 0}}) {
     const World w = WallAt(wall_m);
     const WorldRayCaster caster(w);
     camera.Render(caster, X_WS, &rng, &counts);

@@ -46,7 +46,8 @@ FidelityResult RunFidelity(const FidelityConfig& config) {
   const GridSpec grid = GridSpecOf(geometry);
   const WorldRayCaster caster(world);
   const MapScorer scorer(world, caster, grid, config.scoring_range_m, config.scoring_vfov_rad,
-                         mapper_configs.front().sensors.front().model.no_return_informs);
+                         mapper_configs.front().sensors.front().model.no_return_informs,
+                         config.scoring_camera_depth_range_m);
 
   std::unique_ptr<OctoMapPeer> octomap;
   if (config.octomap) {

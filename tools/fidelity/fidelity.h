@@ -32,6 +32,7 @@ struct FidelityConfig {
   double sample_period_s{10.0};                  ///< curve samples every this much log time, s
   double scoring_range_m{4.0};                   ///< observable cells: sensor range, m
   double scoring_vfov_rad{45.0 * M_PI / 180.0};  ///< and vertical field of view
+  double scoring_camera_depth_range_m{8.0};      ///< and the camera's reported depth (SensorSweep)
   /// The flight's ray reach record (kestrel-mission --reach; sim/ray_reach.h): with it, every
   /// map's claims include the cells no ray reached and the cells freed before a ray reached them
   /// ("": without those two figures).

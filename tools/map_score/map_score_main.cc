@@ -20,13 +20,14 @@ const char* const kUsage =
     "usage: kestrel-map-score --world config/worlds/lasr.yaml --map FILE.kmap\n"
     "                         [--range-m 4.0] [--vfov-deg 45] [--octomap FILE.bt] [--ply FILE]\n"
     "                         [--unknown-bin-m M] [--reach FILE] [--camera-no-return-informs]\n"
-    "                         [--claims-bin-m M]\n"
+    "                         [--claims-bin-m M] [--camera-depth-range-m 8.0]\n"
     "Prints the map's quality against the world's ground truth, and the cells it claims free\n"
     "without grounds (docs/algorithms.md section 12.5; --reach: the flight's ray reach record\n"
     "from kestrel-mission --reach adds the cells no ray reached); optionally exports the map.\n"
     "Observable cells: those a ray of the sweep meets before its first hit; a ray that meets\n"
     "nothing counts only in the LIDAR's plane, as the shipped depth camera's 0 is no evidence,\n"
-    "unless --camera-no-return-informs (docs/algorithms.md section 12.1).\n"
+    "unless --camera-no-return-informs (docs/algorithms.md section 12.1). A ray returns from up\n"
+    "to the depth the camera reports (--camera-depth-range-m, axial; the simulator's 8 m).\n"
     "--unknown-bin-m M also prints where the observable cells that are not known lie: a plan view\n"
     "of M x M m columns (north up; '.' none, 1-9 tens of percent of the column's cells, '#' "
     "more),\n"
@@ -59,6 +60,7 @@ void PrintPlanView(const kestrel::GridSpec& grid, double bin_m, int bins_x, int 
 int main(int argc, char** argv) {
   std::string world_path, map_path, octomap_path, ply_path, reach_path;
   double range_m = 4.0, vfov_deg = 45.0, unknown_bin_m = 0.0, claims_bin_m = 0.0;
+  double camera_depth_range_m = 8.0;
   bool camera_no_return_informs = false;
   return kestrel::RunProcess(
       "kestrel-map-score", argc, argv, kUsage,
@@ -67,6 +69,8 @@ int main(int argc, char** argv) {
         app.add_option("--map", map_path)->required();
         app.add_option("--range-m", range_m)->check(kestrel::cli::Positive());
         app.add_option("--vfov-deg", vfov_deg)->check(kestrel::cli::Within(1.0, 180.0));
+        app.add_option("--camera-depth-range-m", camera_depth_range_m)
+            ->check(kestrel::cli::NonNegative());
         app.add_option("--octomap", octomap_path);
         app.add_option("--ply", ply_path);
         app.add_option("--unknown-bin-m", unknown_bin_m)->check(kestrel::cli::NonNegative());
@@ -84,7 +88,7 @@ int main(int argc, char** argv) {
                                      Eigen::Vector3i(g.dims().x, g.dims().y, g.dims().z)};
         const kestrel::WorldRayCaster caster(world);
         const kestrel::MapScorer scorer(world, caster, grid, range_m, vfov_deg * M_PI / 180.0,
-                                        camera_no_return_informs);
+                                        camera_no_return_informs, camera_depth_range_m);
         const double p_init = loaded.map->updater().ProbabilityOf(g.initial_value());
         const kestrel::MapQuality q = scorer.Score(
             [&](const kestrel::CellIndex& cell) { return loaded.map->ProbabilityAt(cell); },

@@ -6,12 +6,13 @@
 namespace kestrel {
 
 MapScorer::MapScorer(const World& world, const WorldRayCaster& caster, const GridSpec& grid,
-                     double max_range_m, double vertical_fov_rad, bool camera_no_return_informs)
+                     double max_range_m, double vertical_fov_rad, bool camera_no_return_informs,
+                     double camera_depth_range_m)
     : grid_(grid), truth_(VoxelizeWorld(world, grid)) {
-  observable_ =
-      ComputeObservableCells(world, caster, grid,
-                             SensorSweep(max_range_m, vertical_fov_rad, camera_no_return_informs))
-          .observable;
+  observable_ = ComputeObservableCells(world, caster, grid,
+                                       SensorSweep(max_range_m, vertical_fov_rad,
+                                                   camera_no_return_informs, camera_depth_range_m))
+                    .observable;
 }
 
 std::vector<double> MapScorer::Probabilities(

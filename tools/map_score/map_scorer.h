@@ -23,11 +23,13 @@ namespace kestrel {
 
 class MapScorer {
  public:
-  /// Ground truth of `world` on `grid`; rays of the sweep reach max_range_m within +-vfov/2. A
+  /// Ground truth of `world` on `grid`; rays of the sweep reach max_range_m within +-vfov/2 and
+  /// return from up to the depth camera's reported depth `camera_depth_range_m` (SensorSweep). A
   /// ray that meets nothing observes only in the LIDAR's plane unless `camera_no_return_informs`
   /// (the depth camera model's no_return_informs: docs/algorithms.md §3.4, §12.1).
   MapScorer(const World& world, const WorldRayCaster& caster, const GridSpec& grid,
-            double max_range_m, double vertical_fov_rad, bool camera_no_return_informs = false);
+            double max_range_m, double vertical_fov_rad, bool camera_no_return_informs = false,
+            double camera_depth_range_m = 8.0);
 
   /// P of every cell of the grid, in its linear order (as truth() and observable()).
   [[nodiscard]] std::vector<double> Probabilities(

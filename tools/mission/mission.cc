@@ -408,10 +408,10 @@ class Mission {
   void StartQualityAndFaults() {
     if (mc_.compute_quality) {
       const GridSpec grid = GridSpecOf(mapper_->geometry());
-      scorer_.emplace(sim_config_.world, sim_->simulator().caster(), grid,
-                      mapper_config_.sensors[0].model.z_max_m,
-                      sim_config_.depth.vfov_deg * M_PI / 180.0,
-                      mapper_config_.sensors[0].model.no_return_informs);
+      scorer_.emplace(
+          sim_config_.world, sim_->simulator().caster(), grid,
+          mapper_config_.sensors[0].model.z_max_m, sim_config_.depth.vfov_deg * M_PI / 180.0,
+          mapper_config_.sensors[0].model.no_return_informs, sim_config_.depth.range_max_m);
       reach_.emplace(grid);
       sim_->mutable_simulator().SetRayReach(&*reach_);
       claims_.emplace(sim_config_.world, grid, scorer_->truth());
