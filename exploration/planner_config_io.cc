@@ -38,6 +38,7 @@ void ReadSensor(const ConfigNode& n, GainSensor* s, VolumetricSensor* v) {
   n.Read("cutoff_sigmas", &s->model.cutoff_sigmas, Range::AtLeast(5.0));
   n.Read("interpolated_gaussian", &s->model.interpolated_gaussian);
   n.Read("no_return_informs", &s->model.no_return_informs);
+  n.Read("reports_to_m", &v->reports_to_m, Range::NonNegative());
   v->model = s->model;
   v->horizontal_fov_rad = s->horizontal_fov_rad;
   v->yaw_offset_rad = s->yaw_offset_rad;

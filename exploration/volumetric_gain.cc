@@ -93,8 +93,9 @@ VolumetricSensor XtionVolumetricSensor() {
   s.model = SensorModelConfig::Xtion();
   s.horizontal_fov_rad = 58.0 * M_PI / 180.0;
   s.vertical_fov_rad = 45.0 * M_PI / 180.0;
-  s.rows = 3;
+  s.rows = 5;
   s.height_offset_m = 0.05;
+  s.reports_to_m = 8.0;
   return s;
 }
 
@@ -165,6 +166,9 @@ VolumetricGainEvaluator::VolumetricGainEvaluator(const VolumetricGainConfig& con
   int rows = 0;
   for (const VolumetricSensor& s : config_.sensors) {
     models_.emplace_back(s.model);
+    SensorModelConfig reported = s.model;
+    reported.no_return_informs = true;
+    reported_models_.emplace_back(reported);
     row_base_.push_back(rows);
     rows += s.rows;
   }
@@ -313,8 +317,18 @@ Eigen::Vector3d VolumetricGainEvaluator::OffsetInCell(const Eigen::Vector3d& o) 
   return f;
 }
 
+bool VolumetricGainEvaluator::NoReturnReported(int sensor, int slot,
+                                               const Eigen::Vector3d& o) const {
+  const VolumetricSensor& s = config_.sensors[static_cast<size_t>(sensor)];
+  if (s.reports_to_m <= 0.0 || s.model.no_return_informs) return false;
+  const Eigen::Vector3d end = o + s.reports_to_m * directions_[static_cast<size_t>(slot)];
+  const Eigen::Vector3d top = origin_m_ + resolution_m_ * dims_.cast<double>();
+  return end.x() >= origin_m_.x() && end.x() <= top.x() && end.y() >= origin_m_.y() &&
+         end.y() <= top.y() && end.z() <= top.z();
+}
+
 VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::Finish(
-    int sensor, int slot, const RayKernel& kernel, int n, double bound, uint64_t key,
+    int sensor, int slot, const RayKernel& kernel, int n, double bound, uint64_t key, bool reported,
     bool with_gain, VolumetricGainStats* stats, RayMemo* memo) {
   RayResult r;
   // I_ray is the sum over the ray's cells of I(m_j; z), and for cells independent a priori that
@@ -345,9 +359,9 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::Finish(
     return r;
   }
   if (!with_gain) return r;
-  const RayEntropy e =
-      ExpectedEntropy::Evaluate(models_[static_cast<size_t>(sensor)], kernel, prior_.data(), n,
-                                config_.weight_mode, &scratch_, config_.entropy_sum);
+  const RayEntropy e = ExpectedEntropy::Evaluate(
+      (reported ? reported_models_ : models_)[static_cast<size_t>(sensor)], kernel, prior_.data(),
+      n, config_.weight_mode, &scratch_, config_.entropy_sum);
   r.gain = e.gain_nats();
   if (stats != nullptr) ++stats->rays_evaluated;
   if (memo != nullptr) {
@@ -397,8 +411,10 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::EvaluateRay(
       }
     }
     if (stats != nullptr) ++stats->templated_rays;
+    const bool reported = NoReturnReported(sensor, slot, o);
+    if (memo != nullptr) key = MixKey(key, reported ? 1u : 0u);
     return Finish(sensor, slot, template_kernels_[static_cast<size_t>(t.kernel)], n, bound,
-                  FinishKey(key), with_gain, stats, memo);
+                  FinishKey(key), reported, with_gain, stats, memo);
   }
   // Cast at this position (fragile ray, or an origin at another in-cell offset).
   const SensorModel& model = models_[static_cast<size_t>(sensor)];
@@ -419,9 +435,11 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::EvaluateRay(
     }
   }
   RayKernel& kernel = cast_kernels_[static_cast<size_t>(slot)];
+  const bool reported = NoReturnReported(sensor, slot, o);
+  if (memo != nullptr) key = MixKey(key, reported ? 1u : 0u);
   key = FinishKey(key);
   if (!with_gain) {  // the kernel is not read
-    return Finish(sensor, slot, kernel, n, bound, key, false, stats, memo);
+    return Finish(sensor, slot, kernel, n, bound, key, reported, false, stats, memo);
   }
   if (entry_.size() < static_cast<size_t>(n)) {
     entry_.resize(2 * static_cast<size_t>(n) + 16);
@@ -438,7 +456,7 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::EvaluateRay(
     kernel.Build(model, entry_.data(), exit_.data(), d, n);
     built_for.assign(d, d + n);
   }
-  return Finish(sensor, slot, kernel, n, bound, key, true, stats, memo);
+  return Finish(sensor, slot, kernel, n, bound, key, reported, true, stats, memo);
 }
 
 PoseGains VolumetricGainEvaluator::Evaluate(const OccupancyGridView& map,

@@ -83,9 +83,20 @@ struct VolumetricSensor {
   double yaw_offset_rad{0.0};  ///< sensor heading in the body, rad
   /// Sensor origin above the body origin, m (the horizontal lever arm is neglected: file comment).
   double height_offset_m{0.0};
+  /// A sensor whose no-return is no evidence (model.no_return_informs false: the depth camera's
+  /// 0) but which reports a reading beyond z_max up to this range, m (a real Xtion's depth to
+  /// 8-10 m), which the mapper reads as a no-return, and which is evidence. The gain predicts the
+  /// no-return hypothesis of such a ray as evidence when the ray's point at this range lies within
+  /// the map's horizontal extent and not above its top: the map's box is taken as the building's
+  /// envelope, so something within it answers the ray; a ray that leaves the box through a side
+  /// or the top within this range may meet nothing (lasr has no ceiling) and reads 0, so it is
+  /// predicted to teach nothing, as before (docs/exploration.md, "Volumetric gain"). 0: off
+  /// (every no-return of the sensor predicted to teach nothing).
+  double reports_to_m{0.0};
 };
 
-/// The paper's Asus Xtion: 58 x 45 deg, 3 rows, 0.05 m above the body origin.
+/// The paper's Asus Xtion: 58 x 45 deg, 5 rows, 0.05 m above the body origin, depth reported to
+/// 8 m (reports_to_m).
 [[nodiscard]] VolumetricSensor XtionVolumetricSensor();
 /// The paper's Hokuyo URG-04LX: 240 deg planar scan, 0.12 m above the body origin.
 [[nodiscard]] VolumetricSensor HokuyoVolumetricSensor();
@@ -224,16 +235,21 @@ class VolumetricGainEvaluator {
                         RayMemo* memo);
   // I_ray of the n cells in prior_ with `kernel` (read only when with_gain), and the bound;
   // `key` is the ray's memo key (RayMemo).
+  // `reported`: the ray's no-return is evidence by VolumetricSensor::reports_to_m.
   RayResult Finish(int sensor, int slot, const RayKernel& kernel, int n, double bound, uint64_t key,
-                   bool with_gain, VolumetricGainStats* stats, RayMemo* memo);
+                   bool reported, bool with_gain, VolumetricGainStats* stats, RayMemo* memo);
+  // Whether the ray of `slot` from o ends, at its sensor's reports_to_m, inside the map's
+  // horizontal extent and not above its top (VolumetricSensor::reports_to_m).
+  [[nodiscard]] bool NoReturnReported(int sensor, int slot, const Eigen::Vector3d& o) const;
   [[nodiscard]] int Slot(int sensor, int row, int bin) const {
     return (row_base_[static_cast<size_t>(sensor)] + row) * config_.azimuth_bins + bin;
   }
 
   VolumetricGainConfig config_;
   std::vector<SensorModel> models_;
-  std::vector<int> row_base_;                // first row of each sensor in the slot numbering
-  std::vector<Eigen::Vector3d> directions_;  // per slot
+  std::vector<SensorModel> reported_models_;  // per sensor: models_ with no_return_informs set
+  std::vector<int> row_base_;                 // first row of each sensor in the slot numbering
+  std::vector<Eigen::Vector3d> directions_;   // per slot
 
   // Geometry of the map the templates were built for, and their in-cell origin offsets.
   bool have_geometry_{false};

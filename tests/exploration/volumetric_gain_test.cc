@@ -57,8 +57,15 @@ Brute BruteForce(const DenseGrid& grid, const VolumetricGainConfig& config,
   out.gain.assign(static_cast<size_t>(n_yaw), 0.0);
   out.bound.assign(static_cast<size_t>(n_yaw), 0.0);
   ExpectedEntropyScratch scratch;
+  const Eigen::Vector3d box_min = grid.geometry().origin_m();
+  const Eigen::Vector3d box_max =
+      box_min +
+      grid.geometry().resolution_m() * Eigen::Vector3d(grid.dims().x, grid.dims().y, grid.dims().z);
   for (const VolumetricSensor& s : config.sensors) {
     const SensorModel model(s.model);
+    SensorModelConfig reported_config = s.model;
+    reported_config.no_return_informs = true;
+    const SensorModel reported_model(reported_config);
     RayCells cells(s.model.z_max_m, grid.geometry().resolution_m());
     std::vector<double> bin_gain(static_cast<size_t>(bins), 0.0);
     std::vector<double> bin_bound(static_cast<size_t>(bins), 0.0);
@@ -83,9 +90,15 @@ Brute BruteForce(const DenseGrid& grid, const VolumetricGainConfig& config,
           prior[at] = static_cast<double>(grid.Get(cells.cells[at]));
         }
         if (n == 0) continue;
+        // A no-return is evidence where the ray's point at reports_to_m lies inside the box's
+        // horizontal extent and not above its top (VolumetricSensor::reports_to_m).
+        const Eigen::Vector3d end = o + s.reports_to_m * u;
+        const bool reported = s.reports_to_m > 0.0 && end.x() >= box_min.x() &&
+                              end.x() <= box_max.x() && end.y() >= box_min.y() &&
+                              end.y() <= box_max.y() && end.z() <= box_max.z();
         const RayEntropy r = ExpectedEntropy::Compute(
-            model, entry.data(), exit.data(), cells.distance_m.data(), prior.data(), n,
-            config.weight_mode, GainMethod::kDirect, &scratch);
+            reported ? reported_model : model, entry.data(), exit.data(), cells.distance_m.data(),
+            prior.data(), n, config.weight_mode, GainMethod::kDirect, &scratch);
         bin_gain[static_cast<size_t>(b)] += r.gain_nats();
         // The bound: the prior entropy, and with chord-probability weights at most ln(n + 1)
         // (H of the hypotheses; the evaluator's header).
@@ -337,6 +350,51 @@ TEST(VolumetricGain, RaysSeeOnlyWhatIsVisible) {
   }
 }
 
+// A camera that reports depth beyond z_max (VolumetricSensor::reports_to_m): its no-return is
+// predicted as evidence exactly where the ray's point at that range lies inside the map's box and
+// not above its top, and as no evidence where it leaves through a side or the top. The map is
+// uncertain but mostly free (P = 0.02), so the no-return hypothesis carries most of the weight.
+TEST(VolumetricGain, CameraDepthBeyondZmaxIsPredictedWhereTheMapHoldsTheRay) {
+  const Eigen::Vector3d position(0.0375, 0.0375, 1.0125);  // a cell centre
+  VolumetricSensor camera = XtionVolumetricSensor();
+  camera.model.no_return_informs = false;
+  camera.height_offset_m = 0.0;
+  const auto gains = [&](const DenseGrid& grid, int rows, double reports_to_m, bool informs) {
+    VolumetricSensor s = camera;
+    s.rows = rows;
+    s.reports_to_m = reports_to_m;
+    s.model.no_return_informs = informs;
+    VolumetricGainConfig config;
+    config.sensors = {s};
+    VolumetricGainEvaluator evaluator{config};
+    return evaluator.Evaluate(ViewOf(grid), position, 4, true).gain_nats;
+  };
+  // One row of horizontal rays. Box 20 m wide: every 8 m point inside. 12 m wide: every one out.
+  const DenseGrid wide = MakeGrid({-10.0, -10.0, 0.0}, {10.0, 10.0, 2.0}, 0.075, 0.02f);
+  const DenseGrid narrow = MakeGrid({-6.0, -6.0, 0.0}, {6.0, 6.0, 2.0}, 0.075, 0.02f);
+  for (const DenseGrid* grid : {&wide, &narrow}) {
+    const bool inside = grid == &wide;
+    const std::vector<double> silent = gains(*grid, 1, 0.0, false);
+    const std::vector<double> informing = gains(*grid, 1, 0.0, true);
+    const std::vector<double> reported = gains(*grid, 1, 8.0, false);
+    for (size_t m = 0; m < silent.size(); ++m) {
+      EXPECT_GT(informing[m], silent[m] + 1.0) << "heading " << m;
+      EXPECT_EQ(reported[m], inside ? informing[m] : silent[m]) << "heading " << m;
+    }
+    // Every 5.9 m point lies inside both boxes (the rays' 4 m to z_max do too).
+    EXPECT_EQ(gains(*grid, 1, 5.9, false), informing) << (inside ? "wide" : "narrow");
+  }
+  // Three rows (-15, 0, +15 deg) in the wide box with its top 2 m up: the rising row's 8 m point
+  // is 3.1 m up, above the top, so only the other two rows' no-returns are evidence.
+  const std::vector<double> silent = gains(wide, 3, 0.0, false);
+  const std::vector<double> informing = gains(wide, 3, 0.0, true);
+  const std::vector<double> reported = gains(wide, 3, 8.0, false);
+  for (size_t m = 0; m < silent.size(); ++m) {
+    EXPECT_GT(reported[m], silent[m] + 1.0) << "heading " << m;
+    EXPECT_LT(reported[m], informing[m] - 1.0) << "heading " << m;
+  }
+}
+
 // What the paper's 2D E-map could not tell apart: a map whose every cell is well known (1e-4 or
 // 0.9999) has little to give, an unknown one (0.1) a lot. "Little" is not 0: a cell at P = 1e-4
 // still carries H = 1.0e-3 nats, and a measurement takes about P KL(p(z | occupied) ||
@@ -354,9 +412,13 @@ TEST(VolumetricGain, KnownMapGivesLittleUnknownMapALot) {
   DenseGrid nearly = MakeGrid({-3.0, -3.0, 0.0}, {3.0, 3.0, 1.5}, 0.075, 1e-3f);
   for (float& v : nearly.mutable_values()) v = u(rng) < 0.02 ? 0.999f : 1e-3f;
   const Eigen::Vector3d position(0.0375, 0.0375, 0.7125);
-  VolumetricGainConfig raw_config;
+  // Three camera rows, as measured (with five, the camera's returns off the free map's clamped
+  // cells, which raise the hit cell's entropy, outweigh the LIDAR's no-returns in the raw reading).
+  VolumetricGainConfig clamp_config;
+  clamp_config.sensors[0].rows = 3;
+  VolumetricGainConfig raw_config = clamp_config;
   raw_config.certain_probability = 0.0;  // the clamp's entropy counted as it is stored
-  for (const VolumetricGainConfig& config : {VolumetricGainConfig{}, raw_config}) {
+  for (const VolumetricGainConfig& config : {clamp_config, raw_config}) {
     const bool clamp_certain = config.certain_probability > 0.0;
     VolumetricGainEvaluator evaluator{config};
     VolumetricGainStats stats;
