@@ -57,15 +57,18 @@ TEST(Mission, ExploresLasrWithoutCollisionAndLands) {
 // office (20 x 14 m, eight rooms off a corridor): the paper's modes reached 71-78% in 900 s.
 // Measured (seed 1, 2026-12-02, volumetric, sensor models 0.1 / 0.05 m, margin 0.10 m): 95% known
 // at 330 s, ended by the gain rule at 552 s, returned home and landed, 0 collisions, known 0.971,
-// accuracy 0.987, Brier 0.019.
-TEST(Mission, ExploresOfficeWithoutCollisionAndLands) {
+// accuracy 0.987, Brier 0.019. Since the camera's depths beyond z_max (2026-12-07: 8 m, 5 gain
+// rows) the whole flight takes 767 s (95% at 395 s, known 0.976, home by the gain rule), so CI
+// flies the first 450 s only, to 95% known (the gain rule's end and the flight home are checked in
+// lasr, the corridor and the small room; the whole office flight: docs/STATUS.md, "Exploration").
+TEST(Mission, ExploresOfficeToNinetyFivePercentWithoutCollision) {
   MissionConfig mc = CiProfile();
   mc.world_file = "config/worlds/office.yaml";
-  mc.max_time_s = 900;
+  mc.max_time_s = 450;
   const MissionResult r = RunMission(mc);
   std::printf("%s", MissionSummary(r).c_str());
-  ExpectHomeByTheGainRule(r);
-  EXPECT_GE(r.quality.known_fraction, 0.95) << "measured 0.971";
+  EXPECT_EQ(r.collisions, 0);
+  EXPECT_GE(r.quality.known_fraction, 0.95) << "measured 0.959 at 450 s (95% at 395 s)";
   EXPECT_GT(r.time_to_95_s, 0) << "never 95% known";
   EXPECT_GE(r.quality.accuracy, 0.97) << "measured 0.987";
   EXPECT_LE(r.quality.brier, 0.03) << "measured 0.019";
@@ -95,6 +98,30 @@ TEST(Mission, FliesTheSmallRoomWithRealisticSensorErrors) {
     std::printf("%s", MissionSummary(r).c_str());
     ExpectHomeByTheGainRule(r);
     EXPECT_GE(r.quality.known_fraction, 0.85);
+    EXPECT_EQ(r.claims.free_outside, 0u);
+  }
+}
+
+// A corridor the camera sees along (tests/system/worlds/corridor.yaml: 1.6 m wide, 8.2 m north
+// then 7.4 m east, a ceiling 2.4 m up above the map's top at 2 m), seeds 1-3. Along it the depth
+// rays meet the far wall or the floor only beyond the camera model's z_max (4 m): the simulated
+// Xtion reports those depths, as a real one does, the mapper reads them as no-returns (evidence)
+// and the gain predicts them where the map's box holds the ray (docs/exploration.md "Volumetric
+// gain"). Measured 2026-12-07: known 0.926 / 0.925 / 0.994, 66 / 63 / 77 s of flight, home by the
+// gain rule, 8 s of wall time each. Before, with the simulated camera reading 0 beyond 4 m: 0.311,
+// the gain rule at 30 s without leaving the first leg; with the reported depths but not the
+// prediction: 0.703.
+TEST(Mission, ExploresALongCorridorFromTheCamerasDepthsBeyondItsRange) {
+  for (const int seed : {1, 2, 3}) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    MissionConfig mc = CiProfile();
+    mc.world_file = "tests/system/worlds/corridor.yaml";
+    mc.seed = seed;
+    mc.max_time_s = 300;
+    const MissionResult r = RunMission(mc);
+    std::printf("%s", MissionSummary(r).c_str());
+    ExpectHomeByTheGainRule(r);
+    EXPECT_GE(r.quality.known_fraction, 0.90);
     EXPECT_EQ(r.claims.free_outside, 0u);
   }
 }
