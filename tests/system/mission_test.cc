@@ -34,7 +34,10 @@ void ExpectHomeByTheGainRule(const MissionResult& r) {
 // A vehicle that only hovers reaches about 0.38. Since passages open at any angle (2026-12-07,
 // docs/exploration.md "Traversability": a 1.12 m door must open at every angle and offset, and at
 // some offsets one maps to 13 free cells, so 13-cell gaps now open) the flight takes lasr's
-// 0.975 m gaps too: 95% known at 170 s (155 s before), known 0.951, accuracy 0.992.
+// 0.975 m gaps too: 95% known at 170 s (155 s before), known 0.951, accuracy 0.992. With the
+// camera's depths beyond z_max (2026-12-07, docs/exploration.md "Volumetric gain"): 95% known at
+// 100 s, known 0.982, accuracy 0.991, but the gain rule ends the flight at 235 s (174 s before):
+// the gain sees more to learn near the end.
 TEST(Mission, ExploresLasrWithoutCollisionAndLands) {
   MissionConfig mc = CiProfile();
   mc.max_time_s = 900;
@@ -43,10 +46,10 @@ TEST(Mission, ExploresLasrWithoutCollisionAndLands) {
   ExpectHomeByTheGainRule(r);
   EXPECT_TRUE(r.done_status_published) << "EXPLORATION_STATUS never said DONE";
   EXPECT_GT(r.exploration_time_s, 0);
-  EXPECT_LT(r.exploration_time_s, 250) << "measured 174 s";
+  EXPECT_LT(r.exploration_time_s, 300) << "measured 235 s";
   EXPECT_GT(r.time_to_95_s, 0) << "never 95% known";
-  EXPECT_LE(r.time_to_95_s, 180) << "measured 170 s; the paper's experiment took 167 s";
-  EXPECT_GE(r.quality.known_fraction, 0.95) << "measured 0.951";
+  EXPECT_LE(r.time_to_95_s, 167) << "measured 100 s; the paper's experiment took 167 s";
+  EXPECT_GE(r.quality.known_fraction, 0.95) << "measured 0.982";
   EXPECT_GE(r.quality.accuracy, 0.97) << "measured 0.992";
   EXPECT_LE(r.quality.brier, 0.03) << "measured 0.014";
   EXPECT_LT(r.max_height_error_m, 0.15) << "measured 0.012 m";
