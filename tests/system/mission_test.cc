@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <limits>
+#include <string>
+#include <vector>
 
 namespace kestrel {
 namespace {
@@ -25,6 +27,26 @@ void ExpectHomeByTheGainRule(const MissionResult& r) {
   EXPECT_TRUE(r.landed) << r.end_reason;
   EXPECT_EQ(r.end_rule, "gain rule") << r.end_reason;
   EXPECT_EQ(r.landing.rfind("returned home", 0), 0u) << r.landing;
+}
+
+// Seeds 1-3 of `world_file` (300 s at most each, with `sim_overrides`): each flight ends by the
+// gain rule at home without a collision, at least `min_known` known, no free cell outside.
+void ExpectSeedsOneToThreeHomeByTheGainRule(const std::string& world_file,
+                                            const std::vector<std::string>& sim_overrides,
+                                            double min_known) {
+  for (const int seed : {1, 2, 3}) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    MissionConfig mc = CiProfile();
+    mc.world_file = world_file;
+    for (const std::string& o : sim_overrides) mc.sim_overrides.push_back(o);
+    mc.seed = seed;
+    mc.max_time_s = 300;
+    const MissionResult r = RunMission(mc);
+    std::printf("%s", MissionSummary(r).c_str());
+    ExpectHomeByTheGainRule(r);
+    EXPECT_GE(r.quality.known_fraction, min_known);
+    EXPECT_EQ(r.claims.free_outside, 0u);
+  }
 }
 
 // The volumetric mode (the default; docs/exploration.md). Measured (seed 1, 2026-12-02, sensor
@@ -90,19 +112,8 @@ TEST(Mission, ExploresOfficeToNinetyFivePercentWithoutCollision) {
 // half a cell inside a solid 1 702 / 11 / 316 (the uncalibrated mount's grazing rays:
 // docs/algorithms.md §12.4), so those are not bounded here.
 TEST(Mission, FliesTheSmallRoomWithRealisticSensorErrors) {
-  for (const int seed : {1, 2, 3}) {
-    SCOPED_TRACE("seed " + std::to_string(seed));
-    MissionConfig mc = CiProfile();
-    mc.world_file = "tests/system/worlds/small_room.yaml";
-    mc.sim_overrides.push_back("error_profile=realistic");
-    mc.seed = seed;
-    mc.max_time_s = 300;
-    const MissionResult r = RunMission(mc);
-    std::printf("%s", MissionSummary(r).c_str());
-    ExpectHomeByTheGainRule(r);
-    EXPECT_GE(r.quality.known_fraction, 0.85);
-    EXPECT_EQ(r.claims.free_outside, 0u);
-  }
+  ExpectSeedsOneToThreeHomeByTheGainRule("tests/system/worlds/small_room.yaml",
+                                         {"error_profile=realistic"}, 0.85);
 }
 
 // A corridor the camera sees along (tests/system/worlds/corridor.yaml: 1.6 m wide, 8.2 m north
@@ -115,18 +126,7 @@ TEST(Mission, FliesTheSmallRoomWithRealisticSensorErrors) {
 // the gain rule at 30 s without leaving the first leg; with the reported depths but not the
 // prediction: 0.703.
 TEST(Mission, ExploresALongCorridorFromTheCamerasDepthsBeyondItsRange) {
-  for (const int seed : {1, 2, 3}) {
-    SCOPED_TRACE("seed " + std::to_string(seed));
-    MissionConfig mc = CiProfile();
-    mc.world_file = "tests/system/worlds/corridor.yaml";
-    mc.seed = seed;
-    mc.max_time_s = 300;
-    const MissionResult r = RunMission(mc);
-    std::printf("%s", MissionSummary(r).c_str());
-    ExpectHomeByTheGainRule(r);
-    EXPECT_GE(r.quality.known_fraction, 0.90);
-    EXPECT_EQ(r.claims.free_outside, 0u);
-  }
+  ExpectSeedsOneToThreeHomeByTheGainRule("tests/system/worlds/corridor.yaml", {}, 0.90);
 }
 
 TEST(Mission, SurvivesDroppedSensorMessagesAndAMotionCaptureOutage) {
