@@ -20,11 +20,17 @@ int ExactUpdate::ForwardLikelihoods(const SensorModel& model, const Reading& rea
     while (end > 0 && distance_m[end - 1] > reach_m) --end;  // same cut as Apply
     int k = 0;
     // The leading cells outside the Gaussian window: a_k is the spurious term alone.
-    for (; k < end && model.SpuriousOnly(reading.z_m, distance_m[k]); ++k) {
+    for (; k < end && model.SpuriousOnly(reading, distance_m[k]); ++k) {
       likelihood[k] = model.spurious_density();
     }
-    const ReturnLikelihoodEvaluator a_k = model.ReturnEvaluator();  // same values as Apply's
-    for (; k < end; ++k) likelihood[k] = a_k(reading.z_m, distance_m[k]);
+    // The same values as Apply's (docs/algorithms.md §3.8 for a band).
+    const ReturnLikelihoodEvaluator a_k = model.ReturnEvaluator();
+    if (!reading.has_band()) {
+      for (; k < end; ++k) likelihood[k] = a_k(reading.z_m, distance_m[k]);
+    } else {
+      const double lo = reading.z_m - reading.below_m, band_scale = model.BandScale(reading);
+      for (; k < end; ++k) likelihood[k] = a_k.Banded(lo, reading.z_m, band_scale, distance_m[k]);
+    }
     return end;
   }
   for (int k = 0; k < n; ++k) likelihood[k] = model.NoReturnProbability(distance_m[k]);

@@ -232,15 +232,21 @@ ExactForward ExactUpdate::Forward(const SensorModel& model, const Reading& readi
     const double reach_m = model.GaussianReach(z);
     f.end = n;
     while (f.end > 0 && distance_m[f.end - 1] > reach_m) --f.end;  // the last cell or two
+    const double lo = z - reading.below_m;                         // z without a band
     const int run_end =
-        PrefixEnd(distance_m, 0, f.end, [&](double d) { return model.SpuriousOnly(z, d); });
+        PrefixEnd(distance_m, 0, f.end, [&](double d) { return model.SpuriousOnly(lo, d); });
     run(0, run_end, model.spurious_density());
     if (run_end < f.end) {
+      const ReturnLikelihoodEvaluator a_k = model.ReturnEvaluator();
       if (likelihood) {
         window(run_end, f.end, [likelihood](int k) { return likelihood[k]; });
-      } else {
-        const ReturnLikelihoodEvaluator a_k = model.ReturnEvaluator();
+      } else if (!reading.has_band()) {
         window(run_end, f.end, [&a_k, z, &distance_m](int k) { return a_k(z, distance_m[k]); });
+      } else {
+        const double band_scale = model.BandScale(reading);
+        window(run_end, f.end, [&a_k, lo, z, band_scale, &distance_m](int k) {
+          return a_k.Banded(lo, z, band_scale, distance_m[k]);
+        });
       }
     }
     tail_a = model.spurious_density();  // eq. (4), completed tail: p_rand u prod Pbar

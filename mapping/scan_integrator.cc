@@ -188,6 +188,26 @@ ScanStats ScanIntegrator::IntegrateDepthImage(const Pose3& X_WS, const DepthIntr
       "IntegrateDepthImage: pose must be finite with |q| in (0.5, 1.5), |q| = " << X_WS.q.norm());
   const Eigen::Matrix3d R_WS = X_WS.q.normalized().toRotationMatrix();
   const OccupancyUpdater& updater = UpdaterOf(map_);
+  // Range bands (docs/algorithms.md §3.8): the nearest range in each pixel's window of +-ku
+  // columns and +-kv rows.
+  const double delta = model.config().direction_uncertainty_rad;
+  const bool bands = delta > 0.0;
+  if (bands) {
+    const size_t n = static_cast<size_t>(width) * static_cast<size_t>(height);
+    band_range_.resize(n);
+    band_nearest_.resize(n);
+    for (int v = 0; v < height; ++v) {
+      for (int u = 0; u < width; ++u) {
+        const size_t i = static_cast<size_t>(u) + static_cast<size_t>(v) * width;
+        const Eigen::Vector2d xy((u - in.cx) / in.fx, (v - in.cy) / in.fy);
+        band_range_[i] = depth[i] == 0
+                             ? std::nan("")
+                             : depth[i] * depth_scale_m * std::sqrt(1.0 + xy.squaredNorm());
+      }
+    }
+    WindowMin(band_range_.data(), width, height, BandWindowHalfWidth(delta, in.fx),
+              BandWindowHalfWidth(delta, in.fy), band_nearest_.data(), &band_scratch_);
+  }
   // Row-major: ray i is pixel (u, v) = (i % width, i / width).
   const auto source = [&](int i, RaySpec* spec) {
     const int v = i / width;
@@ -196,7 +216,9 @@ ScanStats ScanIntegrator::IntegrateDepthImage(const Pose3& X_WS, const DepthIntr
         DepthPixelRay(X_WS, R_WS, in, u, v, depth[static_cast<size_t>(i)], depth_scale_m, model);
     spec->segment.origin_W = ray.origin_W;
     spec->segment.direction_W = ray.direction_W;
-    spec->reading = ray.reading;
+    spec->reading = bands ? WithRangeBand(ray.reading, band_nearest_[static_cast<size_t>(i)],
+                                          model.config().z_max_m)
+                          : ray.reading;
     if (spec->reading.kind != ReadingKind::kInvalid) {
       spec->segment.length_m = updater.CastLength(model, spec->reading);
     }
@@ -218,12 +240,27 @@ ScanStats ScanIntegrator::IntegratePlanarScan(const Pose3& X_WS, double angle_mi
       "IntegratePlanarScan: pose must be finite with |q| in (0.5, 1.5), |q| = " << X_WS.q.norm());
   const Eigen::Matrix3d R_WS = X_WS.q.normalized().toRotationMatrix();
   const OccupancyUpdater& updater = UpdaterOf(map_);
+  // Range bands (docs/algorithms.md §3.8): the nearest range within +-k beams.
+  const double delta = model.config().direction_uncertainty_rad;
+  const bool bands = delta > 0.0 && count > 0;
+  if (bands) {
+    band_range_.resize(static_cast<size_t>(count));
+    band_nearest_.resize(static_cast<size_t>(count));
+    for (int i = 0; i < count; ++i) {
+      const double r = ranges_m[i];
+      band_range_[static_cast<size_t>(i)] = r >= 0.0 ? r : std::nan("");  // NaN, negative: none
+    }
+    WindowMin(band_range_.data(), count, 1, BandWindowHalfWidth(delta, 1.0 / angle_step_rad), 0,
+              band_nearest_.data(), &band_scratch_);
+  }
   const auto source = [&](int i, RaySpec* spec) {
     const SensorRay ray =
         PlanarBeamRay(X_WS, R_WS, angle_min_rad, angle_step_rad, i, ranges_m[i], model);
     spec->segment.origin_W = ray.origin_W;
     spec->segment.direction_W = ray.direction_W;
-    spec->reading = ray.reading;
+    spec->reading = bands ? WithRangeBand(ray.reading, band_nearest_[static_cast<size_t>(i)],
+                                          model.config().z_max_m)
+                          : ray.reading;
     if (spec->reading.kind != ReadingKind::kInvalid) {
       spec->segment.length_m = updater.CastLength(model, spec->reading);
     }

@@ -23,6 +23,7 @@
 
 #include "common/se3.h"
 #include "mapping/occupancy_map.h"
+#include "mapping/range_bands.h"
 #include "mapping/ray_batch_pipeline.h"
 #include "mapping/ray_caster.h"
 #include "mapping/sensor_model.h"
@@ -103,6 +104,8 @@ class ScanIntegrator {
   /// Applies a depth image, row-major. depth[v * width + u] * depth_scale_m is the depth along
   /// the optical axis (m), converted to the range along the pixel's ray; 0 means "no return"
   /// where the model's no_return_informs, and is dropped as invalid otherwise (DepthPixelRay).
+  /// With the model's direction_uncertainty_rad above 0 each reading gets its range band from
+  /// the pixels within that angle (mapping/range_bands.h; docs/algorithms.md §3.8).
   /// X_WS is the pose of the optical frame S in W.
   /// @throws std::invalid_argument on non-positive sizes (or more than 2^30 pixels), fx/fy/scale
   /// not positive and finite, a non-finite pose or |q| outside (0.5, 1.5).
@@ -112,7 +115,8 @@ class ScanIntegrator {
 
   /// Applies a planar scan in ascending angle: beam i looks along angle_min_rad + i *
   /// angle_step_rad about z of the LIDAR frame S (x forward, z up); ranges_m[i] is classified by
-  /// the model (+inf or >= z_max: no return; NaN, negative, < z_min: invalid).
+  /// the model (+inf or >= z_max: no return; NaN, negative, < z_min: invalid); range bands from
+  /// the beams within the model's direction_uncertainty_rad, as for depth images.
   /// @throws std::invalid_argument unless angle_step_rad > 0, the angles are finite, the pose is
   /// finite and |q| in (0.5, 1.5).
   ScanStats IntegratePlanarScan(const Pose3& X_WS, double angle_min_rad, double angle_step_rad,
@@ -160,6 +164,8 @@ class ScanIntegrator {
   RayBatch batch_;
   WorkerChoice choices_[2];                     // per ScanKind of scans: with the worker or not
   std::unique_ptr<RayBatchPipeline> pipeline_;  // the worker thread
+  // Range bands (mapping/range_bands.h), per sample of the current image or scan.
+  std::vector<double> band_range_, band_nearest_, band_scratch_;
 };
 
 }  // namespace kestrel

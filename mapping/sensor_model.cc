@@ -48,6 +48,9 @@ void SensorModelConfig::Validate() const {
                        "sensor model p_miss = " << p_miss << ", accepted (0, 1)");
   KESTREL_THROW_UNLESS(cutoff_sigmas >= 5.0,
                        "sensor model cutoff_sigmas = " << cutoff_sigmas << ", accepted [5, inf]");
+  KESTREL_THROW_UNLESS(direction_uncertainty_rad >= 0.0 && direction_uncertainty_rad <= 0.2,
+                       "sensor model direction_uncertainty_rad = " << direction_uncertainty_rad
+                                                                   << ", accepted [0, 0.2]");
 }
 
 SensorModel::SensorModel(const SensorModelConfig& config) : config_(config) {
@@ -58,6 +61,7 @@ SensorModel::SensorModel(const SensorModelConfig& config) : config_(config) {
       (1.0 - config_.p_rand) * (1.0 - config_.p_miss) / (config_.sigma_m * std::sqrt(2.0 * M_PI));
   inv_sigma2_ = 1.0 / (config_.sigma_m * config_.sigma_m);
   inv_sigma_sqrt2_ = 1.0 / (config_.sigma_m * std::sqrt(2.0));
+  inv_sigma_sqrt_2pi_ = 1.0 / (config_.sigma_m * std::sqrt(2.0 * M_PI));
   cutoff_m_ = config_.cutoff_sigmas * config_.sigma_m;
   in_range_no_return_ = (1.0 - config_.p_rand) * config_.p_miss;
   if (config_.interpolated_gaussian && std::isfinite(config_.cutoff_sigmas)) {
@@ -107,6 +111,10 @@ double ReturnLikelihoodEvaluator::Direct(double r, double d_m) const {
   return spurious_density_ + model_->DirectGaussianTerm(r, d_m);
 }
 
+double ReturnLikelihoodEvaluator::DirectBanded(double r, double d_m, double band_scale) const {
+  return spurious_density_ + band_scale * model_->DirectGaussianTerm(r, d_m);
+}
+
 bool SensorModel::FillLikelihoods(const Reading* readings, int count, const double* distance_m,
                                   int rows, double* likelihood,
                                   const kernels::Kernels& kernels) const {
@@ -115,11 +123,17 @@ bool SensorModel::FillLikelihoods(const Reading* readings, int count, const doub
                        "FillLikelihoods: count = " << count << ", rows = " << rows
                                                    << ", accepted count in [0, 8], rows >= 0");
   if (kernels.fill_likelihoods == nullptr || gaussian_table_.empty()) return false;
+  alignas(64) double lo[lanes::kLanes] = {};
   alignas(64) double z[lanes::kLanes] = {};
+  alignas(64) double scale[lanes::kLanes] = {};
   unsigned is_return = 0;
   for (int l = 0; l < count; ++l) {
-    if (readings[l].kind == ReadingKind::kReturn) {
-      z[l] = readings[l].z_m;
+    const Reading& r = readings[l];
+    if (r.kind == ReadingKind::kReturn) {
+      // Without a band: lo = z and the plain height (times 1, the same bits).
+      lo[l] = r.z_m - r.below_m;
+      z[l] = r.z_m;
+      scale[l] = gaussian_scale_ * BandScale(r);
       is_return |= 1u << l;
     }
   }
@@ -137,7 +151,7 @@ bool SensorModel::FillLikelihoods(const Reading* readings, int count, const doub
                                    e.gaussian_scale_,
                                    1.0 - config_.p_rand,
                                    in_range_no_return_};
-  kernels.fill_likelihoods(c, z, is_return, distance_m, rows, likelihood);
+  kernels.fill_likelihoods(c, lo, z, scale, is_return, distance_m, rows, likelihood);
   return true;
 }
 

@@ -27,6 +27,7 @@
 /// map (6e-8); the exactness oracle of section 4 uses the same a_k on both sides. Off, every a_k
 /// is evaluated with exp and erfc.
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -52,6 +53,13 @@ struct SensorModelConfig {
   /// depth pixel of 0 is invalid (dropped and counted) and the explorer predicts no information
   /// from the no-return hypothesis. A range at or beyond z_max is a no-return either way.
   bool no_return_informs{true};
+  /// How well the sensor's ray directions are known, rad (the mount's and the attitude's error
+  /// together; docs/algorithms.md §3.8). Above 0, a return's range band (Reading::below_m)
+  /// reaches down to the nearest range read within this angle of its ray (ScanIntegrator): the
+  /// first surface along the believed ray may lie anywhere from there to z, so no cell in the
+  /// band is freed by that return. 0 (the default): every ray's direction is taken as exact,
+  /// and the map is the one without bands, bit for bit.
+  double direction_uncertainty_rad{0.0};
 
   /// Kestrel's Asus Xtion (config/mapper.yaml; docs/algorithms.md §3.4, §3.6): sigma 0.1 m,
   /// 0.61..4 m along the ray (the device's 0.5 m minimum is axial: 0.61 m along a corner ray), a
@@ -65,7 +73,8 @@ struct SensorModelConfig {
   [[nodiscard]] static SensorModelConfig PaperHokuyo();
 
   /// @throws std::invalid_argument naming the key, value and accepted range: sigma_m > 0,
-  /// 0 <= z_min_m < z_max_m (finite), p_rand in (0, 1), p_miss in (0, 1), cutoff_sigmas >= 5.
+  /// 0 <= z_min_m < z_max_m (finite), p_rand in (0, 1), p_miss in (0, 1), cutoff_sigmas >= 5,
+  /// direction_uncertainty_rad in [0, 0.2].
   void Validate() const;
 };
 
@@ -80,6 +89,13 @@ enum class ReadingKind {
 struct Reading {
   ReadingKind kind{ReadingKind::kInvalid};  ///< what the reading says
   double z_m{0.0};                          ///< the range for kReturn, m; unused otherwise
+  /// The range band of a return (docs/algorithms.md §3.8): the first surface along the believed
+  /// ray may lie anywhere in [z - below_m, z], since the ray's true direction is known only to
+  /// the sensor's direction_uncertainty_rad. 0: the plain model of section 3.
+  double below_m{0.0};
+
+  /// Whether the reading carries a band.
+  [[nodiscard]] bool has_band() const { return below_m > 0.0; }
 };
 
 class SensorModel;
@@ -104,6 +120,23 @@ class ReturnLikelihoodEvaluator {
     return Direct(r, d_m);
   }
 
+  /// a_k for a return z_m with a range band [lo_m, z_m] (docs/algorithms.md §3.8): the Gaussian
+  /// of the distance from d to the band (0 inside it), its height scaled by `band_scale` =
+  /// 1/(1 + (z - lo)/(sigma sqrt(2 pi))) so that it stays a density in z. With lo = z and
+  /// band_scale = 1 the same value as operator()(z, d), bit for bit.
+  [[nodiscard]] double Banded(double lo_m, double z_m, double band_scale, double d_m) const {
+    if (!(d_m >= z_min_m_ && d_m < z_max_m_)) return spurious_density_;
+    const double r = std::max(std::max(lo_m - d_m, d_m - z_m), 0.0);
+    if (r > cutoff_m_) return spurious_density_;  // Gaussian window
+    if (gaussian_table_ != nullptr) {
+      return spurious_density_ +
+             gaussian_scale_ * band_scale *
+                 Hermite(gaussian_table_, gaussian_last_, r * gaussian_index_per_m_) *
+                 Hermite(inv_mass_table_, mass_last_, (d_m - z_min_m_) * mass_index_per_m_);
+    }
+    return DirectBanded(r, d_m, band_scale);
+  }
+
  private:
   friend class SensorModel;
   // Cubic Hermite interpolation at fractional index s >= 0 in a table of per-interval polynomial
@@ -119,6 +152,8 @@ class ReturnLikelihoodEvaluator {
   }
   // Section 3 evaluated with exp and erfc (tables off).
   double Direct(double r, double d_m) const;
+  // The same with the Gaussian term's height times band_scale.
+  double DirectBanded(double r, double d_m, double band_scale) const;
 
   const SensorModel* model_{nullptr};
   double z_min_m_{0.0};
@@ -156,6 +191,12 @@ class SensorModel {
   [[nodiscard]] double empty_no_return_probability() const { return 1.0 - config_.p_rand; }
   /// Largest distance d_k at which a return z may still see the Gaussian: z + c*sigma, m.
   [[nodiscard]] double GaussianReach(double z_m) const { return z_m + cutoff_m_; }
+  /// 1/(1 + w/(sigma sqrt(2 pi))) for a band of width w = below_m (1 without a band): the
+  /// banded Gaussian's height relative to the plain one's (docs/algorithms.md §3.8).
+  [[nodiscard]] double BandScale(const Reading& reading) const {
+    if (!reading.has_band()) return 1.0;
+    return 1.0 / (1.0 + reading.below_m * inv_sigma_sqrt_2pi_);
+  }
 
   /// Whether a cell at distance d_m is certainly outside the Gaussian window of a return z_m on
   /// the near side (d < z_min, or z - d > c sigma): then ReturnLikelihood(z_m, d_m) is exactly
@@ -170,6 +211,17 @@ class SensorModel {
   /// comment; window included). Precondition: z_m in [z_min, z_max).
   [[nodiscard]] double ReturnLikelihood(double z_m, double d_m) const {
     return ReturnEvaluator()(z_m, d_m);
+  }
+  /// The same for a return with its range band (docs/algorithms.md §3.8; equal to
+  /// ReturnLikelihood(z, d) without a band).
+  [[nodiscard]] double ReturnLikelihood(const Reading& reading, double d_m) const {
+    if (!reading.has_band()) return ReturnLikelihood(reading.z_m, d_m);
+    return ReturnEvaluator().Banded(reading.z_m - reading.below_m, reading.z_m, BandScale(reading),
+                                    d_m);
+  }
+  /// SpuriousOnly for a return with its range band: d < z_min, or z - below - d > c sigma.
+  [[nodiscard]] bool SpuriousOnly(const Reading& reading, double d_m) const {
+    return SpuriousOnly(reading.z_m - reading.below_m, d_m);
   }
   /// ReturnLikelihood as a value for inner loops (ReturnLikelihoodEvaluator).
   [[nodiscard]] ReturnLikelihoodEvaluator ReturnEvaluator() const {
@@ -197,7 +249,7 @@ class SensorModel {
   }
 
   /// a_k for eight rays at once, in RayBatch's layout (ray_caster.h): for lanes l < count and
-  /// rows k < rows, likelihood[k * kLanes + l] = ReturnLikelihood(readings[l].z_m, d) for a
+  /// rows k < rows, likelihood[k * kLanes + l] = ReturnLikelihood(readings[l], d) for a
   /// return and NoReturnProbability(d) otherwise, d = distance_m[k * kLanes + l], bit for bit.
   /// Lanes at or beyond count and invalid readings get NoReturnProbability (values nobody
   /// reads). Only with the tables (interpolated_gaussian) and with kernels that have it
@@ -239,6 +291,7 @@ class SensorModel {
   double gaussian_scale_;  // (1 - p_rand)(1 - p_miss) / (sigma sqrt(2 pi))
   double inv_sigma2_;
   double inv_sigma_sqrt2_;
+  double inv_sigma_sqrt_2pi_;  // 1/(sigma sqrt(2 pi))
   double cutoff_m_;
   double in_range_no_return_;
 };

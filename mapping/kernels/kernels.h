@@ -52,9 +52,12 @@ struct LikelihoodLanes {
   double near_none, in_range_none;  // P(none | r_k+) below z_min / in range
 };
 
-/// SensorModel::FillLikelihoods's eight lanes: a_k for `rows` rows of distance_m (z[l] the
-/// return of lane l where bit l of is_return is set).
-using FillLikelihoodsFn = void (*)(const LikelihoodLanes& c, const double* z, unsigned is_return,
+/// SensorModel::FillLikelihoods's eight lanes: a_k for `rows` rows of distance_m, where bit l of
+/// is_return is set, for a return z[l] of lane l whose range band is [lo[l], z[l]] (lo = z
+/// without a band) and whose Gaussian height is scale[l] (c.scale times the band's scale;
+/// docs/algorithms.md §3.8).
+using FillLikelihoodsFn = void (*)(const LikelihoodLanes& c, const double* lo, const double* z,
+                                   const double* scale, unsigned is_return,
                                    const double* distance_m, int rows, double* likelihood);
 
 /// The write step of ExactBayesUpdater's update for n cells (docs/algorithms.md §4.7): cell i's

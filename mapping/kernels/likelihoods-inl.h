@@ -99,21 +99,24 @@ HWY_INLINE V HermiteLanes(D d, const double* table, double last, V s) {
 
 // kernels::FillLikelihoodsFn: SensorModel::ReturnLikelihood / NoReturnProbability in every lane,
 // a row of Lanes(D8) lanes at a time.
-void FillLikelihoods(const LikelihoodLanes& c, const double* z, unsigned is_return,
-                     const double* distance_m, int rows, double* likelihood) {
+void FillLikelihoods(const LikelihoodLanes& c, const double* lo, const double* z,
+                     const double* scale_of_lane, unsigned is_return, const double* distance_m,
+                     int rows, double* likelihood) {
   const ZeroUpperOnReturn zero_upper;
   const D8 d;
   using V = hn::Vec<D8>;
   const V z_min = hn::Set(d, c.z_min), z_max = hn::Set(d, c.z_max);
   const V cutoff = hn::Set(d, c.cutoff), spurious = hn::Set(d, c.spurious);
-  const V scale = hn::Set(d, c.scale);
+  const V zero = hn::Zero(d);
   const V g_per_m = hn::Set(d, c.gaussian_index_per_m);
   const V m_per_m = hn::Set(d, c.mass_index_per_m);
   const V near_none = hn::Set(d, c.near_none);
   const V in_range_none = hn::Set(d, c.in_range_none);
   const size_t n = hn::Lanes(d);
   for (size_t first = 0; first < static_cast<size_t>(lanes::kLanes); first += n) {
+    const V v_lo = hn::LoadU(d, lo + first);
     const V v_z = hn::LoadU(d, z + first);
+    const V scale = hn::LoadU(d, scale_of_lane + first);
     const auto returns = LaneBits(d, is_return, first);
     for (int k = 0; k < rows; ++k) {
       const ptrdiff_t at =
@@ -123,7 +126,8 @@ void FillLikelihoods(const LikelihoodLanes& c, const double* z, unsigned is_retu
       const auto in_range = hn::And(hn::Ge(dk, z_min), hn::Lt(dk, z_max));
       const V none = hn::IfThenElse(in_range, in_range_none, near_none);
       // Return lanes: the spurious term outside the window, p_rand u + scale G(r) / D(d) inside.
-      const V r = hn::Abs(hn::Sub(v_z, dk));  // |z - d|
+      // The distance from d to the band [lo, z]: |z - d| without a band.
+      const V r = hn::Max(hn::Max(hn::Sub(v_lo, dk), hn::Sub(dk, v_z)), zero);
       const auto window = hn::And(hn::And(returns, in_range), hn::Le(r, cutoff));
       V a = hn::IfThenElse(returns, spurious, none);
       if (!hn::AllFalse(d, window)) {

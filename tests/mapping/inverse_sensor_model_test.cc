@@ -35,8 +35,7 @@ std::vector<double> BruteForcePosteriors(const SensorModel& model, const Reading
     }
     double likelihood;
     if (reading.kind == ReadingKind::kReturn) {
-      likelihood =
-          first < 0 ? model.spurious_density() : model.ReturnLikelihood(reading.z_m, d[first]);
+      likelihood = first < 0 ? model.spurious_density() : model.ReturnLikelihood(reading, d[first]);
     } else {
       likelihood =
           first < 0 ? model.empty_no_return_probability() : model.NoReturnProbability(d[first]);
@@ -99,7 +98,7 @@ void ExpectMatchesBruteForce(const SensorModel& model, const Reading& reading,
     if (reading.kind == ReadingKind::kNoReturn) {
       // No return: exactly the cells with d_k >= z_min are written.
       ASSERT_EQ(written, d[k] >= model.config().z_min_m) << "k = " << k;
-    } else if (d[k] <= model.GaussianReach(reading.z_m)) {
+    } else if (d[k] <= model.GaussianReach(reading.z_m)) {  // the band lies before z
       ASSERT_TRUE(written) << "k = " << k;
     }
     if (written) {
@@ -152,6 +151,74 @@ TEST(InverseSensorModel, MatchesBruteForceEnumeration) {
       if (HasFatalFailure()) return;
     }
   }
+}
+
+// Returns with a range band (docs/algorithms.md §3.8): the O(n_r) update still equals 2^n_r
+// enumeration under the banded likelihood, and no cell inside the band [z - below, z] (and in
+// range) loses probability: a return whose direction is uncertain frees nothing it may have met.
+TEST(InverseSensorModel, RangeBandsMatchBruteForceAndFreeNothingInTheBand) {
+  std::mt19937 rng(4321);
+  for (SensorModelConfig config : {SensorModelConfig::Xtion(), SensorModelConfig::PaperHokuyo()}) {
+    for (const bool tables : {true, false}) {
+      config.interpolated_gaussian = tables;
+      const SensorModel model(config);
+      int band_cells = 0;
+      for (int trial = 0; trial < 300; ++trial) {
+        const int n = 1 + static_cast<int>(rng() % 14);
+        const double start = std::uniform_real_distribution<double>(0.0, 3.0)(rng);
+        const double spacing = std::uniform_real_distribution<double>(0.02, 0.3)(rng);
+        const std::vector<double> d = RandomDistances(rng, n, start, spacing);
+        const std::vector<double> prior = RandomPriors(rng, n);
+        const double z =
+            std::uniform_real_distribution<double>(config.z_min_m, config.z_max_m)(rng);
+        Reading reading = model.Classify(z);
+        reading.below_m = std::uniform_real_distribution<double>(0.0, 2.0)(rng);
+        ExpectMatchesBruteForce(model, reading, d, prior);
+        if (HasFatalFailure()) return;
+        InverseSensorModelScratch scratch(n + 1);
+        std::vector<double> posterior(prior);
+        ComputeExactPosteriors(model, reading, d.data(), prior.data(), n, posterior.data(),
+                               &scratch);
+        for (int k = 0; k < n; ++k) {
+          // In the band and in the sensor's range (a surface nearer than z_min gives no return).
+          if (d[k] >= std::max(reading.z_m - reading.below_m, config.z_min_m) &&
+              d[k] <= reading.z_m) {
+            ++band_cells;
+            EXPECT_GE(posterior[k], prior[k] * (1.0 - 1e-6)) << "k = " << k << " d = " << d[k];
+          }
+        }
+      }
+      EXPECT_GT(band_cells, 100);
+    }
+  }
+}
+
+// The banded likelihood: 1/(1 + w/(sigma sqrt(2 pi))) of the plain peak anywhere in the band,
+// the plain Gaussian of the distance to the band outside it, the plain model without a band.
+TEST(SensorModel, RangeBandIsAPlateauOfTheGaussian) {
+  SensorModelConfig config = SensorModelConfig::Xtion();
+  config.interpolated_gaussian = false;
+  const SensorModel model(config);
+  const double sigma = config.sigma_m, z = 3.0, w = 0.5;
+  const Reading plain{ReadingKind::kReturn, z};
+  const Reading banded{ReadingKind::kReturn, z, w};
+  const double scale = 1.0 / (1.0 + w / (sigma * std::sqrt(2.0 * M_PI)));
+  EXPECT_DOUBLE_EQ(model.BandScale(banded), scale);
+  const double u = model.spurious_density();
+  // ReturnLikelihood(d + r, d) - u is the plain Gaussian term at distance r from d.
+  for (const double d : {z - w, z - 0.3, z - 0.01, z}) {
+    EXPECT_NEAR(model.ReturnLikelihood(banded, d) - u, scale * (model.ReturnLikelihood(d, d) - u),
+                1e-12)
+        << "d = " << d;
+  }
+  for (const double off : {0.05, 0.2}) {
+    const double d = z - w - off;  // nearer than the band: the distance to its near end
+    EXPECT_NEAR(model.ReturnLikelihood(banded, d) - u,
+                scale * (model.ReturnLikelihood(d + off, d) - u), 1e-12);
+    EXPECT_NEAR(model.ReturnLikelihood(banded, z + off) - u,  // beyond z: as without a band
+                scale * (model.ReturnLikelihood(plain, z + off) - u), 1e-12);
+  }
+  EXPECT_EQ(model.ReturnLikelihood(plain, 2.5), model.ReturnLikelihood(z, 2.5));
 }
 
 // The same with the untruncated Gaussian (cutoff +inf): nothing is left out and the algebra
@@ -385,16 +452,19 @@ TEST(SensorModel, BatchLikelihoodsEqualTheModelBitForBit) {
           readings[l] = kind == 0   ? Reading{ReadingKind::kNoReturn, 0.0}
                         : kind == 1 ? Reading{ReadingKind::kInvalid, 0.0}
                                     : Reading{ReadingKind::kReturn, range(rng)};
+          // Some returns with a range band (docs/algorithms.md §3.8).
+          if (kind >= 5) readings[l].below_m = std::uniform_real_distribution<double>(0, 1.5)(rng);
         }
         constexpr int kRows = 40;
         std::vector<double> d(kRows * kL), a(kRows * kL, -1.0);
         for (int k = 0; k < kRows; ++k) {
           for (int l = 0; l < kL; ++l) {
             const double z = readings[l].z_m;
-            const double edges[] = {config.z_min_m, config.z_max_m, z - cutoff, z + cutoff, z};
+            const double lo = z - readings[l].below_m;
+            const double edges[] = {config.z_min_m, config.z_max_m, lo - cutoff, z + cutoff, z, lo};
             double v = std::uniform_real_distribution<double>(0.0, config.z_max_m + 0.5)(rng);
             if (rng() % 3 == 0) {
-              v = edges[rng() % 5];
+              v = edges[rng() % 6];
               const int ulps = static_cast<int>(rng() % 3) - 1;  // on it, or one ulp either side
               if (ulps != 0) v = std::nextafter(v, ulps > 0 ? 1e9 : -1e9);
             }
@@ -407,7 +477,7 @@ TEST(SensorModel, BatchLikelihoodsEqualTheModelBitForBit) {
           for (int l = 0; l < count; ++l) {
             const double dk = d[k * kL + l];
             const double expected = readings[l].kind == ReadingKind::kReturn
-                                        ? model.ReturnLikelihood(readings[l].z_m, dk)
+                                        ? model.ReturnLikelihood(readings[l], dk)
                                         : model.NoReturnProbability(dk);
             ASSERT_EQ(a[k * kL + l], expected)
                 << "lane " << l << " z = " << readings[l].z_m << " d = " << dk;
