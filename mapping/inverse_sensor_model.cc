@@ -16,8 +16,13 @@ int ExactUpdate::ForwardLikelihoods(const SensorModel& model, const Reading& rea
                        "ForwardLikelihoods: invalid readings must be dropped by the caller");
   if (reading.kind == ReadingKind::kReturn) {
     const double reach_m = model.GaussianReach(reading.z_m);
+    const double lo = reading.z_m - reading.below_m;
     int end = n;
-    while (end > 0 && distance_m[end - 1] > reach_m) --end;  // same cut as Apply
+    if (reading.surface_unknown) {
+      while (end > 0 && !(distance_m[end - 1] < lo)) --end;  // same cut as Apply
+    } else {
+      while (end > 0 && distance_m[end - 1] > reach_m) --end;  // same cut as Apply
+    }
     int k = 0;
     // The leading cells outside the Gaussian window: a_k is the spurious term alone.
     for (; k < end && model.SpuriousOnly(reading, distance_m[k]); ++k) {
@@ -28,7 +33,7 @@ int ExactUpdate::ForwardLikelihoods(const SensorModel& model, const Reading& rea
     if (!reading.has_band()) {
       for (; k < end; ++k) likelihood[k] = a_k(reading.z_m, distance_m[k]);
     } else {
-      const double lo = reading.z_m - reading.below_m, band_scale = model.BandScale(reading);
+      const double band_scale = model.BandScale(reading);
       for (; k < end; ++k) likelihood[k] = a_k.Banded(lo, reading.z_m, band_scale, distance_m[k]);
     }
     return end;

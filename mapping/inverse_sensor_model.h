@@ -228,11 +228,17 @@ ExactForward ExactUpdate::Forward(const SensorModel& model, const Reading& readi
   double tail_a;  // a_(nr+1), the empty ray's likelihood
   if (reading.kind == ReadingKind::kReturn) {
     const double z = reading.z_m;
-    // Shortcut: cells with d_k > z + c sigma are left out (docs/algorithms.md §4.2).
-    const double reach_m = model.GaussianReach(z);
+    const double lo = z - reading.below_m;  // z without a band
     f.end = n;
-    while (f.end > 0 && distance_m[f.end - 1] > reach_m) --f.end;  // the last cell or two
-    const double lo = z - reading.below_m;                         // z without a band
+    if (reading.surface_unknown) {
+      // Every hypothesis from lo on explains the reading alike (docs/algorithms.md §3.8): those
+      // cells keep their priors, so the cells from lo on are left out.
+      f.end = PrefixEnd(distance_m, 0, n, [lo](double d) { return d < lo; });
+    } else {
+      // Shortcut: cells with d_k > z + c sigma are left out (docs/algorithms.md §4.2).
+      const double reach_m = model.GaussianReach(z);
+      while (f.end > 0 && distance_m[f.end - 1] > reach_m) --f.end;  // the last cell or two
+    }
     const int run_end =
         PrefixEnd(distance_m, 0, f.end, [&](double d) { return model.SpuriousOnly(lo, d); });
     run(0, run_end, model.spurious_density());
@@ -249,7 +255,8 @@ ExactForward ExactUpdate::Forward(const SensorModel& model, const Reading& readi
         });
       }
     }
-    tail_a = model.spurious_density();  // eq. (4), completed tail: p_rand u prod Pbar
+    // Eq. (4), completed tail: p_rand u prod Pbar (the plateau's height for surface_unknown).
+    tail_a = model.EmptyRayLikelihood(reading);
   } else {
     // NoReturnProbability: in range [z_min, z_max) or not; d_k does not decrease.
     const double z_min = model.config().z_min_m, z_max = model.config().z_max_m;

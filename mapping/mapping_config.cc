@@ -34,6 +34,7 @@ void ReadSensorModelConfig(const ConfigNode& node, SensorModelConfig* c) {
   node.Read("interpolated_gaussian", &c->interpolated_gaussian);
   node.Read("no_return_informs", &c->no_return_informs);
   node.Read("direction_uncertainty_rad", &c->direction_uncertainty_rad, Range::Closed(0.0, 0.2));
+  node.Read("band_surface_max_m", &c->band_surface_max_m, Range::NonNegative());
   ValidateAt(node, {"z_max_m", "z_min_m", "sigma_m", "p_rand", "p_miss", "cutoff_sigmas"},
              [&] { c->Validate(); });
 }

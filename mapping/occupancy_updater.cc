@@ -27,6 +27,10 @@ ExactBayesUpdater::ExactBayesUpdater(const OccupancyLimits& limits, int capacity
 double ExactBayesUpdater::CastLength(const SensorModel& model, const Reading& reading) const {
   const double z_max = model.config().z_max_m;
   if (reading.kind != ReadingKind::kReturn) return z_max;
+  // A surface_unknown return updates only the cells before its band (docs/algorithms.md §3.8).
+  if (reading.surface_unknown) {
+    return std::min(z_max, reading.z_m - reading.below_m + diagonal_m_ * (1.0 + 1e-9));
+  }
   // Cells with d_k <= z + c sigma have entry <= z + c sigma and a chord of at most sqrt(3)
   // alpha, so casting this far gives them their full chords (their d_k unchanged); the factor
   // keeps a corner-to-corner chord clear of rounding.

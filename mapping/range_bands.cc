@@ -52,10 +52,12 @@ void WindowMin(const double* range_m, int width, int height, int ku, int kv, dou
   }
 }
 
-Reading WithRangeBand(const Reading& reading, double nearest_m, double z_max_m) {
+Reading WithRangeBand(const Reading& reading, double nearest_m, double z_max_m,
+                      double surface_max_m) {
   Reading out = reading;
   if (reading.kind == ReadingKind::kReturn) {
     out.below_m = std::max(0.0, reading.z_m - nearest_m);
+    out.surface_unknown = out.below_m > surface_max_m;
   } else if (reading.kind == ReadingKind::kNoReturn && nearest_m < z_max_m) {
     out = Reading{ReadingKind::kInvalid, 0.0};
   }

@@ -7,6 +7,7 @@
 /// scan's +-ceil(delta / step) beams. Pure functions: the integrator (scan_integrator.h) calls
 /// them per image or scan.
 
+#include <limits>
 #include <vector>
 
 #include "mapping/sensor_model.h"
@@ -27,10 +28,12 @@ void WindowMin(const double* range_m, int width, int height, int ku, int kv, dou
                std::vector<double>* scratch);
 
 /// The reading with its range band from the nearest range of its window (WindowMin):
-///  - a return z gets below_m = z - nearest (at least 0);
+///  - a return z gets below_m = z - nearest (at least 0), and is surface_unknown if that exceeds
+///    surface_max_m (SensorModelConfig::band_surface_max_m);
 ///  - a no-return whose window holds a range nearer than z_max is invalid: along its believed
 ///    direction a surface may have been met, so "nothing up to z_max" cannot be told from it;
 ///  - anything else is returned as it is.
-[[nodiscard]] Reading WithRangeBand(const Reading& reading, double nearest_m, double z_max_m);
+[[nodiscard]] Reading WithRangeBand(const Reading& reading, double nearest_m, double z_max_m,
+                                    double surface_max_m = std::numeric_limits<double>::infinity());
 
 }  // namespace kestrel

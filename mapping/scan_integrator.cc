@@ -217,7 +217,7 @@ ScanStats ScanIntegrator::IntegrateDepthImage(const Pose3& X_WS, const DepthIntr
     spec->segment.origin_W = ray.origin_W;
     spec->segment.direction_W = ray.direction_W;
     spec->reading = bands ? WithRangeBand(ray.reading, band_nearest_[static_cast<size_t>(i)],
-                                          model.config().z_max_m)
+                                          model.config().z_max_m, model.config().band_surface_max_m)
                           : ray.reading;
     if (spec->reading.kind != ReadingKind::kInvalid) {
       spec->segment.length_m = updater.CastLength(model, spec->reading);
@@ -259,7 +259,7 @@ ScanStats ScanIntegrator::IntegratePlanarScan(const Pose3& X_WS, double angle_mi
     spec->segment.origin_W = ray.origin_W;
     spec->segment.direction_W = ray.direction_W;
     spec->reading = bands ? WithRangeBand(ray.reading, band_nearest_[static_cast<size_t>(i)],
-                                          model.config().z_max_m)
+                                          model.config().z_max_m, model.config().band_surface_max_m)
                           : ray.reading;
     if (spec->reading.kind != ReadingKind::kInvalid) {
       spec->segment.length_m = updater.CastLength(model, spec->reading);

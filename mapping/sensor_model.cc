@@ -51,6 +51,9 @@ void SensorModelConfig::Validate() const {
   KESTREL_THROW_UNLESS(direction_uncertainty_rad >= 0.0 && direction_uncertainty_rad <= 0.2,
                        "sensor model direction_uncertainty_rad = " << direction_uncertainty_rad
                                                                    << ", accepted [0, 0.2]");
+  KESTREL_THROW_UNLESS(
+      band_surface_max_m >= 0.0,
+      "sensor model band_surface_max_m = " << band_surface_max_m << ", accepted [0, inf]");
 }
 
 SensorModel::SensorModel(const SensorModelConfig& config) : config_(config) {

@@ -31,6 +31,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace kestrel {
@@ -60,6 +61,10 @@ struct SensorModelConfig {
   /// band is freed by that return. 0 (the default): every ray's direction is taken as exact,
   /// and the map is the one without bands, bit for bit.
   double direction_uncertainty_rad{0.0};
+  /// Widest range band that still says where the surface is, m (docs/algorithms.md §3.8): a
+  /// return whose band is wider says only that nothing lies nearer than the band's near end
+  /// (Reading::surface_unknown). +inf (the default): every band keeps its surface.
+  double band_surface_max_m{std::numeric_limits<double>::infinity()};
 
   /// Kestrel's Asus Xtion (config/mapper.yaml; docs/algorithms.md §3.4, §3.6): sigma 0.1 m,
   /// 0.61..4 m along the ray (the device's 0.5 m minimum is axial: 0.61 m along a corner ray), a
@@ -94,8 +99,13 @@ struct Reading {
   /// the sensor's direction_uncertainty_rad. 0: the plain model of section 3.
   double below_m{0.0};
 
+  /// A band too wide to say where the surface is (SensorModelConfig::band_surface_max_m): the
+  /// return says only that nothing lies nearer than z - below_m. Every hypothesis at or beyond
+  /// that, "no surface" included, explains it equally well (docs/algorithms.md §3.8).
+  bool surface_unknown{false};
+
   /// Whether the reading carries a band.
-  [[nodiscard]] bool has_band() const { return below_m > 0.0; }
+  [[nodiscard]] bool has_band() const { return below_m > 0.0 || surface_unknown; }
 };
 
 class SensorModel;
@@ -194,7 +204,7 @@ class SensorModel {
   /// 1/(1 + w/(sigma sqrt(2 pi))) for a band of width w = below_m (1 without a band): the
   /// banded Gaussian's height relative to the plain one's (docs/algorithms.md §3.8).
   [[nodiscard]] double BandScale(const Reading& reading) const {
-    if (!reading.has_band()) return 1.0;
+    if (!reading.has_band() || reading.surface_unknown) return 1.0;
     return 1.0 / (1.0 + reading.below_m * inv_sigma_sqrt_2pi_);
   }
 
@@ -216,8 +226,16 @@ class SensorModel {
   /// ReturnLikelihood(z, d) without a band).
   [[nodiscard]] double ReturnLikelihood(const Reading& reading, double d_m) const {
     if (!reading.has_band()) return ReturnLikelihood(reading.z_m, d_m);
-    return ReturnEvaluator().Banded(reading.z_m - reading.below_m, reading.z_m, BandScale(reading),
-                                    d_m);
+    const double lo = reading.z_m - reading.below_m;
+    if (reading.surface_unknown && d_m >= lo) return EmptyRayLikelihood(reading);
+    return ReturnEvaluator().Banded(lo, reading.z_m, BandScale(reading), d_m);
+  }
+  /// p(z | no occupied cell in the ray) for a return: p_rand u, or for a surface_unknown return
+  /// the plateau's height at the band's near end (docs/algorithms.md §3.8).
+  [[nodiscard]] double EmptyRayLikelihood(const Reading& reading) const {
+    if (!reading.surface_unknown) return spurious_density_;
+    const double lo = reading.z_m - reading.below_m;
+    return ReturnEvaluator().Banded(lo, lo, 1.0, lo);
   }
   /// SpuriousOnly for a return with its range band: d < z_min, or z - below - d > c sigma.
   [[nodiscard]] bool SpuriousOnly(const Reading& reading, double d_m) const {

@@ -35,7 +35,8 @@ std::vector<double> BruteForcePosteriors(const SensorModel& model, const Reading
     }
     double likelihood;
     if (reading.kind == ReadingKind::kReturn) {
-      likelihood = first < 0 ? model.spurious_density() : model.ReturnLikelihood(reading, d[first]);
+      likelihood =
+          first < 0 ? model.EmptyRayLikelihood(reading) : model.ReturnLikelihood(reading, d[first]);
     } else {
       likelihood =
           first < 0 ? model.empty_no_return_probability() : model.NoReturnProbability(d[first]);
@@ -98,6 +99,9 @@ void ExpectMatchesBruteForce(const SensorModel& model, const Reading& reading,
     if (reading.kind == ReadingKind::kNoReturn) {
       // No return: exactly the cells with d_k >= z_min are written.
       ASSERT_EQ(written, d[k] >= model.config().z_min_m) << "k = " << k;
+    } else if (reading.surface_unknown) {
+      // Only the cells before the band's near end are written.
+      ASSERT_EQ(written, d[k] < reading.z_m - reading.below_m) << "k = " << k;
     } else if (d[k] <= model.GaussianReach(reading.z_m)) {  // the band lies before z
       ASSERT_TRUE(written) << "k = " << k;
     }
@@ -173,6 +177,7 @@ TEST(InverseSensorModel, RangeBandsMatchBruteForceAndFreeNothingInTheBand) {
             std::uniform_real_distribution<double>(config.z_min_m, config.z_max_m)(rng);
         Reading reading = model.Classify(z);
         reading.below_m = std::uniform_real_distribution<double>(0.0, 2.0)(rng);
+        reading.surface_unknown = trial % 3 == 0;
         ExpectMatchesBruteForce(model, reading, d, prior);
         if (HasFatalFailure()) return;
         InverseSensorModelScratch scratch(n + 1);
@@ -182,7 +187,7 @@ TEST(InverseSensorModel, RangeBandsMatchBruteForceAndFreeNothingInTheBand) {
         for (int k = 0; k < n; ++k) {
           // In the band and in the sensor's range (a surface nearer than z_min gives no return).
           if (d[k] >= std::max(reading.z_m - reading.below_m, config.z_min_m) &&
-              d[k] <= reading.z_m) {
+              (d[k] <= reading.z_m || reading.surface_unknown)) {
             ++band_cells;
             EXPECT_GE(posterior[k], prior[k] * (1.0 - 1e-6)) << "k = " << k << " d = " << d[k];
           }
@@ -454,6 +459,7 @@ TEST(SensorModel, BatchLikelihoodsEqualTheModelBitForBit) {
                                     : Reading{ReadingKind::kReturn, range(rng)};
           // Some returns with a range band (docs/algorithms.md §3.8).
           if (kind >= 5) readings[l].below_m = std::uniform_real_distribution<double>(0, 1.5)(rng);
+          readings[l].surface_unknown = kind == 7;  // a_k is read only before its band
         }
         constexpr int kRows = 40;
         std::vector<double> d(kRows * kL), a(kRows * kL, -1.0);
@@ -476,6 +482,9 @@ TEST(SensorModel, BatchLikelihoodsEqualTheModelBitForBit) {
         for (int k = 0; k < kRows; ++k) {
           for (int l = 0; l < count; ++l) {
             const double dk = d[k * kL + l];
+            const Reading& r = readings[l];
+            if (r.surface_unknown && r.kind == ReadingKind::kReturn && !(dk < r.z_m - r.below_m))
+              continue;
             const double expected = readings[l].kind == ReadingKind::kReturn
                                         ? model.ReturnLikelihood(readings[l], dk)
                                         : model.NoReturnProbability(dk);

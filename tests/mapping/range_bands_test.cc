@@ -56,6 +56,9 @@ TEST(RangeBands, HalfWidthAndReadings) {
   const Reading ret{ReadingKind::kReturn, 3.0};
   EXPECT_DOUBLE_EQ(WithRangeBand(ret, 2.25, 4.0).below_m, 0.75);
   EXPECT_EQ(WithRangeBand(ret, 3.0, 4.0).below_m, 0.0);
+  EXPECT_FALSE(WithRangeBand(ret, 2.25, 4.0).surface_unknown);  // no limit by default
+  EXPECT_TRUE(WithRangeBand(ret, 2.25, 4.0, 0.5).surface_unknown);
+  EXPECT_FALSE(WithRangeBand(ret, 2.75, 4.0, 0.5).surface_unknown);
   const Reading none{ReadingKind::kNoReturn, 0.0};
   EXPECT_EQ(WithRangeBand(none, 3.5, 4.0).kind, ReadingKind::kInvalid);  // a surface within delta
   EXPECT_EQ(WithRangeBand(none, 4.0, 4.0).kind, ReadingKind::kNoReturn);
