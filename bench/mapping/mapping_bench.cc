@@ -68,10 +68,11 @@ class BusiestThreadTimer {
   double main0_;
 };
 
-void RunDepth(benchmark::State& state, ScanIntegrator* integrator) {
+void RunDepth(benchmark::State& state, ScanIntegrator* integrator,
+              const SensorModelConfig& model = SensorModelConfig::Xtion()) {
   const auto& frames =
       DepthFramesOf(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-  const SensorModel xtion(SensorModelConfig::Xtion());
+  const SensorModel xtion(model);
   ScanStats total;
   size_t f = 0;
   const BusiestThreadTimer busiest;
@@ -123,6 +124,15 @@ void BM_KestrelExact_Depth(benchmark::State& state, const std::string& isa, bool
   auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
   ScanIntegrator integrator(map.get(), ScanIntegrator::Options{threaded, isa});
   RunDepth(state, &integrator);
+}
+// The same with range bands (docs/algorithms.md §3.8: 1 degree, surface within 0.1 m).
+void BM_KestrelExactBands_Depth(benchmark::State& state, const std::string& isa) {
+  auto map = MakeExactDenseMap(MapLimits{}, OccupancyLimits{}, 4.0);
+  ScanIntegrator integrator(map.get(), ScanIntegrator::Options{false, isa});
+  SensorModelConfig model = SensorModelConfig::Xtion();
+  model.direction_uncertainty_rad = 0.0175;
+  model.band_surface_max_m = 0.1;
+  RunDepth(state, &integrator, model);
 }
 void BM_KestrelExactGrowing_Depth(benchmark::State& state, const std::string& isa) {
   auto map = MakeExactGrowingMap(MapLimits{}, OccupancyLimits{}, 4.0);
@@ -246,6 +256,10 @@ void RegisterAll() {
         if (threaded) b->UseRealTime();
       }
     }
+    benchmark::RegisterBenchmark(name("KestrelExactBands", isas.back(), "Depth").c_str(),
+                                 BM_KestrelExactBands_Depth, isas.back())
+        ->Args({width, height})
+        ->Unit(benchmark::kMillisecond);
     if (width == 160) {
       for (const std::string& isa : isas) {
         benchmark::RegisterBenchmark(name("KestrelExactGrowing", isa, "Depth").c_str(),
