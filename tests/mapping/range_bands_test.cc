@@ -78,13 +78,15 @@ struct Freed {
 // the CI sensor profile; its true mount is pitched `error_rad` up from the one the map is told,
 // so every believed ray dips into the floor's top cells before its range. 30 frames of the same
 // view (the error is the same in every frame).
-Freed FlyOverFloor(double error_rad, double direction_uncertainty_rad) {
+Freed FlyOverFloor(double error_rad, double direction_uncertainty_rad,
+                   double band_surface_max_m = std::numeric_limits<double>::infinity()) {
   MapLimits limits;
   limits.min_m = Eigen::Vector3d(-1.0, -3.0, -0.3);
   limits.max_m = Eigen::Vector3d(6.5, 3.0, 1.5);
   auto map = MakeExactDenseMap(limits, OccupancyLimits{}, 4.0);
   SensorModelConfig config = SensorModelConfig::Xtion();
   config.direction_uncertainty_rad = direction_uncertainty_rad;
+  config.band_surface_max_m = band_surface_max_m;
   const SensorModel xtion(config);
   // Optical frame: z forward, x right, y down; looking along +x, pitched down by 20 degrees.
   Eigen::Matrix3d level;
@@ -134,8 +136,12 @@ TEST(RangeBands, AMountHalfADegreeOffFreesFewFloorCellsWithBands) {
   const Freed exact_mount = FlyOverFloor(0.0, 0.0);
   const Freed plain = FlyOverFloor(0.5 * M_PI / 180.0, 0.0);
   const Freed banded = FlyOverFloor(0.5 * M_PI / 180.0, 0.0175);
-  std::printf("floor cells freed: exact mount %d, plain %d, banded %d; air %d, %d, %d\n",
-              exact_mount.floor, plain.floor, banded.floor, exact_mount.air, plain.air, banded.air);
+  const Freed surface = FlyOverFloor(0.5 * M_PI / 180.0, 0.0175, 0.1);
+  std::printf(
+      "floor cells freed: exact mount %d, plain %d, banded %d, surface within 0.1 m %d; air %d, "
+      "%d, %d, %d\n",
+      exact_mount.floor, plain.floor, banded.floor, surface.floor, exact_mount.air, plain.air,
+      banded.air, surface.air);
   // Without bands the floor's top cells are freed by rays that never entered them (382 when
   // measured); with the true mount a handful at the edge of the range (3).
   EXPECT_GT(plain.floor, 200);
@@ -145,6 +151,11 @@ TEST(RangeBands, AMountHalfADegreeOffFreesFewFloorCellsWithBands) {
   EXPECT_LE(banded.floor, plain.floor / 20);
   EXPECT_GT(banded.air, plain.air * 9 / 10);
   EXPECT_GT(banded.air, 5000);
+  // Those few lie just behind returns from the floor at the edge of the range, whose band is
+  // wide: the cells behind an uncertain surface lose a little each frame (the surface is then
+  // more likely nearer). A band wider than 0.1 m updates nothing from its near end on: none.
+  EXPECT_EQ(surface.floor, 0);
+  EXPECT_GT(surface.air, plain.air * 9 / 10);
 }
 
 // Off (0, the default), a scan gives the map its rays give one by one without bands (the path
