@@ -35,7 +35,8 @@ TEST(RangeBands, WindowMinEqualsBruteForce) {
         double expected = std::numeric_limits<double>::infinity();
         for (int j = std::max(0, v - kv); j <= std::min(h - 1, v + kv); ++j) {
           for (int i = std::max(0, u - ku); i <= std::min(w - 1, u + ku); ++i) {
-            const double x = r[static_cast<size_t>(i + w * j)];
+            const double x =
+                r[static_cast<size_t>(i) + static_cast<size_t>(w) * static_cast<size_t>(j)];
             if (!std::isnan(x)) expected = std::min(expected, x);
           }
         }
@@ -101,14 +102,17 @@ Freed FlyOverFloor(double error_rad, double direction_uncertainty_rad,
   believed.q = Eigen::Quaterniond(pitched_down(20.0 * M_PI / 180.0));
   const Eigen::Matrix3d R_true = pitched_down(20.0 * M_PI / 180.0 - error_rad);
   const DepthIntrinsics in{72.0, 72.0, 39.5, 29.5};
-  std::vector<uint16_t> depth(80 * 60, 0);
+  std::vector<uint16_t> depth(size_t{80} * 60, 0);
   for (int v = 0; v < 60; ++v) {
     for (int u = 0; u < 80; ++u) {
       const Eigen::Vector3d ray_S((u - in.cx) / in.fx, (v - in.cy) / in.fy, 1.0);
       const Eigen::Vector3d dir = R_true * ray_S;  // not unit: its z-component is per unit depth
       if (dir.z() >= 0.0) continue;
       const double axial = believed.p.z() / -dir.z();  // depth along the optical axis to z = 0
-      if (axial < 8.0) depth[static_cast<size_t>(u + 80 * v)] = std::lround(axial * 1000.0);
+      if (axial < 8.0) {
+        depth[static_cast<size_t>(u) + size_t{80} * static_cast<size_t>(v)] =
+            static_cast<uint16_t>(std::lround(axial * 1000.0));
+      }
     }
   }
   ScanIntegrator integrator(map.get());
