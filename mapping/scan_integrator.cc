@@ -199,10 +199,10 @@ ScanStats ScanIntegrator::IntegrateDepthImage(const Pose3& X_WS, const DepthIntr
     for (int v = 0; v < height; ++v) {
       for (int u = 0; u < width; ++u) {
         const size_t i = static_cast<size_t>(u) + static_cast<size_t>(v) * width;
-        const Eigen::Vector2d xy((u - in.cx) / in.fx, (v - in.cy) / in.fy);
-        band_range_[i] = depth[i] == 0
-                             ? std::nan("")
-                             : depth[i] * depth_scale_m * std::sqrt(1.0 + xy.squaredNorm());
+        // The range DepthPixelRay gives, bit for bit (a pixel nearest in its window: no band).
+        const double norm =
+            Eigen::Vector3d((u - in.cx) * (1.0 / in.fx), (v - in.cy) * (1.0 / in.fy), 1.0).norm();
+        band_range_[i] = depth[i] == 0 ? std::nan("") : depth[i] * depth_scale_m * norm;
       }
     }
     WindowMin(band_range_.data(), width, height, BandWindowHalfWidth(delta, in.fx),
