@@ -15,27 +15,17 @@ int ExactUpdate::ForwardLikelihoods(const SensorModel& model, const Reading& rea
   KESTREL_THROW_UNLESS(reading.kind != ReadingKind::kInvalid,
                        "ForwardLikelihoods: invalid readings must be dropped by the caller");
   if (reading.kind == ReadingKind::kReturn) {
-    const double reach_m = model.GaussianReach(reading.z_m);
     const double lo = reading.z_m - reading.below_m;
-    int end = n;
-    if (reading.surface_unknown) {
-      while (end > 0 && !(distance_m[end - 1] < lo)) --end;  // same cut as Apply
-    } else {
-      while (end > 0 && distance_m[end - 1] > reach_m) --end;  // same cut as Apply
-    }
+    const int end = ReturnCellsEnd(model, reading, distance_m, n);  // same cut as Apply
     int k = 0;
     // The leading cells outside the Gaussian window: a_k is the spurious term alone.
     for (; k < end && model.SpuriousOnly(reading, distance_m[k]); ++k) {
       likelihood[k] = model.spurious_density();
     }
-    // The same values as Apply's (docs/algorithms.md §3.8 for a band).
+    // The same values as Apply's (docs/algorithms.md §3.8; the plain a_k without a band).
     const ReturnLikelihoodEvaluator a_k = model.ReturnEvaluator();
-    if (!reading.has_band()) {
-      for (; k < end; ++k) likelihood[k] = a_k(reading.z_m, distance_m[k]);
-    } else {
-      const double band_scale = model.BandScale(reading);
-      for (; k < end; ++k) likelihood[k] = a_k.Banded(lo, reading.z_m, band_scale, distance_m[k]);
-    }
+    const double band_scale = model.BandScale(reading);
+    for (; k < end; ++k) likelihood[k] = a_k.Banded(lo, reading.z_m, band_scale, distance_m[k]);
     return end;
   }
   for (int k = 0; k < n; ++k) likelihood[k] = model.NoReturnProbability(distance_m[k]);

@@ -173,6 +173,20 @@ int PrefixEnd(const Distance& distance_m, int begin, int end, const Holds& holds
   return base + (length == 1 && holds(distance_m[base]) ? 1 : 0);
 }
 
+// The cells a return uses, [0, end): for a surface_unknown return those before its band's near
+// end (from there on every hypothesis explains it alike, so the cells keep their priors:
+// docs/algorithms.md §3.8), otherwise those up to z + c sigma (the shortcut, §4.2).
+template <class Distance>
+int ReturnCellsEnd(const SensorModel& model, const Reading& reading, const Distance& distance_m,
+                   int n) {
+  if (reading.surface_unknown) {
+    const double lo = reading.z_m - reading.below_m;
+    return PrefixEnd(distance_m, 0, n, [lo](double d) { return d < lo; });
+  }
+  const double reach_m = model.GaussianReach(reading.z_m);
+  return PrefixEnd(distance_m, 0, n, [reach_m](double d) { return d <= reach_m; });
+}
+
 template <class Distance, class PriorAt, class Likelihood>
 ExactForward ExactUpdate::Forward(const SensorModel& model, const Reading& reading,
                                   const Distance& distance_m, int n, PriorAt&& prior_at,
@@ -229,26 +243,16 @@ ExactForward ExactUpdate::Forward(const SensorModel& model, const Reading& readi
   if (reading.kind == ReadingKind::kReturn) {
     const double z = reading.z_m;
     const double lo = z - reading.below_m;  // z without a band
-    f.end = n;
-    if (reading.surface_unknown) {
-      // Every hypothesis from lo on explains the reading alike (docs/algorithms.md §3.8): those
-      // cells keep their priors, so the cells from lo on are left out.
-      f.end = PrefixEnd(distance_m, 0, n, [lo](double d) { return d < lo; });
-    } else {
-      // Shortcut: cells with d_k > z + c sigma are left out (docs/algorithms.md §4.2).
-      const double reach_m = model.GaussianReach(z);
-      while (f.end > 0 && distance_m[f.end - 1] > reach_m) --f.end;  // the last cell or two
-    }
+    f.end = ReturnCellsEnd(model, reading, distance_m, n);
     const int run_end =
         PrefixEnd(distance_m, 0, f.end, [&](double d) { return model.SpuriousOnly(lo, d); });
     run(0, run_end, model.spurious_density());
     if (run_end < f.end) {
-      const ReturnLikelihoodEvaluator a_k = model.ReturnEvaluator();
       if (likelihood) {
         window(run_end, f.end, [likelihood](int k) { return likelihood[k]; });
-      } else if (!reading.has_band()) {
-        window(run_end, f.end, [&a_k, z, &distance_m](int k) { return a_k(z, distance_m[k]); });
       } else {
+        // Without a band (lo = z, scale 1) Banded is the plain a_k, bit for bit.
+        const ReturnLikelihoodEvaluator a_k = model.ReturnEvaluator();
         const double band_scale = model.BandScale(reading);
         window(run_end, f.end, [&a_k, lo, z, band_scale, &distance_m](int k) {
           return a_k.Banded(lo, z, band_scale, distance_m[k]);
