@@ -175,7 +175,8 @@ int PrefixEnd(const Distance& distance_m, int begin, int end, const Holds& holds
 
 // The cells a return uses, [0, end): for a surface_unknown return those before its band's near
 // end (from there on every hypothesis explains it alike, so the cells keep their priors:
-// docs/algorithms.md §3.8), otherwise those up to z + c sigma (the shortcut, §4.2).
+// docs/algorithms.md §3.8), otherwise those up to z + c sigma (the shortcut of
+// docs/algorithms.md §4.2).
 template <class Distance>
 int ReturnCellsEnd(const SensorModel& model, const Reading& reading, const Distance& distance_m,
                    int n) {
