@@ -81,6 +81,10 @@ void WriteLcmSeeds() {
   WriteSamples<params_t>(21);
   WriteSamples<params_request_t>(22);
   WriteSamples<map_decisions_t>(23);
+  map_decisions_t no_decision{};  // later in its life, and nothing in it: a gap-free empty map
+  no_decision.epoch = 5;
+  no_decision.first_index = 3;
+  WriteLcm(23, no_decision, "map_decisions_t-none-from-3");
   WriteSamples<map_decision_t>(24);
   // libbot2's bot-procman messages, as a sheriff and a deputy send them.
   bot_procman::info2_t info{};

@@ -151,7 +151,8 @@ void Consume(const kestrel::map_status_t& msg) {
 }
 
 // The mapper's decisions as a replay gathers them (docs/design.md §3.6): a message accepted
-// alone, numbered from 0 and resuming nothing, is the whole map of its life, in its order.
+// alone, numbered from 0 and resuming nothing, is the whole map of its life, in its order; one
+// numbered later, or resuming a life, leaves a gap that MapOf names.
 void Consume(const kestrel::map_decisions_t& msg) {
   kestrel::DecisionHistory history;
   std::string why;
@@ -165,8 +166,12 @@ void Consume(const kestrel::map_decisions_t& msg) {
     for (size_t i = 0; i < map.size(); ++i) {
       Require(kestrel::SameDecision(map[i], msg.decisions[i]));
     }
+  } else if (msg.num_decisions > 0 || msg.num_lives > 0) {
+    // Decisions 0 .. first_index - 1, or a resumed life's, were never heard.
+    Require(map.empty() && !why.empty());
   } else {
-    Require(!map.empty() || !why.empty());
+    // A message with no decision, whatever its first index, adds nothing to an empty history.
+    Require(map.empty() && why.empty());
   }
 }
 
