@@ -131,6 +131,11 @@ void WriteLcmSeeds() {
     EncodeMapChunkCells(cells, encoding, 6, &chunk);
     WriteLcm(4, chunk, "map3d_chunk_t-encoding-" + std::to_string(encoding));
   }
+  map3d_chunk_t no_block = chunk;  // a chunk of no block: no cell
+  no_block.num_blocks = 0;
+  no_block.block_index.clear();
+  EncodeMapChunkCells({}, map3d_chunk_t::ENCODING_FLOAT32, 0, &no_block);
+  WriteLcm(4, no_block, "map3d_chunk_t-no-block");
   map3d_delta_t delta = MakeSample<map3d_delta_t>(0);
   delta.origin_m[0] = delta.origin_m[1] = delta.origin_m[2] = 0.0;
   for (size_t i = 0; i < delta.cells.size(); ++i) {
