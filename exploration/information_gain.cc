@@ -8,6 +8,7 @@
 #include "mapping/kernels/avx512.h"
 #include "mapping/kernels/kernels.h"
 #include "mapping/occupancy_updater.h"
+#include "mapping/range_bands.h"
 
 namespace kestrel {
 namespace {
@@ -157,7 +158,8 @@ void ExpectedEntropyScratch::Reserve(int n) {
 RayEntropy ExpectedEntropy::Compute(const SensorModel& model, const double* entry_m,
                                     const double* exit_m, const double* distance_m,
                                     const double* prior, int n, WeightMode mode, GainMethod method,
-                                    ExpectedEntropyScratch* scratch, ExpectedEntropyTerms* terms) {
+                                    ExpectedEntropyScratch* scratch, ExpectedEntropyTerms* terms,
+                                    const double* cos_incidence) {
   KESTREL_THROW_UNLESS(n >= 0, "ExpectedEntropy: n = " << n << ", accepted >= 0");
   KESTREL_THROW_UNLESS(scratch != nullptr, "ExpectedEntropy: scratch is null");
   KESTREL_THROW_UNLESS(n == 0 || (entry_m != nullptr && exit_m != nullptr &&
@@ -165,16 +167,19 @@ RayEntropy ExpectedEntropy::Compute(const SensorModel& model, const double* entr
                        "ExpectedEntropy: null input with n = " << n);
   scratch->Reserve(n);
   if (method == GainMethod::kDirect || terms != nullptr) {
-    return Direct(model, entry_m, exit_m, distance_m, prior, n, mode, scratch, terms);
+    return Direct(model, entry_m, exit_m, distance_m, prior, n, mode, scratch, terms,
+                  cos_incidence);
   }
-  return Fast(model, entry_m, exit_m, distance_m, prior, n, mode, scratch);
+  return Fast(model, entry_m, exit_m, distance_m, prior, n, mode, scratch, cos_incidence);
 }
 
 RayEntropy ExpectedEntropy::Direct(const SensorModel& model, const double* entry_m,
                                    const double* exit_m, const double* distance_m,
                                    const double* prior, int n, WeightMode mode,
-                                   ExpectedEntropyScratch* scratch, ExpectedEntropyTerms* terms) {
+                                   ExpectedEntropyScratch* scratch, ExpectedEntropyTerms* terms,
+                                   const double* cos_incidence) {
   const SensorModelConfig& c = model.config();
+  const bool bands = cos_incidence != nullptr && c.direction_uncertainty_rad > 0.0;
   double* const pi = scratch->pi_.data();
   double* const post = scratch->posterior_.data();
   double pbar = 1.0;
@@ -215,7 +220,9 @@ RayEntropy ExpectedEntropy::Direct(const SensorModel& model, const double* entry
       q += pi[i] * ReturnIntervalProbability(model, distance_m[i], lo, hi);  // section 6 q_k
     }
     double inv_eta = 0.0;
-    const double h = posterior_entropy(Reading{ReadingKind::kReturn, z}, &inv_eta);
+    const Reading reading =
+        bands ? PredictedBandedReturn(c, z, cos_incidence[k]) : Reading{ReadingKind::kReturn, z};
+    const double h = posterior_entropy(reading, &inv_eta);
     const double w = mode == WeightMode::kChordProbability ? q : inv_eta;  // eq. (8) literal
     weight_sum += w;
     weighted_h += w * h;
@@ -251,19 +258,27 @@ RayEntropy ExpectedEntropy::Direct(const SensorModel& model, const double* entry
 }
 
 void RayKernel::Build(const SensorModel& model, const double* entry_m, const double* exit_m,
-                      const double* distance_m, int n) {
+                      const double* distance_m, int n, const double* cos_incidence) {
   const SensorModelConfig& c = model.config();
   const double c0 = model.spurious_density();
   const double cutoff = c.cutoff_sigmas * c.sigma_m;
+  // Predicted range bands (docs/algorithms.md §3.8): only with a model that has them.
+  const bool bands = cos_incidence != nullptr && c.direction_uncertainty_rad > 0.0;
   n_ = n;
   entry_m_.assign(entry_m, entry_m + n);
   exit_m_.assign(exit_m, exit_m + n);
   distance_m_.assign(distance_m, distance_m + n);
+  if (bands) {
+    cos_incidence_.assign(cos_incidence, cos_incidence + n);
+  } else {
+    cos_incidence_.clear();
+  }
   hypotheses_.clear();
   g_.clear();
   a_.clear();
   no_return_.resize(static_cast<size_t>(n));
   std::vector<double> inv_mass(static_cast<size_t>(n));
+  std::vector<Reading> readings;  // the banded hypotheses' readings
   near_cells_ = 0;
   for (int j = 0; j < n; ++j) {
     inv_mass[static_cast<size_t>(j)] =
@@ -289,6 +304,19 @@ void RayKernel::Build(const SensorModel& model, const double* entry_m, const dou
       g_.push_back(mass > 0.0 ? GaussianIntervalMass(c, distance_m[i], mass, lo, hi) : 0.0);
     }
     h.g_count = static_cast<int>(g_.size() - h.g_offset);
+    h.tail_a = c0;
+    if (bands) {
+      // The mapper's cells and a_j for the banded return (ExactUpdate::Forward): those before
+      // the band's near end for a surface_unknown return, else up to z + c sigma.
+      const Reading r = PredictedBandedReturn(c, h.z_m, cos_incidence[k]);
+      h.end = ReturnCellsEnd(model, r, distance_m, n);
+      h.lo = 0;
+      while (h.lo < h.end && model.ReturnLikelihood(r, distance_m[h.lo]) == c0) ++h.lo;
+      h.tail_a = model.EmptyRayLikelihood(r);
+      readings.push_back(r);
+      hypotheses_.push_back(h);
+      continue;
+    }
     // (b) cells beyond z + c sigma keep their prior (the mapper's shortcut).
     const double reach = model.GaussianReach(h.z_m);
     while (end < n && distance_m[end] <= reach) ++end;
@@ -300,17 +328,33 @@ void RayKernel::Build(const SensorModel& model, const double* entry_m, const dou
     for (int j = lo_cell; j < end; ++j) a_.push_back(model.ReturnLikelihood(h.z_m, distance_m[j]));
     hypotheses_.push_back(h);
   }
+  if (bands) {
+    // Evaluate groups the cells before lo once, so lo must not decrease from one hypothesis to
+    // the next: take the suffix minimum (the cells this adds have a_j = p_rand u, stored).
+    for (size_t i = hypotheses_.size(); i-- > 1;) {
+      hypotheses_[i - 1].lo = std::min(hypotheses_[i - 1].lo, hypotheses_[i].lo);
+    }
+    for (size_t i = 0; i < hypotheses_.size(); ++i) {
+      Hypothesis& h = hypotheses_[i];
+      h.a_offset = a_.size();
+      for (int j = h.lo; j < h.end; ++j) {
+        a_.push_back(model.ReturnLikelihood(readings[i], distance_m[j]));
+      }
+    }
+  }
 }
 
 bool RayKernel::Matches(const double* entry_m, const double* exit_m, const double* distance_m,
-                        int n) const {
+                        int n, const double* cos_incidence) const {
   if (n > n_) return false;
+  if ((cos_incidence != nullptr) != !cos_incidence_.empty()) return false;
   constexpr double kTolerance_m = 1e-12;
   for (int j = 0; j < n; ++j) {
     const size_t u = static_cast<size_t>(j);
     if (std::abs(entry_m[j] - entry_m_[u]) > kTolerance_m ||
         std::abs(exit_m[j] - exit_m_[u]) > kTolerance_m ||
-        std::abs(distance_m[j] - distance_m_[u]) > kTolerance_m) {
+        std::abs(distance_m[j] - distance_m_[u]) > kTolerance_m ||
+        (cos_incidence != nullptr && cos_incidence[j] != cos_incidence_[u])) {
       return false;
     }
   }
@@ -320,8 +364,8 @@ bool RayKernel::Matches(const double* entry_m, const double* exit_m, const doubl
 RayEntropy ExpectedEntropy::Fast(const SensorModel& model, const double* entry_m,
                                  const double* exit_m, const double* distance_m,
                                  const double* prior, int n, WeightMode mode,
-                                 ExpectedEntropyScratch* scratch) {
-  scratch->kernel_.Build(model, entry_m, exit_m, distance_m, n);
+                                 ExpectedEntropyScratch* scratch, const double* cos_incidence) {
+  scratch->kernel_.Build(model, entry_m, exit_m, distance_m, n, cos_incidence);
   return Evaluate(model, scratch->kernel_, prior, n, mode, scratch);
 }
 
@@ -419,7 +463,7 @@ RayEntropy ExpectedEntropy::Evaluate(const SensorModel& model, const RayKernel& 
       term[j] = t;
       s += t;
     }
-    const double inv_eta = s + pbar_before[end] * c0;  // eq. (4), completed tail
+    const double inv_eta = s + pbar_before[end] * h.tail_a;  // eq. (4), completed tail
     const double eta = 1.0 / inv_eta;
     double hk = suffix_h[end];  // (b) beyond z + c sigma: the prior
     if (lanes) {

@@ -99,12 +99,14 @@ struct ExpectedEntropyTerms {
 /// earlier uses a prefix of it.
 class RayKernel {
  public:
-  /// Builds the kernel of a ray of n cells (chords and d_k as in ExpectedEntropy::Compute).
+  /// Builds the kernel of a ray of n cells (chords and d_k as in ExpectedEntropy::Compute;
+  /// cos_incidence as there, null for none).
   void Build(const SensorModel& model, const double* entry_m, const double* exit_m,
-             const double* distance_m, int n);
-  /// Whether a ray of n cells is this kernel's ray or a prefix of it (chords within 1e-12 m).
+             const double* distance_m, int n, const double* cos_incidence = nullptr);
+  /// Whether a ray of n cells is this kernel's ray or a prefix of it (chords within 1e-12 m, the
+  /// same incidences).
   [[nodiscard]] bool Matches(const double* entry_m, const double* exit_m, const double* distance_m,
-                             int n) const;
+                             int n, const double* cos_incidence = nullptr) const;
   /// Cells of the ray it was built for.
   [[nodiscard]] int size() const { return n_; }
 
@@ -117,12 +119,13 @@ class RayKernel {
     int g_first{0};         // first cell i with a Gaussian term in q_k
     int g_count{0};
     size_t g_offset{0};
-    int lo{0};   // cells before: a_j = p_rand u
+    int lo{0};   // cells before: a_j = p_rand u (non-decreasing over the hypotheses)
     int end{0};  // cells from here keep their prior
     size_t a_offset{0};
+    double tail_a{0.0};  // a_j of the cells from `end` on and of the empty ray (eq. 4's tail)
   };
   int n_{-1};
-  std::vector<double> entry_m_, exit_m_, distance_m_;
+  std::vector<double> entry_m_, exit_m_, distance_m_, cos_incidence_;
   std::vector<Hypothesis> hypotheses_;
   std::vector<double> g_, a_, no_return_;
   int near_cells_{0};  // cells with d < z_min
@@ -150,11 +153,16 @@ class ExpectedEntropy {
   /// E[H] and the prior entropy of the ray with chords [entry_m[j], exit_m[j]], distances
   /// d_j = distance_m[j] (non-decreasing) and priors prior[j] in [0, 1], j < n.
   /// @param terms optional: filled with the per-hypothesis terms (the direct method is used).
+  /// @param cos_incidence optional, with a model whose direction_uncertainty_rad is above 0:
+  ///   |cos| of the angle between the ray and the normal of the face through which it enters
+  ///   cell j; a return in cell j is then predicted with the range band the mapper would give it
+  ///   from such a plane (PredictedBandedReturn, docs/algorithms.md §3.8). Null: plain returns.
   /// @throws std::invalid_argument if n < 0 or a pointer is null while n > 0.
   static RayEntropy Compute(const SensorModel& model, const double* entry_m, const double* exit_m,
                             const double* distance_m, const double* prior, int n, WeightMode mode,
                             GainMethod method, ExpectedEntropyScratch* scratch,
-                            ExpectedEntropyTerms* terms = nullptr);
+                            ExpectedEntropyTerms* terms = nullptr,
+                            const double* cos_incidence = nullptr);
 
   /// The fast evaluation with a prebuilt kernel, for the first n cells of its ray with priors
   /// prior[0..n); `sum` chooses how the entropies of the posteriors are summed (EntropySum).
@@ -166,10 +174,11 @@ class ExpectedEntropy {
  private:
   static RayEntropy Direct(const SensorModel& model, const double* entry_m, const double* exit_m,
                            const double* distance_m, const double* prior, int n, WeightMode mode,
-                           ExpectedEntropyScratch* scratch, ExpectedEntropyTerms* terms);
+                           ExpectedEntropyScratch* scratch, ExpectedEntropyTerms* terms,
+                           const double* cos_incidence);
   static RayEntropy Fast(const SensorModel& model, const double* entry_m, const double* exit_m,
                          const double* distance_m, const double* prior, int n, WeightMode mode,
-                         ExpectedEntropyScratch* scratch);
+                         ExpectedEntropyScratch* scratch, const double* cos_incidence);
 };
 
 /// P(z in [a, b) | first occupied cell at distance d_m) under the forward model of section 3

@@ -38,6 +38,9 @@ void ReadSensor(const ConfigNode& n, GainSensor* s, VolumetricSensor* v) {
   n.Read("cutoff_sigmas", &s->model.cutoff_sigmas, Range::AtLeast(5.0));
   n.Read("interpolated_gaussian", &s->model.interpolated_gaussian);
   n.Read("no_return_informs", &s->model.no_return_informs);
+  // Range bands (docs/algorithms.md §3.8): the volumetric gain predicts the mapper's bands.
+  n.Read("direction_uncertainty_rad", &s->model.direction_uncertainty_rad, Range::Closed(0.0, 0.2));
+  n.Read("band_surface_max_m", &s->model.band_surface_max_m, Range::NonNegative());
   n.Read("reports_to_m", &v->reports_to_m, Range::NonNegative());
   v->model = s->model;
   v->horizontal_fov_rad = s->horizontal_fov_rad;

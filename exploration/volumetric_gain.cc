@@ -56,6 +56,18 @@ void ChordsOf(const double* distance, int n, double* entry, double* exit) {
   }
 }
 
+// |cos| of the angle between the ray u and the normal of the face through which it enters each
+// cell, for the predicted range bands (docs/algorithms.md §3.8, "Predicted bands"): the normal of
+// the axis along which the cell's index changed from the previous cell's (the first cell, where
+// the ray starts, enters through no face: 1). `axis_of(k)` is that axis, or -1 if none.
+template <class AxisOf>
+void IncidencesOf(const Eigen::Vector3d& u, int n, AxisOf&& axis_of, double* cos_incidence) {
+  for (int k = 0; k < n; ++k) {
+    const int a = k == 0 ? -1 : axis_of(k);
+    cos_incidence[k] = a < 0 ? 1.0 : std::abs(u[a]);
+  }
+}
+
 // Whether the DDA of direction u from o over length L has crossings that rounding at another
 // origin with the same in-cell offset (within kOffsetTolerance_m) could order differently, or a
 // crossing at 0 or at L: the cell list could differ from the template's.
@@ -183,6 +195,7 @@ VolumetricGainEvaluator::VolumetricGainEvaluator(const VolumetricGainConfig& con
   }
   cast_kernels_.resize(slots);
   cast_distance_m_.resize(slots);
+  cast_incidence_.resize(slots);
   templates_.resize(slots);
   const size_t bins = config_.sensors.size() * static_cast<size_t>(config_.azimuth_bins);
   bin_gain_.resize(bins);
@@ -281,6 +294,19 @@ void VolumetricGainEvaluator::BuildTemplates(const std::vector<Eigen::Vector3d>&
         entry_.resize(static_cast<size_t>(n));
         exit_.resize(static_cast<size_t>(n));
         ChordsOf(cells.distance_m.data(), n, entry_.data(), exit_.data());
+        const double* incidence = nullptr;
+        if (model.config().direction_uncertainty_rad > 0.0) {
+          incidence_.resize(static_cast<size_t>(n));
+          IncidencesOf(
+              u, n,
+              [&cells](int k) {
+                const CellIndex& before = cells.cells[static_cast<size_t>(k - 1)];
+                const CellIndex& at = cells.cells[static_cast<size_t>(k)];
+                return before.x != at.x ? 0 : before.y != at.y ? 1 : before.z != at.z ? 2 : -1;
+              },
+              incidence_.data());
+          incidence = incidence_.data();
+        }
         // Share the kernel of a ray with the same chords (to 1e-12 m) and the same model.
         std::vector<int64_t> key{s, n};
         for (int k = 0; k < n; ++k) {
@@ -291,7 +317,7 @@ void VolumetricGainEvaluator::BuildTemplates(const std::vector<Eigen::Vector3d>&
         for (int i : same) {
           const RayKernel& other = template_kernels_[static_cast<size_t>(i)];
           if (other.size() == n &&
-              other.Matches(entry_.data(), exit_.data(), cells.distance_m.data(), n)) {
+              other.Matches(entry_.data(), exit_.data(), cells.distance_m.data(), n, incidence)) {
             t.kernel = i;
             break;
           }
@@ -300,7 +326,7 @@ void VolumetricGainEvaluator::BuildTemplates(const std::vector<Eigen::Vector3d>&
           t.kernel = static_cast<int>(template_kernels_.size());
           template_kernels_.emplace_back();
           template_kernels_.back().Build(model, entry_.data(), exit_.data(),
-                                         cells.distance_m.data(), n);
+                                         cells.distance_m.data(), n, incidence);
           same.push_back(t.kernel);
         }
       }
@@ -450,11 +476,28 @@ VolumetricGainEvaluator::RayResult VolumetricGainEvaluator::EvaluateRay(
   // sliver chord where it grazes an edge (fragile rays), and kPaperLiteral weighs even a
   // sliver's hypothesis fully (1/eta_k is a density), so RayKernel::Matches's 1e-12 m and its
   // prefixes are not enough here.
+  const double* incidence = nullptr;
+  if (model.config().direction_uncertainty_rad > 0.0) {
+    if (incidence_.size() < static_cast<size_t>(n)) incidence_.resize(2 * static_cast<size_t>(n));
+    const int32_t* const li = cells_.linear_index.data();
+    const int64_t nx = dims_.x(), nxy = static_cast<int64_t>(dims_.x()) * dims_.y();
+    IncidencesOf(
+        directions_[static_cast<size_t>(slot)], n,
+        [li, nx, nxy](int k) {
+          const int64_t step = std::abs(static_cast<int64_t>(li[k]) - li[k - 1]);
+          return step == 1 ? 0 : step == nx ? 1 : step == nxy ? 2 : -1;
+        },
+        incidence_.data());
+    incidence = incidence_.data();
+  }
   std::vector<double>& built_for = cast_distance_m_[static_cast<size_t>(slot)];
+  std::vector<double>& built_incidence = cast_incidence_[static_cast<size_t>(slot)];
   const double* const d = cells_.distance_m.data();
-  if (kernel.size() != n || !std::equal(d, d + n, built_for.begin())) {
-    kernel.Build(model, entry_.data(), exit_.data(), d, n);
+  if (kernel.size() != n || !std::equal(d, d + n, built_for.begin()) ||
+      (incidence != nullptr && !std::equal(incidence, incidence + n, built_incidence.begin()))) {
+    kernel.Build(model, entry_.data(), exit_.data(), d, n, incidence);
     built_for.assign(d, d + n);
+    if (incidence != nullptr) built_incidence.assign(incidence, incidence + n);
   }
   return Finish(sensor, slot, kernel, n, bound, key, reported, true, stats, memo);
 }

@@ -270,9 +270,11 @@ class VolumetricGainEvaluator {
   // Scratch.
   RayCells cells_{1.0, 1.0};
   std::vector<double> entry_, exit_, distance_, prior_;
+  std::vector<double> incidence_;  // |cos| of each cell's entry face to the ray (bands only)
   ExpectedEntropyScratch scratch_;
   std::vector<RayKernel> cast_kernels_;               // per slot, for rays cast per position
   std::vector<std::vector<double>> cast_distance_m_;  // per slot: the d_k it was built for
+  std::vector<std::vector<double>> cast_incidence_;   // per slot: its cos incidences (bands)
   std::vector<double> bin_gain_, bin_bound_;          // per sensor x bin
   std::vector<char> bin_used_;                        // per sensor x bin
   static constexpr int kEntropyBits = 12;

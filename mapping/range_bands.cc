@@ -64,4 +64,14 @@ Reading WithRangeBand(const Reading& reading, double nearest_m, double z_max_m,
   return out;
 }
 
+Reading PredictedBandedReturn(const SensorModelConfig& model, double z_m, double cos_incidence) {
+  const Reading plain{ReadingKind::kReturn, z_m};
+  const double delta = model.direction_uncertainty_rad;
+  if (!(delta > 0.0)) return plain;
+  const double c = std::clamp(cos_incidence, 0.0, 1.0);
+  const double phi = std::acos(c);
+  const double nearest = z_m * c / std::cos(std::max(phi - delta, 0.0));
+  return WithRangeBand(plain, nearest, model.z_max_m, model.band_surface_max_m);
+}
+
 }  // namespace kestrel

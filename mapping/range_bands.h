@@ -36,4 +36,15 @@ void WindowMin(const double* range_m, int width, int height, int ku, int kv, dou
 [[nodiscard]] Reading WithRangeBand(const Reading& reading, double nearest_m, double z_max_m,
                                     double surface_max_m = std::numeric_limits<double>::infinity());
 
+/// The band a return at z_m would get if the ray met a plane whose normal makes the angle phi
+/// with the ray, cos_incidence = |cos phi|, and every ray within the model's
+/// direction_uncertainty_rad delta met that plane too (docs/algorithms.md §3.8, "Predicted
+/// bands"): the nearest of them reads D / cos(max(phi - delta, 0)) with D = z cos phi, so
+///     nearest = z cos phi / cos(max(phi - delta, 0)),
+/// passed to WithRangeBand with the model's z_max and band_surface_max_m. For the explorer's
+/// prediction of the mapper's update (its rays are not the sensor's pixels, so the window is
+/// the angle, not a count of pixels). delta = 0: the plain return.
+[[nodiscard]] Reading PredictedBandedReturn(const SensorModelConfig& model, double z_m,
+                                            double cos_incidence);
+
 }  // namespace kestrel

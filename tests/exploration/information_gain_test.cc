@@ -4,12 +4,14 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <random>
 #include <vector>
 
 #include "exploration/ray_caster_2d.h"
 #include "mapping/grid.h"
 #include "mapping/occupancy_updater.h"
+#include "mapping/range_bands.h"
 #include "mapping/ray_caster.h"
 
 namespace kestrel {
@@ -73,6 +75,98 @@ TEST(InformationGain, FastEqualsDirect) {
     }
   }
   EXPECT_EQ(compared, 1200);
+}
+
+// Predicted range bands (docs/algorithms.md §3.8, "Predicted bands"): the fast evaluation with
+// its kernel's banded hypotheses equals the direct one, which calls the mapper's exact update
+// with each hypothesis's banded reading; for a whole ray and for prefixes of its kernel.
+TEST(InformationGain, PredictedBandsFastEqualsDirect) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<SensorModel> models;
+  for (const double surface_max : {std::numeric_limits<double>::infinity(), 0.1}) {
+    for (SensorModelConfig c : {SensorModelConfig::Xtion(), SensorModelConfig::Hokuyo()}) {
+      c.direction_uncertainty_rad = 0.0175;
+      c.band_surface_max_m = surface_max;
+      models.emplace_back(c);
+    }
+  }
+  int banded = 0, unknown_surface = 0, compared = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const double alpha = trial % 2 == 0 ? 0.075 : 0.3;
+    const GridMap2D g =
+        GridMap2D::Filled({-4.0, -6.0}, alpha, 0.75, static_cast<int>(std::ceil(8.0 / alpha)),
+                          static_cast<int>(std::ceil(12.0 / alpha)), 0.1);
+    const Eigen::Vector2d o(-4.0 + 8.0 * u(rng), -6.0 + 12.0 * u(rng));
+    const Ray2D ray = CastIn(g, o, 2.0 * M_PI * u(rng), 4.0);
+    const std::vector<double> prior = RandomPriors(rng, ray.size);
+    std::vector<double> incidence(static_cast<size_t>(ray.size));
+    for (double& c : incidence) c = u(rng) < 0.3 ? 1.0 : u(rng);
+    const SensorModel& m = models[static_cast<size_t>(trial) % models.size()];
+    for (int k = 0; k < ray.size; ++k) {
+      const Reading r = PredictedBandedReturn(m.config(), ray.distance_m[static_cast<size_t>(k)],
+                                              incidence[static_cast<size_t>(k)]);
+      banded += r.has_band() ? 1 : 0;
+      unknown_surface += r.surface_unknown ? 1 : 0;
+    }
+    RayKernel kernel;
+    kernel.Build(m, ray.entry_m.data(), ray.exit_m.data(), ray.distance_m.data(), ray.size,
+                 incidence.data());
+    for (WeightMode mode : {WeightMode::kChordProbability, WeightMode::kPaperLiteral}) {
+      for (const int n : {ray.size, ray.size / 2}) {
+        ExpectedEntropyScratch scratch;
+        const RayEntropy d = ExpectedEntropy::Compute(
+            m, ray.entry_m.data(), ray.exit_m.data(), ray.distance_m.data(), prior.data(), n, mode,
+            GainMethod::kDirect, &scratch, nullptr, incidence.data());
+        const RayEntropy f = ExpectedEntropy::Evaluate(m, kernel, prior.data(), n, mode, &scratch);
+        ASSERT_NEAR(f.expected_entropy_nats, d.expected_entropy_nats,
+                    1e-9 * d.expected_entropy_nats + 1e-300)
+            << "trial " << trial << " n " << n;
+        ++compared;
+      }
+    }
+  }
+  EXPECT_EQ(compared, 1600);
+  EXPECT_GT(banded, 1000);  // the bands were exercised, surface_unknown ones among them
+  EXPECT_GT(unknown_surface, 100);
+}
+
+// At normal incidence the predicted band is empty: the plain gain, bit for bit. At grazing
+// incidence the gain is another: the cells of each hypothesis's band keep their prior (here
+// unknown cells, p_init 0.1, whose entropy a plain return would raise at the surface and lower
+// before it). The kernel is matched only with the same incidences.
+TEST(InformationGain, PredictedBandsChangeTheGainOnlyAtGrazingIncidence) {
+  SensorModelConfig c = SensorModelConfig::Xtion();
+  const SensorModel plain(c);
+  c.direction_uncertainty_rad = 0.0175;
+  c.band_surface_max_m = 0.1;
+  const SensorModel bands(c);
+  const GridMap2D g = GridMap2D::Filled({-1.0, -1.0}, 0.075, 0.75, 80, 80, 0.1);
+  const Ray2D ray = CastIn(g, {0.0, 0.0}, 0.3, 4.0);
+  const std::vector<double> prior(static_cast<size_t>(ray.size), 0.1);  // unknown (p_init)
+  const std::vector<double> normal(static_cast<size_t>(ray.size), 1.0);
+  const std::vector<double> grazing(static_cast<size_t>(ray.size), 0.15);
+  const auto gain = [&](const SensorModel& m, const std::vector<double>* incidence) {
+    ExpectedEntropyScratch scratch;
+    return ExpectedEntropy::Compute(m, ray.entry_m.data(), ray.exit_m.data(), ray.distance_m.data(),
+                                    prior.data(), ray.size, WeightMode::kChordProbability,
+                                    GainMethod::kFast, &scratch, nullptr,
+                                    incidence == nullptr ? nullptr : incidence->data())
+        .gain_nats();
+  };
+  const double plain_gain = gain(plain, nullptr);
+  EXPECT_EQ(gain(bands, &normal), plain_gain);
+  EXPECT_EQ(gain(bands, nullptr), plain_gain);  // no incidences: no bands predicted
+  EXPECT_GT(std::abs(gain(bands, &grazing) - plain_gain), 0.2 * plain_gain);
+  RayKernel kernel;
+  kernel.Build(bands, ray.entry_m.data(), ray.exit_m.data(), ray.distance_m.data(), ray.size,
+               normal.data());
+  EXPECT_TRUE(kernel.Matches(ray.entry_m.data(), ray.exit_m.data(), ray.distance_m.data(), ray.size,
+                             normal.data()));
+  EXPECT_FALSE(kernel.Matches(ray.entry_m.data(), ray.exit_m.data(), ray.distance_m.data(),
+                              ray.size, grazing.data()));
+  EXPECT_FALSE(kernel.Matches(ray.entry_m.data(), ray.exit_m.data(), ray.distance_m.data(),
+                              ray.size, nullptr));
 }
 
 // EntropySum::kLanes (AVX-512 where the CPU has it, else the scalar sum) equals kScalar to

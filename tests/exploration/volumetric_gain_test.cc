@@ -90,6 +90,16 @@ Brute BruteForce(const DenseGrid& grid, const VolumetricGainConfig& config,
           prior[at] = static_cast<double>(grid.Get(cells.cells[at]));
         }
         if (n == 0) continue;
+        // Predicted range bands: |cos| between the ray and the normal of each cell's entry face
+        // (the axis whose index changed; the first cell enters through none).
+        std::vector<double> incidence(static_cast<size_t>(n), 1.0);
+        for (int k = 1; k < n; ++k) {
+          const CellIndex& a = cells.cells[static_cast<size_t>(k - 1)];
+          const CellIndex& c = cells.cells[static_cast<size_t>(k)];
+          for (int axis = 0; axis < 3; ++axis) {
+            if (a[axis] != c[axis]) incidence[static_cast<size_t>(k)] = std::abs(u[axis]);
+          }
+        }
         // A no-return is evidence where the ray's point at reports_to_m lies inside the box's
         // horizontal extent and not above its top (VolumetricSensor::reports_to_m).
         const Eigen::Vector3d end = o + s.reports_to_m * u;
@@ -98,7 +108,8 @@ Brute BruteForce(const DenseGrid& grid, const VolumetricGainConfig& config,
                               end.y() <= box_max.y() && end.z() <= box_max.z();
         const RayEntropy r = ExpectedEntropy::Compute(
             reported ? reported_model : model, entry.data(), exit.data(), cells.distance_m.data(),
-            prior.data(), n, config.weight_mode, GainMethod::kDirect, &scratch);
+            prior.data(), n, config.weight_mode, GainMethod::kDirect, &scratch, nullptr,
+            s.model.direction_uncertainty_rad > 0.0 ? incidence.data() : nullptr);
         bin_gain[static_cast<size_t>(b)] += r.gain_nats();
         // The bound: the prior entropy, and with chord-probability weights at most ln(n + 1)
         // (H of the hypotheses; the evaluator's header).
@@ -153,8 +164,9 @@ void ExpectGainsEqual(const PoseGains& got, const Brute& want, const std::string
 // Every heading's gain equals the brute force (direct method, rays cast at the position) to
 // 1e-9 relative: positions at cell centres (the templates: the second one in a row builds them)
 // and at arbitrary offsets (cast per position), with templates (and the lanes' entropy sums)
-// and without (scalar sums), both weightings.
-TEST(VolumetricGain, EqualsBruteForce) {
+// and without (scalar sums), both weightings; with `bands`, the sensors' predicted range bands
+// (docs/algorithms.md §3.8, "Predicted bands"). `gains` gets the gains, heading by heading.
+void CheckEqualsBruteForce(bool bands, std::vector<double>* gains) {
   const DenseGrid grid = RandomMap(7);
   const OccupancyGridView view = ViewOf(grid);
   const GridGeometry& g = grid.geometry();
@@ -178,12 +190,19 @@ TEST(VolumetricGain, EqualsBruteForce) {
       config.weight_mode = mode;
       config.use_templates = templates;
       config.entropy_sum = templates ? EntropySum::kLanes : EntropySum::kScalar;
+      for (VolumetricSensor& sensor : config.sensors) {
+        sensor.model.direction_uncertainty_rad = bands ? 0.0175 : 0.0;
+        sensor.model.band_surface_max_m = 0.1;
+      }
       VolumetricGainEvaluator evaluator(config);
       VolumetricGainStats stats, bound_stats;
       for (size_t p = 0; p < positions.size(); ++p) {
         const int n_yaw = p % 2 == 0 ? 8 : 7;
         const PoseGains got = evaluator.Evaluate(view, positions[p], n_yaw, true, &stats);
         const Brute want = BruteForce(grid, config, positions[p], n_yaw);
+        if (templates && mode == WeightMode::kChordProbability) {
+          gains->insert(gains->end(), got.gain_nats.begin(), got.gain_nats.end());
+        }
         ExpectGainsEqual(got, want,
                          "position " + std::to_string(p) + " templates " +
                              std::to_string(templates) + " mode " +
@@ -203,6 +222,25 @@ TEST(VolumetricGain, EqualsBruteForce) {
       EXPECT_EQ(stats.rays_evaluated + stats.rays_skipped, stats.rays);
     }
   }
+}
+
+TEST(VolumetricGain, EqualsBruteForce) {
+  std::vector<double> gains;
+  CheckEqualsBruteForce(false, &gains);
+}
+
+// The same with predicted range bands; they change the gains (the model with bands is not the
+// plain one where rays meet faces obliquely).
+TEST(VolumetricGain, PredictedBandsEqualBruteForce) {
+  std::vector<double> plain, banded;
+  CheckEqualsBruteForce(false, &plain);
+  CheckEqualsBruteForce(true, &banded);
+  ASSERT_EQ(plain.size(), banded.size());
+  int changed = 0;
+  for (size_t i = 0; i < plain.size(); ++i) {
+    changed += std::abs(banded[i] - plain[i]) > 1e-3 * std::abs(plain[i]) ? 1 : 0;
+  }
+  EXPECT_GT(changed, static_cast<int>(plain.size()) / 2);
 }
 
 // Eq. (10) with E[H] >= 0: the bound (prior entropy of the rays) is never below the gain.

@@ -136,6 +136,39 @@ Freed FlyOverFloor(double error_rad, double direction_uncertainty_rad,
   return freed;
 }
 
+// The predicted band (the explorer's, docs/algorithms.md §3.8 "Predicted bands") against the
+// nearest range, found by brute force, that rays within delta of a ray meeting a plane read.
+TEST(RangeBands, PredictedBandIsTheNearestRangeOnThePlaneWithinDelta) {
+  SensorModelConfig model = SensorModelConfig::Xtion();
+  model.z_max_m = 100.0;
+  for (const double delta : {0.002, 0.0175, 0.1}) {
+    model.direction_uncertainty_rad = delta;
+    for (const double phi_deg : {0.0, 0.05, 5.0, 30.0, 60.0, 80.0, 88.0}) {
+      const double phi = phi_deg * M_PI / 180.0;
+      const double z = 3.0;
+      const double plane = z * std::cos(phi);  // its distance from the origin
+      double nearest = std::numeric_limits<double>::infinity();
+      for (int i = -20000; i <= 20000; ++i) {  // rays within delta of the ray, in its plane
+        const double theta = phi + delta * i / 20000.0;
+        if (std::abs(theta) < M_PI / 2) nearest = std::min(nearest, plane / std::cos(theta));
+      }
+      const Reading r = PredictedBandedReturn(model, z, std::cos(phi));
+      EXPECT_EQ(r.kind, ReadingKind::kReturn);
+      EXPECT_NEAR(r.z_m - r.below_m, nearest, 1e-6 * z) << delta << " " << phi_deg;
+      EXPECT_FALSE(r.surface_unknown);  // no band_surface_max_m
+    }
+  }
+  // A band wider than band_surface_max_m says only "nothing nearer"; delta 0 is the plain return.
+  model.direction_uncertainty_rad = 0.0175;
+  model.band_surface_max_m = 0.1;
+  const Reading grazing = PredictedBandedReturn(model, 3.0, std::cos(80.0 * M_PI / 180.0));
+  EXPECT_GT(grazing.below_m, 0.1);
+  EXPECT_TRUE(grazing.surface_unknown);
+  EXPECT_FALSE(PredictedBandedReturn(model, 3.0, 1.0).has_band());
+  model.direction_uncertainty_rad = 0.0;
+  EXPECT_FALSE(PredictedBandedReturn(model, 3.0, 0.01).has_band());
+}
+
 TEST(RangeBands, AMountHalfADegreeOffFreesFewFloorCellsWithBands) {
   const Freed exact_mount = FlyOverFloor(0.0, 0.0);
   const Freed plain = FlyOverFloor(0.5 * M_PI / 180.0, 0.0);

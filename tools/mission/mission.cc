@@ -262,6 +262,15 @@ class Mission {
     // The vehicle that flies is the simulator's: its diameter sets k_C and the disc checked.
     e.planner.projection.vehicle_diameter_m = sim_config_.vehicle.diameter_m;
     e.planner.trajectory.vehicle_radius_m = 0.5 * sim_config_.vehicle.diameter_m;
+    // The gain predicts the mapper's update (docs/algorithms.md §6): its range bands too, per
+    // sensor of the same name.
+    for (VolumetricSensor& v : e.planner.volumetric.gain.sensors) {
+      for (const auto& m : mapper_config_.sensors) {
+        if (m.name != v.name) continue;
+        v.model.direction_uncertainty_rad = m.model.direction_uncertainty_rad;
+        v.model.band_surface_max_m = m.model.band_surface_max_m;
+      }
+    }
 
     controller_cfg_ = ConfigNode::FromString("{}", "(defaults)");
     if (!mc_.controller_file.empty()) {
