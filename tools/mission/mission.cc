@@ -26,6 +26,7 @@
 #include "kestrel/exploration_status_t.hpp"
 #include "kestrel/grid_map_t.hpp"
 #include "mapping/mapper_node.h"
+#include "mapping/range_bands.h"
 #include "sim/ground_truth.h"
 #include "sim/ray_reach.h"
 #include "sim/sim_node.h"
@@ -263,11 +264,20 @@ class Mission {
     e.planner.projection.vehicle_diameter_m = sim_config_.vehicle.diameter_m;
     e.planner.trajectory.vehicle_radius_m = 0.5 * sim_config_.vehicle.diameter_m;
     // The gain predicts the mapper's update (docs/algorithms.md §6): its range bands too, per
-    // sensor of the same name.
+    // sensor of the same name, over the angle the mapper's window spans with the simulated
+    // sensors (whole rows of the camera, whole beams of the LIDAR: range_bands.h).
+    const DepthCameraConfig& camera = sim_config_.depth;
+    const PlanarLidarConfig& lidar = sim_config_.lidar;
+    const double camera_fy =
+        0.5 * camera.height_px / std::tan(0.5 * camera.vfov_deg * M_PI / 180.0);  // sim/sensors
     for (VolumetricSensor& v : e.planner.volumetric.gain.sensors) {
       for (const auto& m : mapper_config_.sensors) {
         if (m.name != v.name) continue;
-        v.model.direction_uncertainty_rad = m.model.direction_uncertainty_rad;
+        const double delta = m.model.direction_uncertainty_rad;
+        const bool planar = m.kind == "scan";
+        v.model.direction_uncertainty_rad =
+            planar ? BandWindowHalfWidth(delta, 1.0 / lidar.angle_step_rad) * lidar.angle_step_rad
+                   : BandWindowHalfWidth(delta, camera_fy) / camera_fy;
         v.model.band_surface_max_m = m.model.band_surface_max_m;
       }
     }
