@@ -588,7 +588,7 @@ PoseGains VolumetricGainEvaluator::Evaluate(const OccupancyGridView& map,
     for (int m = 0; m < n_yaw; ++m) {
       view[static_cast<size_t>(s)][static_cast<size_t>(m)] = BinsInView(s, 2.0 * M_PI * m / n_yaw);
       for (int b : view[static_cast<size_t>(s)][static_cast<size_t>(m)]) {
-        bin_used_[static_cast<size_t>(s * bins + b)] = 1;
+        bin_used_[static_cast<size_t>(s) * static_cast<size_t>(bins) + static_cast<size_t>(b)] = 1;
       }
     }
   }
@@ -608,7 +608,8 @@ PoseGains VolumetricGainEvaluator::Evaluate(const OccupancyGridView& map,
     if (!inside) {
       if (stats != nullptr) {
         for (int b = 0; b < bins; ++b) {
-          if (bin_used_[static_cast<size_t>(s * bins + b)] != 0) {
+          if (bin_used_[static_cast<size_t>(s) * static_cast<size_t>(bins) +
+                        static_cast<size_t>(b)] != 0) {
             stats->rays += rows;
             stats->rays_skipped += rows;
           }
@@ -619,7 +620,7 @@ PoseGains VolumetricGainEvaluator::Evaluate(const OccupancyGridView& map,
     const int64_t linear = cell.x() + static_cast<int64_t>(dims_.x()) *
                                           (cell.y() + static_cast<int64_t>(dims_.y()) * cell.z());
     for (int b = 0; b < bins; ++b) {
-      const size_t at = static_cast<size_t>(s * bins + b);
+      const size_t at = static_cast<size_t>(s) * static_cast<size_t>(bins) + static_cast<size_t>(b);
       if (bin_used_[at] == 0) continue;
       double gain = 0.0, bound = 0.0;
       for (int row = 0; row < rows; ++row) {
@@ -639,7 +640,8 @@ PoseGains VolumetricGainEvaluator::Evaluate(const OccupancyGridView& map,
   for (int m = 0; m < n_yaw; ++m) {
     for (int s = 0; s < n_sensors; ++s) {
       for (int b : view[static_cast<size_t>(s)][static_cast<size_t>(m)]) {
-        const size_t at = static_cast<size_t>(s * bins + b);
+        const size_t at =
+            static_cast<size_t>(s) * static_cast<size_t>(bins) + static_cast<size_t>(b);
         out.bound_nats[static_cast<size_t>(m)] += bin_bound_[at];
         if (with_gain) out.gain_nats[static_cast<size_t>(m)] += bin_gain_[at];
       }
