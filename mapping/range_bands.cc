@@ -64,6 +64,10 @@ Reading WithRangeBand(const Reading& reading, double nearest_m, double z_max_m,
   return out;
 }
 
+double BandWindowAngle(double delta_rad, double samples_per_rad) {
+  return BandWindowHalfWidth(delta_rad, samples_per_rad) / samples_per_rad;
+}
+
 Reading PredictedBandedReturn(const SensorModelConfig& model, double z_m, double cos_incidence) {
   const Reading plain{ReadingKind::kReturn, z_m};
   const double delta = model.direction_uncertainty_rad;

@@ -19,6 +19,12 @@ namespace kestrel {
 /// @throws std::invalid_argument unless delta >= 0 and samples_per_rad > 0, both finite.
 [[nodiscard]] int BandWindowHalfWidth(double delta_rad, double samples_per_rad);
 
+/// The angle that window spans: BandWindowHalfWidth(delta_rad, samples_per_rad) /
+/// samples_per_rad, at least delta_rad (whole samples). What the explorer's prediction of bands
+/// uses as its delta (PredictedBandedReturn), for the sensor's spacing.
+/// @throws std::invalid_argument as BandWindowHalfWidth.
+[[nodiscard]] double BandWindowAngle(double delta_rad, double samples_per_rad);
+
 /// For each sample i = u + width * v of a width x height image (height 1 for a scan) whose range
 /// along its own ray is range_m[i] (NaN: no reading, skipped), the least range within columns
 /// u +- ku and rows v +- kv: nearest_m[i] (+inf where the window holds no reading). `scratch` is

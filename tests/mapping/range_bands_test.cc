@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 #include "common/se3.h"
@@ -167,6 +168,18 @@ TEST(RangeBands, PredictedBandIsTheNearestRangeOnThePlaneWithinDelta) {
   EXPECT_FALSE(PredictedBandedReturn(model, 3.0, 1.0).has_band());
   model.direction_uncertainty_rad = 0.0;
   EXPECT_FALSE(PredictedBandedReturn(model, 3.0, 0.01).has_band());
+}
+
+// The window's angle in whole samples: the CI camera's rows (f_y = 30 / tan(22.5 deg)) and the
+// URG-04LX's beams for delta = 1 degree, and an exact multiple of the spacing.
+TEST(RangeBands, BandWindowAngleIsWholeSamples) {
+  const double fy = 30.0 / std::tan(22.5 * M_PI / 180.0);   // 72.43 px/rad
+  EXPECT_DOUBLE_EQ(BandWindowAngle(0.0175, fy), 2.0 / fy);  // 1.27 rows -> 2
+  const double step = 2.0 * M_PI / 1024.0;
+  EXPECT_DOUBLE_EQ(BandWindowAngle(0.0175, 1.0 / step), 3.0 * step);  // 2.85 beams -> 3
+  EXPECT_DOUBLE_EQ(BandWindowAngle(0.5, 4.0), 0.5);
+  EXPECT_EQ(BandWindowAngle(0.0, fy), 0.0);
+  EXPECT_THROW((void)BandWindowAngle(-0.1, fy), std::invalid_argument);
 }
 
 TEST(RangeBands, AMountHalfADegreeOffFreesFewFloorCellsWithBands) {

@@ -276,8 +276,7 @@ class Mission {
         const double delta = m.model.direction_uncertainty_rad;
         const bool planar = m.kind == "scan";
         v.model.direction_uncertainty_rad =
-            planar ? BandWindowHalfWidth(delta, 1.0 / lidar.angle_step_rad) * lidar.angle_step_rad
-                   : BandWindowHalfWidth(delta, camera_fy) / camera_fy;
+            BandWindowAngle(delta, planar ? 1.0 / lidar.angle_step_rad : camera_fy);
         v.model.band_surface_max_m = m.model.band_surface_max_m;
       }
     }
