@@ -24,6 +24,17 @@ Ray2D CastIn(const GridMap2D& g, const Eigen::Vector2d& origin, double angle, do
   return ray;
 }
 
+// A 4 m ray from a random origin at a random angle through an 8 x 12 m grid of edge alpha (the
+// origin's x, y, then the angle drawn from rng, in that order).
+Ray2D RandomRay(std::mt19937& rng, double alpha) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const GridMap2D g =
+      GridMap2D::Filled({-4.0, -6.0}, alpha, 0.75, static_cast<int>(std::ceil(8.0 / alpha)),
+                        static_cast<int>(std::ceil(12.0 / alpha)), 0.1);
+  const Eigen::Vector2d o(-4.0 + 8.0 * u(rng), -6.0 + 12.0 * u(rng));
+  return CastIn(g, o, 2.0 * M_PI * u(rng), 4.0);
+}
+
 // Priors as the projected maps produce them: unknown, well-known (P_min_E, 1 - P_min_E), any.
 std::vector<double> RandomPriors(std::mt19937& rng, int n) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
@@ -55,11 +66,7 @@ TEST(InformationGain, FastEqualsDirect) {
   int compared = 0;
   for (int trial = 0; trial < 600; ++trial) {
     const double alpha = trial % 3 == 0 ? 0.9 : (trial % 3 == 1 ? 0.075 : 0.3);
-    const GridMap2D g =
-        GridMap2D::Filled({-4.0, -6.0}, alpha, 0.75, static_cast<int>(std::ceil(8.0 / alpha)),
-                          static_cast<int>(std::ceil(12.0 / alpha)), 0.1);
-    const Eigen::Vector2d o(-4.0 + 8.0 * u(rng), -6.0 + 12.0 * u(rng));
-    const Ray2D ray = CastIn(g, o, 2.0 * M_PI * u(rng), 4.0);
+    const Ray2D ray = RandomRay(rng, alpha);
     const std::vector<double> prior = RandomPriors(rng, ray.size);
     const SensorModel& m = models[static_cast<size_t>(trial) % models.size()];
     for (WeightMode mode : {WeightMode::kChordProbability, WeightMode::kPaperLiteral}) {
@@ -94,11 +101,7 @@ TEST(InformationGain, PredictedBandsFastEqualsDirect) {
   int banded = 0, unknown_surface = 0, compared = 0;
   for (int trial = 0; trial < 400; ++trial) {
     const double alpha = trial % 2 == 0 ? 0.075 : 0.3;
-    const GridMap2D g =
-        GridMap2D::Filled({-4.0, -6.0}, alpha, 0.75, static_cast<int>(std::ceil(8.0 / alpha)),
-                          static_cast<int>(std::ceil(12.0 / alpha)), 0.1);
-    const Eigen::Vector2d o(-4.0 + 8.0 * u(rng), -6.0 + 12.0 * u(rng));
-    const Ray2D ray = CastIn(g, o, 2.0 * M_PI * u(rng), 4.0);
+    const Ray2D ray = RandomRay(rng, alpha);
     const std::vector<double> prior = RandomPriors(rng, ray.size);
     std::vector<double> incidence(static_cast<size_t>(ray.size));
     for (double& c : incidence) c = u(rng) < 0.3 ? 1.0 : u(rng);
@@ -180,11 +183,7 @@ TEST(InformationGain, LaneEntropySumsEqualScalar) {
   double worst = 0.0;
   for (int trial = 0; trial < 400; ++trial) {
     const double alpha = trial % 2 == 0 ? 0.075 : 0.3;
-    const GridMap2D g =
-        GridMap2D::Filled({-4.0, -6.0}, alpha, 0.75, static_cast<int>(std::ceil(8.0 / alpha)),
-                          static_cast<int>(std::ceil(12.0 / alpha)), 0.1);
-    const Eigen::Vector2d o(-4.0 + 8.0 * u(rng), -6.0 + 12.0 * u(rng));
-    const Ray2D ray = CastIn(g, o, 2.0 * M_PI * u(rng), 4.0);
+    const Ray2D ray = RandomRay(rng, alpha);
     std::vector<double> prior = RandomPriors(rng, ray.size);
     if (trial % 5 == 0) {
       for (double& p : prior) p = u(rng) < 0.5 ? std::pow(10.0, -300.0 * u(rng)) : 1.0 - 1e-16;
